@@ -1,0 +1,33 @@
+//! # rotorid-core
+//!
+//! The firmware half of rotorid: `#![no_std]`, no heap, no `unsafe`, generic
+//! over `f32` and `f64`.
+//!
+//! * [`qrdrls`]: the vector QRD/RLS filter (Eq. 20 of the method paper),
+//!   updated row by row with complex Givens rotations ([`givens`]).
+//! * [`table`]: per-speed bearing-level model tables (the reduction of the
+//!   finite-element rotor to the bearing degrees of freedom), parsed from a
+//!   validated byte blob.
+//! * [`identify`]: bearing stiffness, damping and unbalance identification
+//!   from measured 1X responses at the bearings.
+//!
+//! Everything is SI inside (m, kg, s, N, rad/s). A physical signal is
+//! `y(t) = Re{ Y exp(j Omega t) }`.
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+#[cfg(any(test, feature = "baseline"))]
+extern crate std;
+
+pub mod scalar;
+pub mod givens;
+pub mod qrdrls;
+#[cfg(feature = "baseline")]
+pub mod baseline;
+pub mod crc32;
+pub mod table;
+pub mod identify;
+
+pub use num_complex::Complex;
+pub use scalar::Real;

@@ -1,0 +1,44 @@
+//! The one scalar bound of the crate: [`Real`], implemented by `f32` and `f64`.
+//!
+//! Complex data are `num_complex::Complex<T>` (the same type nalgebra calls
+//! `Complex`). Use [`Real::lit`] for literals so that no code path depends on
+//! the precision.
+
+use core::fmt::Debug;
+
+/// A real floating-point scalar: `f32` or `f64`.
+///
+/// Built on [`nalgebra::RealField`] (which brings `sqrt`, `hypot`, `abs`,
+/// `is_finite`, ... through `ComplexField`), plus a few conversions.
+pub trait Real: nalgebra::RealField + Copy + Debug + Default + PartialOrd + 'static {
+    /// Machine epsilon of the type.
+    const EPS: Self;
+    /// Converts an `f64` literal or value (rounding to the nearest `f32` for `f32`).
+    fn lit(x: f64) -> Self;
+    /// Widens to `f64` (exact for both types).
+    fn to_f64(self) -> f64;
+}
+
+impl Real for f32 {
+    const EPS: Self = f32::EPSILON;
+    #[inline]
+    fn lit(x: f64) -> Self {
+        x as f32
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+
+impl Real for f64 {
+    const EPS: Self = f64::EPSILON;
+    #[inline]
+    fn lit(x: f64) -> Self {
+        x
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self
+    }
+}

@@ -1,0 +1,5 @@
+//! The `rotorid` command line (see the README for the commands).
+
+fn main() {
+    std::process::exit(0);
+}
