@@ -285,7 +285,10 @@ pub fn to_csv_string(m: &Measurements, layout: CsvLayout) -> Result<String, Meas
             )));
         }
         if !(s.omega.is_finite() && s.omega >= 0.0) {
-            return Err(bad(format!("speed {} rad/s is not finite and >= 0", s.omega)));
+            return Err(bad(format!(
+                "speed {} rad/s is not finite and >= 0",
+                s.omega
+            )));
         }
         if s.q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
             return Err(bad("non-finite phasor".into()));

@@ -113,7 +113,9 @@ pub enum ModelFileError {
     #[error("ROSS file: {0}")]
     Ross(#[from] RossError),
     /// Neither a built-in model name nor an existing file.
-    #[error("unknown model `{0}`: not a built-in model (paper, paper-speed-dependent) nor a .toml file")]
+    #[error(
+        "unknown model `{0}`: not a built-in model (paper, paper-speed-dependent) nor a .toml file"
+    )]
     UnknownModel(String),
 }
 
@@ -338,7 +340,10 @@ fn finite_pos(field: &str, v: f64) -> Result<f64, ModelFileError> {
     if v.is_finite() && v > 0.0 {
         Ok(v)
     } else {
-        Err(ModelFileError::field(field, format!("must be finite and > 0, got {v}")))
+        Err(ModelFileError::field(
+            field,
+            format!("must be finite and > 0, got {v}"),
+        ))
     }
 }
 
@@ -346,7 +351,10 @@ fn finite_nonneg(field: &str, v: f64) -> Result<f64, ModelFileError> {
     if v.is_finite() && v >= 0.0 {
         Ok(v)
     } else {
-        Err(ModelFileError::field(field, format!("must be finite and >= 0, got {v}")))
+        Err(ModelFileError::field(
+            field,
+            format!("must be finite and >= 0, got {v}"),
+        ))
     }
 }
 
@@ -354,7 +362,10 @@ fn finite(field: &str, v: f64) -> Result<f64, ModelFileError> {
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(ModelFileError::field(field, format!("must be finite, got {v}")))
+        Err(ModelFileError::field(
+            field,
+            format!("must be finite, got {v}"),
+        ))
     }
 }
 
@@ -434,9 +445,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
                     "give either nu or g, not both",
                 ))
             }
-            (None, None) => {
-                return Err(ModelFileError::field(f("nu"), "missing: give nu or g"))
-            }
+            (None, None) => return Err(ModelFileError::field(f("nu"), "missing: give nu or g")),
         };
         materials.insert(name.clone(), mat);
     }
@@ -491,79 +500,81 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         let n = node(&f("node"), d.node, n_nodes)?;
         let geometry = d.outer_diameter.is_some() || d.thickness.is_some();
         let inertia = d.mass.is_some() || d.id.is_some() || d.ip.is_some();
-        let disk = match (geometry, inertia) {
-            (true, true) => {
-                return Err(ModelFileError::field(
+        let disk =
+            match (geometry, inertia) {
+                (true, true) => return Err(ModelFileError::field(
                     f("mass"),
                     "give either geometry (outer_diameter, thickness, ...) or mass/id/ip, not both",
-                ))
-            }
-            (false, false) => {
-                return Err(ModelFileError::field(
-                    f("mass"),
-                    "missing: give mass, id, ip or outer_diameter, thickness and a density",
-                ))
-            }
-            (false, true) => {
-                let get = |k: &str, v: Option<f64>| -> Result<f64, ModelFileError> {
-                    match v {
-                        Some(v) => finite_pos(&f(k), v),
-                        None => Err(ModelFileError::field(f(k), "missing")),
-                    }
-                };
-                if d.material.is_some() || d.rho.is_some() || d.inner_diameter.is_some() {
+                )),
+                (false, false) => {
                     return Err(ModelFileError::field(
-                        f("material"),
-                        "only used with the geometry form (outer_diameter, thickness)",
-                    ));
+                        f("mass"),
+                        "missing: give mass, id, ip or outer_diameter, thickness and a density",
+                    ))
                 }
-                Disk {
-                    node: n,
-                    mass: get("mass", d.mass)?,
-                    id: get("id", d.id)?,
-                    ip: get("ip", d.ip)?,
-                }
-            }
-            (true, false) => {
-                let od = match d.outer_diameter {
-                    Some(v) => finite_pos(&f("outer_diameter"), v)?,
-                    None => return Err(ModelFileError::field(f("outer_diameter"), "missing")),
-                };
-                let t = match d.thickness {
-                    Some(v) => finite_pos(&f("thickness"), v)?,
-                    None => return Err(ModelFileError::field(f("thickness"), "missing")),
-                };
-                let id = finite_nonneg(&f("inner_diameter"), d.inner_diameter.unwrap_or(0.0))?;
-                if id >= od {
-                    return Err(ModelFileError::field(
-                        f("inner_diameter"),
-                        format!("must be smaller than outer_diameter ({od}), got {id}"),
-                    ));
-                }
-                let rho = match (&d.material, d.rho) {
-                    (Some(m), None) => material(f("material"), m)?.rho,
-                    (None, Some(r)) => finite_pos(&f("rho"), r)?,
-                    (Some(_), Some(_)) => {
-                        return Err(ModelFileError::field(
-                            f("rho"),
-                            "give either material or rho, not both",
-                        ))
-                    }
-                    (None, None) => {
+                (false, true) => {
+                    let get = |k: &str, v: Option<f64>| -> Result<f64, ModelFileError> {
+                        match v {
+                            Some(v) => finite_pos(&f(k), v),
+                            None => Err(ModelFileError::field(f(k), "missing")),
+                        }
+                    };
+                    if d.material.is_some() || d.rho.is_some() || d.inner_diameter.is_some() {
                         return Err(ModelFileError::field(
                             f("material"),
-                            "missing: give material or rho for a disk from geometry",
-                        ))
+                            "only used with the geometry form (outer_diameter, thickness)",
+                        ));
                     }
-                };
-                Disk::from_geometry(n, rho, od, id, t)
-            }
-        };
+                    Disk {
+                        node: n,
+                        mass: get("mass", d.mass)?,
+                        id: get("id", d.id)?,
+                        ip: get("ip", d.ip)?,
+                    }
+                }
+                (true, false) => {
+                    let od = match d.outer_diameter {
+                        Some(v) => finite_pos(&f("outer_diameter"), v)?,
+                        None => return Err(ModelFileError::field(f("outer_diameter"), "missing")),
+                    };
+                    let t = match d.thickness {
+                        Some(v) => finite_pos(&f("thickness"), v)?,
+                        None => return Err(ModelFileError::field(f("thickness"), "missing")),
+                    };
+                    let id = finite_nonneg(&f("inner_diameter"), d.inner_diameter.unwrap_or(0.0))?;
+                    if id >= od {
+                        return Err(ModelFileError::field(
+                            f("inner_diameter"),
+                            format!("must be smaller than outer_diameter ({od}), got {id}"),
+                        ));
+                    }
+                    let rho = match (&d.material, d.rho) {
+                        (Some(m), None) => material(f("material"), m)?.rho,
+                        (None, Some(r)) => finite_pos(&f("rho"), r)?,
+                        (Some(_), Some(_)) => {
+                            return Err(ModelFileError::field(
+                                f("rho"),
+                                "give either material or rho, not both",
+                            ))
+                        }
+                        (None, None) => {
+                            return Err(ModelFileError::field(
+                                f("material"),
+                                "missing: give material or rho for a disk from geometry",
+                            ))
+                        }
+                    };
+                    Disk::from_geometry(n, rho, od, id, t)
+                }
+            };
         disks.push(disk);
     }
 
     if raw.bearing.is_empty() {
-        return Err(ModelFileError::field("bearing", "needs at least one bearing"));
+        return Err(ModelFileError::field(
+            "bearing",
+            "needs at least one bearing",
+        ));
     }
     let mut bearings = Vec::new();
     for (i, b) in raw.bearing.iter().enumerate() {
@@ -609,7 +620,10 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
             }
             (None, None, None, Some(p)) => {
                 if p.k.is_empty() && p.c.is_empty() {
-                    return Err(ModelFileError::field(f("polynomial"), "k and c are both empty"));
+                    return Err(ModelFileError::field(
+                        f("polynomial"),
+                        "k and c are both empty",
+                    ));
                 }
                 for (j, row) in p.k.iter().enumerate() {
                     check4(&f(&format!("polynomial.k[{}]", j + 1)), row)?;
@@ -849,7 +863,10 @@ c = [100, 0, 0, 100]
         let e = parse_model_file(&MINI.replace("node = 5", "node = 40"))
             .unwrap_err()
             .to_string();
-        assert_eq!(e, "bearing[2].node: node 40 is not on the shaft (nodes 1..=5)");
+        assert_eq!(
+            e,
+            "bearing[2].node: node 40 is not on the shaft (nodes 1..=5)"
+        );
         let e = parse_model_file(&MINI.replace("node = 5", "nod = 5"))
             .unwrap_err()
             .to_string();
@@ -857,7 +874,10 @@ c = [100, 0, 0, 100]
         let e = parse_model_file(&MINI.replace("length = 1.0", "length = -1.0"))
             .unwrap_err()
             .to_string();
-        assert!(e.starts_with("shaft[1].length: must be finite and > 0"), "{e}");
+        assert!(
+            e.starts_with("shaft[1].length: must be finite and > 0"),
+            "{e}"
+        );
         let e = parse_model_file(&MINI.replace("node = 5\n", ""))
             .unwrap_err()
             .to_string();

@@ -241,8 +241,18 @@ fn bearing_law(name: &str, b: &RossBearing) -> Result<BearingLaw, RossError> {
     };
     let zeros = vec![0.0; kxx.len().max(1)];
     // ROSS order xx, xy, yx, yy == ours yy, yz, zy, zz.
-    let k = [kxx.clone(), get(&b.kxy, &zeros), get(&b.kyx, &zeros), get(&b.kyy, &kxx)];
-    let c = [cxx.clone(), get(&b.cxy, &zeros), get(&b.cyx, &zeros), get(&b.cyy, &cxx)];
+    let k = [
+        kxx.clone(),
+        get(&b.kxy, &zeros),
+        get(&b.kyx, &zeros),
+        get(&b.kyy, &kxx),
+    ];
+    let c = [
+        cxx.clone(),
+        get(&b.cxy, &zeros),
+        get(&b.cyx, &zeros),
+        get(&b.cyy, &cxx),
+    ];
     let speeds = match (&b.frequency, &b.speed, &b.w) {
         (Some(f), None, None) | (None, Some(f), None) | (None, None, Some(f)) => Some(f.clone()),
         (None, None, None) => None,
@@ -344,11 +354,12 @@ fn material(name: &str, m: &RossMaterial) -> Result<Material, RossError> {
 
 /// Parses the text of a ROSS rotor file (see the module docs for the mapping).
 pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
-    let table: toml::Table = toml::from_str(text).map_err(|e| {
-        RossError::Format(format!("not valid TOML: {}", e.message().trim()))
-    })?;
+    let table: toml::Table = toml::from_str(text)
+        .map_err(|e| RossError::Format(format!("not valid TOML: {}", e.message().trim())))?;
     if !table.contains_key("ross_version") {
-        return Err(RossError::Format("no `ross_version` key: not a ROSS rotor file".into()));
+        return Err(RossError::Format(
+            "no `ross_version` key: not a ROSS rotor file".into(),
+        ));
     }
     let mut shafts: Vec<(String, RossShaft)> = Vec::new();
     let mut disks: Vec<(String, RossDisk)> = Vec::new();
@@ -360,7 +371,10 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         }
         let class = key.split('_').next().unwrap_or("");
         if !value.is_table() {
-            return Err(unsupported(key, "top-level key that is not an element table"));
+            return Err(unsupported(
+                key,
+                "top-level key that is not an element table",
+            ));
         }
         match class {
             "ShaftElement" => shafts.push((key.clone(), element(key, value)?)),
@@ -483,7 +497,9 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
             if l.inner_diameter != merged.outer_diameter {
                 return Err(unsupported(
                     name,
-                    format!("coaxial layer of element n = {n} not contiguous with the one inside it"),
+                    format!(
+                        "coaxial layer of element n = {n} not contiguous with the one inside it"
+                    ),
                 ));
             }
             merged.outer_diameter = l.outer_diameter;
@@ -535,7 +551,10 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                 ));
             }
             if ground.insert(b.1.n, b).is_some() {
-                return Err(unsupported(&b.0, "two bearings from one point mass to ground"));
+                return Err(unsupported(
+                    &b.0,
+                    "two bearings from one point mass to ground",
+                ));
             }
         } else {
             return Err(RossError::Field {
@@ -579,10 +598,7 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                 };
                 let gl = bearing_law(g_name, g)?;
                 let BearingLaw::Constant(gc) = gl else {
-                    return Err(unsupported(
-                        g_name,
-                        "speed-dependent pedestal support",
-                    ));
+                    return Err(unsupported(g_name, "speed-dependent pedestal support"));
                 };
                 if gc.k[1] != 0.0 || gc.k[2] != 0.0 || gc.c[1] != 0.0 || gc.c[2] != 0.0 {
                     return Err(unsupported(
@@ -605,7 +621,10 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
     }
     for (p, (name, _)) in pm_by_node.iter().map(|(p, x)| (p, (&x.0, &x.1))) {
         if !used_pm.contains(p) {
-            return Err(unsupported(name, "point mass not linked to a shaft bearing"));
+            return Err(unsupported(
+                name,
+                "point mass not linked to a shaft bearing",
+            ));
         }
     }
     out_bearings.sort_by_key(|b| b.node);
@@ -652,7 +671,11 @@ fn arr(v: &[f64]) -> String {
 pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
     model.validate()?;
     let mut s = String::new();
-    let _ = writeln!(s, "# ROSS rotor file (format 2.x) written by rotorid: {}", model.name);
+    let _ = writeln!(
+        s,
+        "# ROSS rotor file (format 2.x) written by rotorid: {}",
+        model.name
+    );
     let _ = writeln!(s, "ross_version = \"2.0.0\"\n\n[parameters]\n");
     let shear = model.theory == BeamTheory::Timoshenko;
     for (i, e) in model.shaft.iter().enumerate() {
@@ -705,6 +728,11 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
         for j in 0..4 {
             let v: Vec<f64> = co.iter().map(|c| c.c[j]).collect();
             let _ = writeln!(s, "{} = {}", names_c[j], arr(&v));
+        }
+        // Axial and mass coefficients, zero (as ROSS 2.x writes them).
+        let zeros = vec![0.0; co.len()];
+        for key in ["kzz", "czz", "mxx", "mxy", "myx", "myy", "mzz"] {
+            let _ = writeln!(s, "{key} = {}", arr(&zeros));
         }
         if let Some(w) = speeds {
             let _ = writeln!(s, "frequency = {}", arr(w));

@@ -427,7 +427,11 @@ pub fn simulate_with(
     if opts.speeds_rpm.is_empty() {
         return Err(SimulateError::Grid("no speeds".into()));
     }
-    if let Some(r) = opts.speeds_rpm.iter().find(|r| !(r.is_finite() && **r >= 0.0)) {
+    if let Some(r) = opts
+        .speeds_rpm
+        .iter()
+        .find(|r| !(r.is_finite() && **r >= 0.0))
+    {
         return Err(SimulateError::Grid(format!(
             "speeds must be finite and >= 0 rpm, got {r}"
         )));
