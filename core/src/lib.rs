@@ -26,7 +26,9 @@ pub mod crc32;
 pub mod givens;
 pub mod identify;
 pub mod qrdrls;
+pub mod regressor;
 pub mod scalar;
+pub mod scaling;
 pub mod table;
 
 pub use num_complex::Complex;
