@@ -17,7 +17,7 @@
 //!   overestimate by 3% to 30%.
 
 use nalgebra::{DMatrix, SymmetricEigen};
-use rotorid::assembly::{Dir, FeModel};
+use rotorid::assembly::{dof, Dir, FeModel};
 use rotorid::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, Material, RotorModel, ShaftElement,
 };
@@ -57,9 +57,9 @@ fn plane_frequencies(fe: &FeModel, pinned: &[usize]) -> Vec<f64> {
         .flat_map(|n| {
             let mut v = vec![];
             if !pinned.contains(&n) {
-                v.push(FeModel::dof(n, Dir::Y));
+                v.push(dof(n, Dir::Y));
             }
-            v.push(FeModel::dof(n, Dir::PhiZ));
+            v.push(dof(n, Dir::PhiZ));
             v
         })
         .collect();

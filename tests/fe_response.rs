@@ -3,7 +3,7 @@
 //! isotropic rotor, and the low-speed limits of the two forcings.
 
 use num_complex::Complex64;
-use rotorid::assembly::{Dir, FeModel};
+use rotorid::assembly::{dof, Dir, FeModel};
 use rotorid::model::{
     BearingCoefficients, BearingLaw, BowPoint, Pedestal, RotorModel, ShaftBow, Unbalance,
 };
@@ -132,7 +132,7 @@ fn bow_response_persists_at_low_speed_while_unbalance_vanishes() {
     };
     let ub = unbalance_response(&fe, &only_unbalance, &speeds).unwrap();
     let bw = unbalance_response(&fe, &only_bow, &speeds).unwrap();
-    let mid = FeModel::dof(13, Dir::Y);
+    let mid = dof(13, Dir::Y);
     // Unbalance: doubling the speed quadruples the response (Omega^2 law).
     let u = |i: usize| ub[i].q[mid].norm();
     assert!((u(1) / u(0) - 4.0).abs() < 1e-3, "{}", u(1) / u(0));

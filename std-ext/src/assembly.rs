@@ -69,6 +69,12 @@ pub enum Dir {
     PhiZ = 3,
 }
 
+/// Global index of a shaft DOF: `dof(node, dir) = 4 node + dir` (no range
+/// check).
+pub fn dof(node: usize, dir: Dir) -> usize {
+    4 * node + dir as usize
+}
+
 /// Errors of the FE analyses.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum FeError {
@@ -115,7 +121,7 @@ fn bidx(i: usize, j: usize) -> usize {
 
 impl FeModel {
     /// Validates the model and assembles the global shaft and disk matrices.
-    pub fn new(model: &RotorModel) -> Result<FeModel, FeError> {
+    pub fn new(model: &RotorModel) -> Result<FeModel, ModelError> {
         model.validate()?;
         let n_nodes = model.n_nodes();
         let n = 4 * n_nodes;
@@ -194,9 +200,10 @@ impl FeModel {
         4 * self.n_nodes + 2 * self.n_pedestals
     }
 
-    /// Global index of a shaft DOF: `4 node + dir` (no range check).
-    pub fn dof(node: usize, dir: Dir) -> usize {
-        4 * node + dir as usize
+    /// Global index of a shaft DOF: `4 node + dir` (no range check; the
+    /// same as the free function [`dof`]).
+    pub fn dof(&self, node: usize, dir: Dir) -> usize {
+        dof(node, dir)
     }
 
     /// Global index of a pedestal DOF (`Dir::Y` or `Dir::Z`) of bearing
@@ -218,7 +225,7 @@ impl FeModel {
         self.model
             .bearings
             .iter()
-            .flat_map(|b| [Self::dof(b.node, Dir::Y), Self::dof(b.node, Dir::Z)])
+            .flat_map(|b| [dof(b.node, Dir::Y), dof(b.node, Dir::Z)])
             .collect()
     }
 
@@ -389,7 +396,7 @@ impl FeModel {
             } else {
                 damping(&coefs)
             };
-            let s = [Self::dof(b.node, Dir::Y), Self::dof(b.node, Dir::Z)];
+            let s = [dof(b.node, Dir::Y), dof(b.node, Dir::Z)];
             match (
                 &b.pedestal,
                 self.pedestal_dof(bi, Dir::Y),
@@ -442,8 +449,8 @@ impl FeModel {
         let mut t = DMatrix::zeros(self.n_shaft_dof(), planes.len());
         for (k, &node) in planes.iter().enumerate() {
             self.check_node(node)?;
-            t[(Self::dof(node, Dir::Y), k)] = Complex64::new(1.0, 0.0);
-            t[(Self::dof(node, Dir::Z), k)] = Complex64::new(0.0, -1.0);
+            t[(dof(node, Dir::Y), k)] = Complex64::new(1.0, 0.0);
+            t[(dof(node, Dir::Z), k)] = Complex64::new(0.0, -1.0);
         }
         Ok(t)
     }
@@ -476,8 +483,8 @@ impl FeModel {
             if !(a.re.is_finite() && a.im.is_finite()) {
                 return Err(FeError::Invalid("non-finite unbalance".into()));
             }
-            f[Self::dof(u.node, Dir::Y)] += a * w2;
-            f[Self::dof(u.node, Dir::Z)] += Complex64::new(0.0, -1.0) * a * w2;
+            f[dof(u.node, Dir::Y)] += a * w2;
+            f[dof(u.node, Dir::Z)] += Complex64::new(0.0, -1.0) * a * w2;
         }
         Ok(f)
     }
@@ -525,10 +532,10 @@ impl FeModel {
         let j = Complex64::new(0.0, 1.0);
         for (node, &x) in x_nodes.iter().enumerate() {
             let (c, dc) = spline.eval(x);
-            q[Self::dof(node, Dir::Y)] = c;
-            q[Self::dof(node, Dir::Z)] = -j * c;
-            q[Self::dof(node, Dir::PhiY)] = j * dc;
-            q[Self::dof(node, Dir::PhiZ)] = dc;
+            q[dof(node, Dir::Y)] = c;
+            q[dof(node, Dir::Z)] = -j * c;
+            q[dof(node, Dir::PhiY)] = j * dc;
+            q[dof(node, Dir::PhiZ)] = dc;
         }
         Ok(q)
     }
@@ -693,9 +700,9 @@ mod tests {
             .collect();
         let bow = ShaftBow { points };
         let q = fe.bow_shape(&bow).unwrap();
-        let y5 = q[FeModel::dof(5, Dir::Y)];
+        let y5 = q[dof(5, Dir::Y)];
         assert!((y5 - Complex64::from_polar(6e-4, 0.3)).norm() < 1e-15);
-        assert!((q[FeModel::dof(5, Dir::Z)] - Complex64::new(0.0, -1.0) * y5).norm() < 1e-18);
+        assert!((q[dof(5, Dir::Z)] - Complex64::new(0.0, -1.0) * y5).norm() < 1e-18);
         let f = fe.bow_force(&bow).unwrap();
         let fmax = f.iter().map(|v| v.norm()).fold(0.0, f64::max);
         assert!(fmax < 1e-6, "{fmax}");
@@ -708,13 +715,13 @@ mod tests {
             }],
         };
         let q = fe.bow_shape(&bow).unwrap();
-        assert!((q[FeModel::dof(13, Dir::Y)].re - 1e-4).abs() < 1e-16);
-        assert_eq!(q[FeModel::dof(0, Dir::Y)].norm(), 0.0);
+        assert!((q[dof(13, Dir::Y)].re - 1e-4).abs() < 1e-16);
+        assert_eq!(q[dof(0, Dir::Y)].norm(), 0.0);
         // Slope signs: y rises from node 0, so phi_z > 0 there, and
         // z = -j y gives phi_y = j phi_z.
-        let pz = q[FeModel::dof(0, Dir::PhiZ)];
+        let pz = q[dof(0, Dir::PhiZ)];
         assert!(pz.re > 0.0);
-        assert!((q[FeModel::dof(0, Dir::PhiY)] - Complex64::new(0.0, 1.0) * pz).norm() < 1e-18);
+        assert!((q[dof(0, Dir::PhiY)] - Complex64::new(0.0, 1.0) * pz).norm() < 1e-18);
         let f = fe.bow_force(&bow).unwrap();
         assert!(f.iter().map(|v| v.norm()).fold(0.0, f64::max) > 1.0);
     }
