@@ -352,3 +352,38 @@ pub fn critical_speeds(diagram: &CampbellDiagram, whirl: Whirl) -> Vec<CriticalS
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn whirl_of_synthetic_orbits() {
+        let c = Complex64::new;
+        // Node 0: Y = 1, Z = -j (forward circular); node 1: elliptic forward.
+        let fwd = [
+            c(1.0, 0.0),
+            c(0.0, -1.0),
+            c(0.0, 0.0),
+            c(0.0, 0.0),
+            c(2.0, 0.0),
+            c(0.0, -0.5),
+            c(0.0, 0.0),
+            c(0.0, 0.0),
+        ];
+        let (w, r) = classify_whirl(&fwd, 2);
+        assert_eq!(w, Whirl::Forward);
+        assert!(r > 0.0 && r <= 1.0);
+        let (w, r) = classify_whirl(&[c(1.0, 0.0), c(0.0, -1.0), c(0.0, 0.0), c(0.0, 0.0)], 1);
+        assert_eq!(w, Whirl::Forward);
+        assert!((r - 1.0).abs() < 1e-15);
+        let bwd: Vec<Complex64> = fwd.iter().map(|v| v.conj()).collect();
+        assert_eq!(classify_whirl(&bwd, 2).0, Whirl::Backward);
+        let mut mixed = fwd;
+        mixed[5] = c(0.0, 0.5);
+        assert_eq!(classify_whirl(&mixed, 2).0, Whirl::Mixed);
+        // A straight-line orbit has no sense.
+        let line = [c(1.0, 0.0), c(1.0, 0.0), c(0.0, 0.0), c(0.0, 0.0)];
+        assert_eq!(classify_whirl(&line, 1).0, Whirl::Mixed);
+    }
+}
