@@ -20,14 +20,16 @@
 #[cfg(any(test, feature = "baseline"))]
 extern crate std;
 
-pub mod scalar;
-pub mod givens;
-pub mod qrdrls;
 #[cfg(feature = "baseline")]
 pub mod baseline;
 pub mod crc32;
-pub mod table;
+pub mod givens;
 pub mod identify;
+pub mod qrdrls;
+pub mod regressor;
+pub mod scalar;
+pub mod scaling;
+pub mod table;
 
 pub use num_complex::Complex;
 pub use scalar::Real;

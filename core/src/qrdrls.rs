@@ -1,1 +1,705 @@
-//! (to be written)
+//! Vector QRD/RLS filter (the method paper's section 2.3, Eq. 20), updated
+//! row by row with Givens rotations ([`crate::givens`]).
+//!
+//! # Problem
+//!
+//! At step `n` the filter receives `N` equations `d(n) = U(n) w` (Eq. 19:
+//! `U(n)` is `N x M`, `d(n)` has `N` entries, `w` the `M` unknowns) and
+//! minimises the exponentially weighted, regularised cost
+//!
+//! ```text
+//! J(w) = lambda^n delta ||w - w0||^2 + sum_{k=1..n} lambda^(n-k) ||d(k) - U(k) w||^2
+//! ```
+//!
+//! with forgetting factor `0 < lambda <= 1`, regularisation `delta > 0` and
+//! prior weights `w0` (zero unless given). The normal equations are
+//! `Phi(n) w = z(n)` with
+//!
+//! ```text
+//! Phi(n) = lambda Phi(n-1) + U(n)^H U(n),   Phi(0) = delta I,
+//! z(n)   = lambda z(n-1)   + U(n)^H d(n),   z(0)   = delta w0.
+//! ```
+//!
+//! (The paper writes a scalar filter as `y = w^H u`; with its input vector
+//! `u_paper = u^H` for a row `u` of `U`, and `d_paper = d^*`, the two forms
+//! are the same problem. Here rows act on `w` without conjugation.)
+//!
+//! # Convention for the factor
+//!
+//! The state is an **upper-triangular** `R(n)` (`M x M`, real non-negative
+//! diagonal) and a vector `p(n)` with
+//!
+//! ```text
+//! Phi(n) = R(n)^H R(n),   z(n) = R(n)^H p(n),   so   R(n) w(n) = p(n).
+//! ```
+//!
+//! The paper's Eq. 15 writes `Phi = R R^H` with a lower-triangular `R`; its
+//! Eq. 17/20 then carries `R^H` (upper triangular) in the top block. Our `R`
+//! **is** the paper's `R^H`, our `p` is the paper's `p = R^H w`, and our
+//! update is Eq. 20 with that block renamed:
+//!
+//! ```text
+//!       [ sqrt(lambda) R(n-1)   sqrt(lambda) p(n-1)   0 ]     [ R(n)   p(n)   * ]
+//!   Q   [                                               ]  =  [                 ]
+//!       [ u_j                   d_j                   1 ]     [ 0      e_j    g_j ]
+//! ```
+//!
+//! Initial state (Eq. 18): `R(0) = sqrt(delta) I`, `p(0) = R(0) w0 = sqrt(delta) w0`.
+//!
+//! # Update
+//!
+//! `R` and `p` are scaled by `sqrt(lambda)` once per step (skipped when
+//! `lambda = 1`); then the `N` rows are folded in **one at a time**: for row
+//! `u_j` (with right-hand side `d_j`), `M` Givens rotations zero `u_j`
+//! against the diagonal of `R` (rotation `i` acts on row `i` of `[R p]` and
+//! the working copy of `[u_j d_j]`), which is `O(M^2)` per row and
+//! `O(N M^2)` per step, in place, without allocation and without a general
+//! QR. The rotation of the augmented column `[0; 1]` is never stored: its
+//! bottom entry is the product `g_j = c_1 c_2 ... c_M` of the cosines.
+//!
+//! # What an update returns
+//!
+//! Rows are folded sequentially, so row `j` sees the state `R^(j-1), p^(j-1)`
+//! that already contains the rows before it (and the step's `lambda`
+//! scaling); `w^(j) = (R^(j))^-1 p^(j)` is the least-squares solution after
+//! row `j`, and `P^(j) = (Phi^(j))^-1`. Per row:
+//!
+//! * a-priori error `alpha_j = d_j - u_j w^(j-1)`,
+//! * **conversion factor** `gamma_j = 1 - u_j P^(j) u_j^H
+//!   = 1 / (1 + u_j (Phi^(j-1))^-1 u_j^H)`, in `(0, 1]` (returned, `T`),
+//! * **a-posteriori error** `xi_j = d_j - u_j w^(j) = gamma_j alpha_j`
+//!   (returned, `F`),
+//! * the rotations deliver the angle-normalised error
+//!   `e_j = sqrt(gamma_j) alpha_j` in the `p` column and `g_j = sqrt(gamma_j)`
+//!   in the augmented column (Eq. 17/20); `xi_j = g_j e_j` is formed from
+//!   them without any division. `alpha_j = xi_j / gamma_j` and
+//!   `e_j = xi_j / sqrt(gamma_j)` can be recovered by the caller when
+//!   `gamma_j > 0`.
+//!
+//! For the last row of a step, `xi_{N-1} = d_{N-1} - u_{N-1} w(n)`. Weights
+//! are only computed on demand, by back-substitution of `R w = p`.
+//!
+//! # Input safety
+//!
+//! * Any non-finite entry in `U` or `d` -> [`FilterError::NonFinite`]; a
+//!   `lambda` outside `(0, 1]` -> [`FilterError::InvalidLambda`]; wrong
+//!   lengths -> [`FilterError::Dimension`]. All checks run **before** the
+//!   state is touched, so an error leaves it bit for bit unchanged.
+//! * The rotations are range-safe ([`crate::givens`]): finite data never
+//!   produce an infinity or NaN in `R`, `p` unless a true column norm of the
+//!   stacked data exceeds the type's maximum.
+//! * A row of all zeros meets identity rotations (`c = 1`, `s = 0`): `R` and
+//!   `p` are untouched (apart from the step's `lambda` scaling),
+//!   `gamma_j = 1` and `xi_j = d_j`. A zero entry of a row is likewise
+//!   skipped (its rotation is the identity), which makes sparse rows cheap.
+//! * The strictly lower triangle of the `r` buffer is used as workspace for
+//!   the working row during an update and is zero again on return.
+
+use crate::givens::rotation_real_pivot;
+use crate::Real;
+use core::fmt;
+use nalgebra::ComplexField;
+
+/// Errors of the QRD/RLS filter and its baselines.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FilterError {
+    /// An entry of `U`, `d` or the initial weights is NaN or infinite.
+    NonFinite,
+    /// The forgetting factor is not in `(0, 1]` (or is NaN).
+    InvalidLambda,
+    /// The regularisation `delta` is not finite and positive.
+    InvalidDelta,
+    /// Back-substitution met a zero diagonal entry of `R` (or overflowed).
+    Singular,
+    /// A buffer length does not match the dimensions (or `M = 0`).
+    Dimension,
+}
+
+impl fmt::Display for FilterError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            FilterError::NonFinite => "non-finite value in the filter input",
+            FilterError::InvalidLambda => "forgetting factor lambda must lie in (0, 1]",
+            FilterError::InvalidDelta => "regularisation delta must be finite and > 0",
+            FilterError::Singular => "triangular factor is singular",
+            FilterError::Dimension => "buffer length does not match the filter dimensions",
+        })
+    }
+}
+
+impl core::error::Error for FilterError {}
+
+/// Checks `0 < lambda <= 1` (NaN rejected).
+#[inline]
+pub fn validate_lambda<T: Real>(lambda: T) -> Result<(), FilterError> {
+    if lambda > T::zero() && lambda <= T::one() {
+        Ok(())
+    } else {
+        Err(FilterError::InvalidLambda)
+    }
+}
+
+/// Checks `0 < delta < infinity` (NaN rejected).
+#[inline]
+pub fn validate_delta<T: Real>(delta: T) -> Result<(), FilterError> {
+    if delta > T::zero() && delta.is_finite() {
+        Ok(())
+    } else {
+        Err(FilterError::InvalidDelta)
+    }
+}
+
+/// `Err(NonFinite)` if any entry of `u` or `d` is NaN or infinite.
+#[inline]
+pub fn check_finite<F: ComplexField>(u: &[F], d: &[F]) -> Result<(), FilterError> {
+    if u.iter().chain(d.iter()).all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(FilterError::NonFinite)
+    }
+}
+
+/// Number of unknowns `M` implied by the buffers, after checking
+/// `p.len() = M > 0` and `r.len() = M * M`.
+#[inline]
+fn dim_of<F>(r_len: usize, p: &[F]) -> Result<usize, FilterError> {
+    let m = p.len();
+    if m == 0 || m.checked_mul(m) != Some(r_len) {
+        return Err(FilterError::Dimension);
+    }
+    Ok(m)
+}
+
+/// Initialises the state: `R = sqrt(delta) I`, `p = R w0` (`p = 0` without
+/// `w0`). `r` is `M x M` row-major (`M * M` entries), `p` has `M` entries.
+///
+/// Errors (state untouched): `InvalidDelta`, `Dimension`, `NonFinite` (in `w0`).
+pub fn init<F, T>(r: &mut [F], p: &mut [F], delta: T, w0: Option<&[F]>) -> Result<(), FilterError>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let m = dim_of(r.len(), p)?;
+    validate_delta(delta)?;
+    if let Some(w0) = w0 {
+        if w0.len() != m {
+            return Err(FilterError::Dimension);
+        }
+        check_finite(w0, &[])?;
+    }
+    let sd = delta.sqrt();
+    for (i, row) in r.chunks_exact_mut(m).enumerate() {
+        for (k, x) in row.iter_mut().enumerate() {
+            *x = if i == k { F::from_real(sd) } else { F::zero() };
+        }
+    }
+    match w0 {
+        Some(w0) => {
+            for (pi, wi) in p.iter_mut().zip(w0) {
+                *pi = wi.scale(sd);
+            }
+        }
+        None => p.iter_mut().for_each(|x| *x = F::zero()),
+    }
+    Ok(())
+}
+
+/// Folds the `N` rows of `u` (`N x M` row-major) with right-hand sides `d`
+/// (`N`) into `R`, `p`, after scaling them by `sqrt(lambda)` (see the module
+/// documentation). Writes the a-posteriori errors `xi_j` to `errors_out`
+/// and the conversion factors `gamma_j` to `gamma_out` (both length `N`).
+///
+/// `r` must hold an upper-triangular factor with a real, non-negative
+/// diagonal, as produced by [`init`] and kept by this function; only the
+/// real part of a diagonal entry is read.
+///
+/// Errors (all checked before anything is written): `Dimension`,
+/// `InvalidLambda`, `NonFinite`.
+#[allow(clippy::too_many_arguments)]
+pub fn update_rows<F, T>(
+    r: &mut [F],
+    p: &mut [F],
+    u: &[F],
+    d: &[F],
+    lambda: T,
+    errors_out: &mut [F],
+    gamma_out: &mut [T],
+) -> Result<(), FilterError>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let m = dim_of(r.len(), p)?;
+    let n = d.len();
+    if n.checked_mul(m) != Some(u.len()) || errors_out.len() != n || gamma_out.len() != n {
+        return Err(FilterError::Dimension);
+    }
+    validate_lambda(lambda)?;
+    check_finite(u, d)?;
+
+    // Forgetting: [R p] <- sqrt(lambda) [R p] (upper triangle only).
+    if lambda != T::one() {
+        let sl = lambda.sqrt();
+        for (i, row) in r.chunks_exact_mut(m).enumerate() {
+            for x in &mut row[i..] {
+                *x = x.scale(sl);
+            }
+        }
+        for x in p.iter_mut() {
+            *x = x.scale(sl);
+        }
+    }
+
+    // Rows 0..M-1 of R, and the last row whose first M-1 (strictly lower)
+    // entries serve as the working copy of u_j(1..M).
+    let (top, last) = r.split_at_mut((m - 1) * m);
+    let (work, last_diag) = last.split_at_mut(m - 1);
+
+    for (((row, &dj), xi), gam) in u
+        .chunks_exact(m)
+        .zip(d)
+        .zip(errors_out.iter_mut())
+        .zip(gamma_out.iter_mut())
+    {
+        work.copy_from_slice(&row[1..]);
+        let mut e = dj; // rotated right-hand side: ends as sqrt(gamma) alpha
+        let mut g = T::one(); // rotated augmented column: ends as sqrt(gamma)
+
+        for i in 0..m {
+            let b = if i == 0 { row[0] } else { work[i - 1] };
+            if b.real() == T::zero() && b.imaginary() == T::zero() {
+                continue; // identity rotation
+            }
+            if i + 1 < m {
+                let r_row = &mut top[i * m + i..(i + 1) * m];
+                let (diag, rest) = r_row.split_first_mut().ok_or(FilterError::Dimension)?;
+                let (rot, rho) = rotation_real_pivot(diag.real(), b);
+                *diag = F::from_real(rho);
+                for (x, y) in rest.iter_mut().zip(work[i..].iter_mut()) {
+                    let (nx, ny) = rot.apply(*x, *y);
+                    *x = nx;
+                    *y = ny;
+                }
+                let (np, ne) = rot.apply(p[i], e);
+                p[i] = np;
+                e = ne;
+                g *= rot.c;
+            } else {
+                let diag = &mut last_diag[0];
+                let (rot, rho) = rotation_real_pivot(diag.real(), b);
+                *diag = F::from_real(rho);
+                let (np, ne) = rot.apply(p[i], e);
+                p[i] = np;
+                e = ne;
+                g *= rot.c;
+            }
+        }
+        *xi = e.scale(g);
+        *gam = g * g;
+    }
+    work.iter_mut().for_each(|x| *x = F::zero());
+    Ok(())
+}
+
+/// Back-substitution `R w = p` for the weights (`w_out` has `M` entries).
+///
+/// Errors: `Dimension`; `Singular` if a diagonal entry of `R` is zero or a
+/// weight overflows (then `w_out` holds no meaningful values).
+pub fn solve_weights<F, T>(r: &[F], p: &[F], w_out: &mut [F]) -> Result<(), FilterError>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let m = dim_of(r.len(), p)?;
+    if w_out.len() != m {
+        return Err(FilterError::Dimension);
+    }
+    for i in (0..m).rev() {
+        let row = &r[i * m..(i + 1) * m];
+        let mut acc = p[i];
+        for (rik, wk) in row[i + 1..].iter().zip(&w_out[i + 1..]) {
+            acc -= *rik * *wk;
+        }
+        let rii = row[i];
+        if rii.real() == T::zero() && rii.imaginary() == T::zero() {
+            return Err(FilterError::Singular);
+        }
+        let wi = acc / rii;
+        if !wi.is_finite() {
+            return Err(FilterError::Singular);
+        }
+        w_out[i] = wi;
+    }
+    Ok(())
+}
+
+/// Conditioning indicator `min_i |R_ii| / max_i |R_ii|` of an `M x M`
+/// row-major factor (`r.len()` must be a non-zero square). It is `1` right
+/// after [`init`], falls toward `0` as some direction of `w` loses
+/// excitation (`cond(R) >= 1 / ratio`), and is `0` if the factor is zero.
+pub fn r_diag_ratio<F, T>(r: &[F]) -> Result<T, FilterError>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let m = r.len().isqrt();
+    if m == 0 || m * m != r.len() {
+        return Err(FilterError::Dimension);
+    }
+    Ok(diag_ratio((0..m).map(|i| r[i * m + i])))
+}
+
+fn diag_ratio<F, T>(diag: impl Iterator<Item = F>) -> T
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let mut lo = T::max_value().unwrap_or_else(T::one);
+    let mut hi = T::zero();
+    for x in diag {
+        let a = x.modulus();
+        lo = lo.min(a);
+        hi = hi.max(a);
+    }
+    if hi > T::zero() && hi.is_finite() {
+        lo / hi
+    } else {
+        T::zero()
+    }
+}
+
+/// The slice kernel bundled with its buffers: `r` (`M x M` row-major) and
+/// `p` (`M`) borrowed from the caller (e.g. `Vec`s sized at run time).
+#[derive(Debug)]
+pub struct QrdRlsCore<'a, F> {
+    r: &'a mut [F],
+    p: &'a mut [F],
+    m: usize,
+}
+
+impl<'a, F, T> QrdRlsCore<'a, F>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    /// Borrows the buffers (checks `p.len() = M > 0`, `r.len() = M * M`);
+    /// their contents are used as they are (call [`QrdRlsCore::init`] first
+    /// for a fresh filter).
+    pub fn new(r: &'a mut [F], p: &'a mut [F]) -> Result<Self, FilterError> {
+        let m = dim_of(r.len(), p)?;
+        Ok(Self { r, p, m })
+    }
+
+    /// Number of unknowns `M`.
+    pub fn dim(&self) -> usize {
+        self.m
+    }
+
+    /// See [`init`].
+    pub fn init(&mut self, delta: T, w0: Option<&[F]>) -> Result<(), FilterError> {
+        init(self.r, self.p, delta, w0)
+    }
+
+    /// See [`update_rows`].
+    pub fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        errors_out: &mut [F],
+        gamma_out: &mut [T],
+    ) -> Result<(), FilterError> {
+        update_rows(self.r, self.p, u, d, lambda, errors_out, gamma_out)
+    }
+
+    /// See [`solve_weights`].
+    pub fn solve_weights(&self, w_out: &mut [F]) -> Result<(), FilterError> {
+        solve_weights(self.r, self.p, w_out)
+    }
+
+    /// See [`r_diag_ratio`].
+    pub fn r_diag_ratio(&self) -> T {
+        diag_ratio((0..self.m).map(|i| self.r[i * self.m + i]))
+    }
+
+    /// The factor `R` (`M x M` row-major, upper triangular).
+    pub fn r(&self) -> &[F] {
+        self.r
+    }
+
+    /// The rotated right-hand side `p` (`R w = p`).
+    pub fn p(&self) -> &[F] {
+        self.p
+    }
+}
+
+/// Result of one [`VectorQrdRls`] step: per row `j`, the a-posteriori error
+/// `xi_j = d_j - u_j w^(j)` and the conversion factor
+/// `gamma_j = 1 - u_j P^(j) u_j^H` (see the module documentation;
+/// `xi_j = gamma_j alpha_j` with the a-priori error `alpha_j`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UpdateInfo<F: ComplexField, const N: usize> {
+    /// A-posteriori errors, one per row.
+    pub xi: [F; N],
+    /// Conversion factors in `(0, 1]`, one per row.
+    pub gamma: [F::RealField; N],
+}
+
+/// Owning, fixed-size vector QRD/RLS for firmware: `M` unknowns, `N` rows
+/// per step, field `F` = `Complex<T>` (the paper's formulation) or `T`
+/// (real formulation). All storage is inline (`M^2 + 2M` values of `F`).
+///
+/// `Clone` and `PartialEq` compare the whole state (factor, right-hand
+/// side, prior weights, `lambda`, `delta`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VectorQrdRls<F: ComplexField, const M: usize, const N: usize> {
+    r: [[F; M]; M],
+    p: [F; M],
+    w0: [F; M],
+    lambda: F::RealField,
+    delta: F::RealField,
+}
+
+impl<F, T, const M: usize, const N: usize> VectorQrdRls<F, M, N>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    /// A fresh filter with zero prior weights: `R = sqrt(delta) I`, `p = 0`.
+    ///
+    /// Errors: `InvalidLambda` (`lambda` not in `(0, 1]`), `InvalidDelta`
+    /// (`delta` not finite and positive), `Dimension` (`M = 0`).
+    pub fn new(lambda: T, delta: T) -> Result<Self, FilterError> {
+        Self::with_weights(lambda, delta, &[F::zero(); M])
+    }
+
+    /// A fresh filter with prior weights `w0`: `R = sqrt(delta) I`,
+    /// `p = sqrt(delta) w0` (so that `weights()` returns `w0`).
+    ///
+    /// Errors: as [`VectorQrdRls::new`], and `NonFinite` for `w0`.
+    pub fn with_weights(lambda: T, delta: T, w0: &[F; M]) -> Result<Self, FilterError> {
+        validate_lambda(lambda)?;
+        let mut s = Self {
+            r: [[F::zero(); M]; M],
+            p: [F::zero(); M],
+            w0: *w0,
+            lambda,
+            delta,
+        };
+        init(s.r.as_flattened_mut(), &mut s.p, delta, Some(w0))?;
+        Ok(s)
+    }
+
+    /// Back to the state right after construction (same `delta`, `w0`; the
+    /// current `lambda` is kept).
+    pub fn reset(&mut self) {
+        let sd = self.delta.sqrt();
+        for (i, row) in self.r.iter_mut().enumerate() {
+            for (k, x) in row.iter_mut().enumerate() {
+                *x = if i == k { F::from_real(sd) } else { F::zero() };
+            }
+        }
+        for (pi, wi) in self.p.iter_mut().zip(&self.w0) {
+            *pi = wi.scale(sd);
+        }
+    }
+
+    /// Restarts with new prior weights `w0` (and the construction `delta`).
+    pub fn reset_with_weights(&mut self, w0: &[F; M]) -> Result<(), FilterError> {
+        check_finite(w0, &[])?;
+        self.w0 = *w0;
+        self.reset();
+        Ok(())
+    }
+
+    /// One step with the filter's own `lambda`: folds the `N` rows of `u`
+    /// with right-hand sides `d`. See [`VectorQrdRls::update_with_lambda`].
+    pub fn update(&mut self, u: &[[F; M]; N], d: &[F; N]) -> Result<UpdateInfo<F, N>, FilterError> {
+        self.update_with_lambda(u, d, self.lambda)
+    }
+
+    /// One step with forgetting factor `lambda` for this step only
+    /// (`lambda = 1`: no forgetting, e.g. to freeze adaptation when the
+    /// excitation is poor). Returns the a-posteriori errors and conversion
+    /// factors per row.
+    ///
+    /// Errors (state unchanged): `InvalidLambda`, `NonFinite`.
+    pub fn update_with_lambda(
+        &mut self,
+        u: &[[F; M]; N],
+        d: &[F; N],
+        lambda: T,
+    ) -> Result<UpdateInfo<F, N>, FilterError> {
+        let mut info = UpdateInfo {
+            xi: [F::zero(); N],
+            gamma: [T::zero(); N],
+        };
+        update_rows(
+            self.r.as_flattened_mut(),
+            &mut self.p,
+            u.as_flattened(),
+            d,
+            lambda,
+            &mut info.xi,
+            &mut info.gamma,
+        )?;
+        Ok(info)
+    }
+
+    /// Current weights by back-substitution of `R w = p` (`O(M^2)`).
+    ///
+    /// Errors: `Singular` if a diagonal entry of `R` has underflowed to zero
+    /// (only after extremely long runs of zero rows with `lambda < 1`).
+    pub fn weights(&self) -> Result<[F; M], FilterError> {
+        let mut w = [F::zero(); M];
+        solve_weights(self.r.as_flattened(), &self.p, &mut w)?;
+        Ok(w)
+    }
+
+    /// The default forgetting factor.
+    pub fn lambda(&self) -> T {
+        self.lambda
+    }
+
+    /// Changes the default forgetting factor (`InvalidLambda` if not in `(0, 1]`).
+    pub fn set_lambda(&mut self, lambda: T) -> Result<(), FilterError> {
+        validate_lambda(lambda)?;
+        self.lambda = lambda;
+        Ok(())
+    }
+
+    /// The regularisation `delta` of `R(0) = sqrt(delta) I`.
+    pub fn delta(&self) -> T {
+        self.delta
+    }
+
+    /// `min_i |R_ii| / max_i |R_ii|` (see [`r_diag_ratio`]).
+    pub fn r_diag_ratio(&self) -> T {
+        diag_ratio(self.r.iter().enumerate().map(|(i, row)| row[i]))
+    }
+
+    /// The factor `R` (upper triangular, real non-negative diagonal).
+    pub fn r(&self) -> &[[F; M]; M] {
+        &self.r
+    }
+
+    /// The rotated right-hand side `p` (`R w = p`).
+    pub fn p(&self) -> &[F; M] {
+        &self.p
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use num_complex::Complex;
+
+    type C = Complex<f64>;
+
+    #[test]
+    fn exact_data_recovers_weights() {
+        // Two complex unknowns, rows chosen so that after two steps the
+        // regularisation is negligible.
+        let w = [C::new(1.0, -2.0), C::new(0.5, 3.0)];
+        let mut f = VectorQrdRls::<C, 2, 2>::new(1.0, 1e-12).unwrap();
+        let us = [
+            [
+                [C::new(1.0, 0.0), C::new(0.0, 1.0)],
+                [C::new(2.0, 1.0), C::new(-1.0, 0.5)],
+            ],
+            [
+                [C::new(0.3, -0.7), C::new(1.5, 0.0)],
+                [C::new(0.0, 0.0), C::new(0.0, 0.0)],
+            ],
+        ];
+        for u in &us {
+            let d = [
+                u[0][0] * w[0] + u[0][1] * w[1],
+                u[1][0] * w[0] + u[1][1] * w[1],
+            ];
+            let info = f.update(u, &d).unwrap();
+            assert!(info.gamma.iter().all(|g| *g > 0.0 && *g <= 1.0));
+        }
+        let est = f.weights().unwrap();
+        for k in 0..2 {
+            assert!((est[k] - w[k]).norm() < 1e-9, "{est:?}");
+        }
+        // The strictly lower triangle is workspace, zero again after the step.
+        assert_eq!(f.r()[1][0], C::new(0.0, 0.0));
+    }
+
+    #[test]
+    fn zero_row_is_a_no_op_and_returns_d() {
+        let mut f = VectorQrdRls::<f64, 3, 1>::with_weights(1.0, 2.0, &[1.0, 2.0, 3.0]).unwrap();
+        let before = f.clone();
+        let info = f.update(&[[0.0; 3]], &[5.0]).unwrap();
+        assert_eq!(f, before);
+        assert_eq!(info.xi, [5.0]);
+        assert_eq!(info.gamma, [1.0]);
+        assert_eq!(f.weights().unwrap(), [1.0, 2.0, 3.0]);
+    }
+
+    #[test]
+    fn validation() {
+        assert_eq!(
+            VectorQrdRls::<f32, 2, 1>::new(0.0, 1.0).unwrap_err(),
+            FilterError::InvalidLambda
+        );
+        assert_eq!(
+            VectorQrdRls::<f32, 2, 1>::new(1.5, 1.0).unwrap_err(),
+            FilterError::InvalidLambda
+        );
+        assert_eq!(
+            VectorQrdRls::<f32, 2, 1>::new(f32::NAN, 1.0).unwrap_err(),
+            FilterError::InvalidLambda
+        );
+        assert_eq!(
+            VectorQrdRls::<f32, 2, 1>::new(1.0, 0.0).unwrap_err(),
+            FilterError::InvalidDelta
+        );
+        assert_eq!(
+            VectorQrdRls::<f32, 2, 1>::new(1.0, f32::INFINITY).unwrap_err(),
+            FilterError::InvalidDelta
+        );
+        assert_eq!(
+            VectorQrdRls::<f32, 0, 1>::new(1.0, 1.0).unwrap_err(),
+            FilterError::Dimension
+        );
+        assert_eq!(
+            VectorQrdRls::<f32, 2, 1>::with_weights(1.0, 1.0, &[f32::NAN, 0.0]).unwrap_err(),
+            FilterError::NonFinite
+        );
+        let mut f = VectorQrdRls::<f32, 2, 1>::new(0.9, 1.0).unwrap();
+        assert_eq!(
+            f.update_with_lambda(&[[1.0, 1.0]], &[1.0], 0.0)
+                .unwrap_err(),
+            FilterError::InvalidLambda
+        );
+        assert_eq!(f.set_lambda(-1.0).unwrap_err(), FilterError::InvalidLambda);
+        assert_eq!(f.lambda(), 0.9);
+        let mut r = [0.0f64; 5];
+        let mut p = [0.0f64; 2];
+        assert_eq!(
+            init(&mut r, &mut p, 1.0, None).unwrap_err(),
+            FilterError::Dimension
+        );
+        let mut r = [0.0f64; 4];
+        init(&mut r, &mut p, 4.0, None).unwrap();
+        assert_eq!(r, [2.0, 0.0, 0.0, 2.0]);
+        let (mut e, mut g) = ([0.0; 1], [0.0; 1]);
+        assert_eq!(
+            update_rows(
+                &mut r,
+                &mut p,
+                &[1.0, 2.0, 3.0],
+                &[1.0],
+                1.0,
+                &mut e,
+                &mut g
+            )
+            .unwrap_err(),
+            FilterError::Dimension
+        );
+        assert_eq!(r_diag_ratio(&r).unwrap(), 1.0);
+    }
+}

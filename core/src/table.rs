@@ -1,1 +1,924 @@
-//! (to be written)
+//! Bearing-level model tables: the finite-element rotor reduced, speed by
+//! speed, to the bearing degrees of freedom (Eqs. 35-39, 44-46 of the method
+//! paper, with the corrections of the project specification).
+//!
+//! # What a table holds
+//!
+//! With `q_B` the shaft's absolute displacements at the bearing nodes
+//! (`NQ = 2 N_b` channels, ordered `b1_y, b1_z, b2_y, ...`, metres) and `a`
+//! the complex unbalance of the `NP` planes (kg m), the shaft-and-disk model
+//! (no bearings, no pedestals) gives at every speed `Omega` (rad/s)
+//!
+//! ```text
+//! A(Omega) q_B = -Z_B(Omega) q_B + B(Omega) a          (N)
+//! A = Z_R,BB - Y Z_R,iB              (N/m,  NQ x NQ)
+//! B = Omega^2 (T_B - Y T_i)          (N/(kg m) = 1/s^2, NQ x NP)
+//! Y = Z_R,Bi Z_R,ii^-1
+//! ```
+//!
+//! where `Z_R = K - Omega^2 M + j Omega^2 G` is the shaft-and-disk dynamic
+//! stiffness and `T` the unbalance distribution (`1` at a plane's `y` DOF,
+//! `-j` at its `z` DOF). The identifier's desired response is `d = A q_B`
+//! (Eq. 45) and `B` are the unbalance columns of its data matrix (Eq. 46).
+//!
+//! # Interpolation between grid speeds (pole-factored linear)
+//!
+//! `Y` has poles at the speeds `Omega_k` where the shaft with its bearing
+//! points held fixed resonates (`det Z_R,ii(Omega_k) = 0`); every entry of
+//! `A` and of `B / Omega^2` shares them. A table stores those poles (at most
+//! [`MAX_POLES`], those inside or near the grid) and interpolates linearly
+//! in `Omega`, between the grid speeds `w0 < Omega < w1` around the measured
+//! speed, the pole-free products
+//!
+//! ```text
+//! p(Omega) A(Omega)   and   p(Omega) B(Omega) / Omega^2,
+//! p(Omega) = prod_k (Omega_k^2 - Omega^2)
+//! ```
+//!
+//! then divides by `p(Omega)` exactly. With `t = (Omega - w0) / (w1 - w0)`:
+//!
+//! ```text
+//! A(Omega) = a0 A(w0) + a1 A(w1),  a0 = (1 - t) p(w0) / p(Omega),  a1 = t p(w1) / p(Omega)
+//! B(Omega) = b0 B(w0) + b1 B(w1),  b0 = a0 Omega^2 / w0^2,         b1 = a1 Omega^2 / w1^2
+//! ```
+//!
+//! (see [`weights`]; the ratios `p(w) / p(Omega)` are formed factor by
+//! factor, so nothing overflows). Plain linear interpolation of a function
+//! with a simple pole has an `O(1)` relative error in the interval that
+//! contains the pole however fine the grid; the pole-factored scheme has an
+//! `O(h^2)` error everywhere, because `p A` is smooth. Dividing `B` by
+//! `Omega^2` removes its growth with speed. At a grid speed the stored
+//! matrices are returned exactly; a speed outside the grid is
+//! [`TableError::OutOfRange`]; a speed exactly on a pole is
+//! [`TableError::Pole`].
+//!
+//! # Binary blob (format version 1), little-endian, byte by byte
+//!
+//! `w` is the scalar width (4 for f32, 8 for f64), `NQ = 2 N_b`.
+//!
+//! | offset | size | field |
+//! |---|---|---|
+//! | 0 | 8 | magic `b"ROTORTBL"` |
+//! | 8 | 2 | format version, u16 = 1 |
+//! | 10 | 1 | scalar type, u8: 4 = f32, 8 = f64 (its width in bytes) |
+//! | 11 | 1 | reserved, u8 = 0 |
+//! | 12 | 2 | number of shaft nodes of the model, u16 (>= 2) |
+//! | 14 | 2 | N_b, number of bearings, u16 (1..=[`MAX_BEARINGS`]) |
+//! | 16 | 2 | N_p, number of unbalance planes, u16 (0..=[`MAX_PLANES`]) |
+//! | 18 | 2 | N_k, number of poles, u16 (0..=[`MAX_POLES`]) |
+//! | 20 | 4 | N_s, number of speeds, u32 (>= 1) |
+//! | 24 | 2 N_p | plane nodes, u16 each, 1-based, distinct |
+//! | 24 + 2 N_p | 2 N_b | bearing nodes, u16 each, 1-based, strictly increasing |
+//! | P = 24 + 2 (N_p + N_b) | w N_k | poles Omega_k (rad/s), finite, > 0, strictly increasing |
+//! | S = P + w N_k | w N_s | speeds (rad/s), finite, > 0, strictly increasing |
+//! | D = S + w N_s | N_s R | per speed: `A` row-major (NQ x NQ), then `B` row-major (NQ x N_p), each entry `re` then `im`; `R = 2 w (NQ^2 + NQ N_p)` |
+//! | D + N_s R | 4 | CRC-32 (IEEE, [`crate::crc32`]) of every byte before it, u32 |
+//!
+//! The total length is exactly `D + N_s R + 4`; anything else is rejected.
+//! Every matrix entry must be finite.
+//!
+//! Nothing here allocates, uses `unsafe` or panics on any input: values are
+//! read with `from_le_bytes` on checked sub-slices and all size arithmetic is
+//! checked.
+
+use core::fmt;
+use core::marker::PhantomData;
+
+use num_complex::Complex;
+
+use crate::crc32::crc32;
+use crate::Real;
+
+/// Magic bytes at offset 0 of a table blob.
+pub const MAGIC: [u8; 8] = *b"ROTORTBL";
+/// The blob format version this reader understands.
+pub const FORMAT_VERSION: u16 = 1;
+/// Length of the fixed header (bytes), before the node lists.
+pub const HEADER_LEN: usize = 24;
+/// Largest number of poles a table may carry.
+pub const MAX_POLES: usize = 16;
+/// Largest number of bearings a blob may declare.
+pub const MAX_BEARINGS: usize = 64;
+/// Largest number of unbalance planes a blob may declare.
+pub const MAX_PLANES: usize = 256;
+
+/// Why a table was rejected or a lookup failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TableError {
+    /// The blob is shorter than its fixed header.
+    Truncated {
+        /// Bytes needed.
+        needed: usize,
+        /// Bytes present.
+        found: usize,
+    },
+    /// The first 8 bytes are not [`MAGIC`].
+    BadMagic,
+    /// A format version this reader does not know.
+    UnsupportedVersion(u16),
+    /// The blob's scalar type (byte 10) is not the reader's `T`
+    /// (or is neither 4 nor 8).
+    ScalarType {
+        /// Code of the reader's type (4 or 8).
+        expected: u8,
+        /// Code found in the blob.
+        found: u8,
+    },
+    /// A reserved byte is not zero.
+    Reserved,
+    /// A count is zero where it must not be, above its limit, or the sizes
+    /// overflow.
+    BadSize,
+    /// The blob length is not what its header implies.
+    Length {
+        /// Length implied by the header.
+        expected: usize,
+        /// Actual length.
+        found: usize,
+    },
+    /// The stored CRC-32 does not match the contents.
+    Crc {
+        /// CRC stored in the blob.
+        stored: u32,
+        /// CRC computed over the blob.
+        computed: u32,
+    },
+    /// A node number is 0, beyond the model's nodes, repeated, or bearing
+    /// nodes are not strictly increasing.
+    BadNode,
+    /// A stored value, or a speed asked for, is NaN or infinite.
+    NonFinite,
+    /// Speeds not strictly increasing, or not > 0.
+    SpeedsNotIncreasing,
+    /// Poles not finite, > 0 and strictly increasing, or too many.
+    BadPole,
+    /// The table's `2 N_b`, `N_p` or number of speeds does not match the
+    /// const-generic sizes asked for.
+    Dimension,
+    /// The speed asked for is outside the grid.
+    OutOfRange,
+    /// The speed asked for sits on a pole: `A` and `B` are infinite there.
+    Pole,
+    /// Internal inconsistency of an owned table (e.g. `n_poles` above
+    /// [`MAX_POLES`] or speeds not increasing in a hand-built [`Table`]).
+    Corrupt,
+}
+
+impl fmt::Display for TableError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TableError::Truncated { needed, found } => {
+                write!(
+                    f,
+                    "table blob truncated: {found} bytes, header needs {needed}"
+                )
+            }
+            TableError::BadMagic => write!(f, "not a rotorid table (bad magic)"),
+            TableError::UnsupportedVersion(v) => write!(f, "unsupported table format version {v}"),
+            TableError::ScalarType { expected, found } => write!(
+                f,
+                "table scalar type code {found}, reader expects {expected} (4 = f32, 8 = f64)"
+            ),
+            TableError::Reserved => write!(f, "reserved header byte is not zero"),
+            TableError::BadSize => write!(f, "table sizes out of range"),
+            TableError::Length { expected, found } => {
+                write!(f, "table blob has {found} bytes, header implies {expected}")
+            }
+            TableError::Crc { stored, computed } => write!(
+                f,
+                "table CRC mismatch: stored {stored:#010x}, computed {computed:#010x}"
+            ),
+            TableError::BadNode => write!(f, "implausible node numbers in table"),
+            TableError::NonFinite => write!(f, "non-finite value"),
+            TableError::SpeedsNotIncreasing => {
+                write!(f, "table speeds not > 0 and strictly increasing")
+            }
+            TableError::BadPole => write!(f, "table poles not > 0 and strictly increasing"),
+            TableError::Dimension => write!(f, "table dimensions do not match"),
+            TableError::OutOfRange => write!(f, "speed outside the table's grid"),
+            TableError::Pole => write!(f, "speed on a pole of the reduced model"),
+            TableError::Corrupt => write!(f, "inconsistent table"),
+        }
+    }
+}
+
+/// A scalar type a table can be stored in: `f32` (code 4) or `f64` (code 8).
+pub trait TableScalar: Real {
+    /// Type code in the blob header (its width in bytes).
+    const TYPE_CODE: u8;
+    /// Width in bytes.
+    const WIDTH: usize;
+    /// Reads one little-endian value; `None` unless `bytes.len() == WIDTH`.
+    fn from_le(bytes: &[u8]) -> Option<Self>;
+}
+
+impl TableScalar for f32 {
+    const TYPE_CODE: u8 = 4;
+    const WIDTH: usize = 4;
+    fn from_le(bytes: &[u8]) -> Option<Self> {
+        <[u8; 4]>::try_from(bytes).ok().map(f32::from_le_bytes)
+    }
+}
+
+impl TableScalar for f64 {
+    const TYPE_CODE: u8 = 8;
+    const WIDTH: usize = 8;
+    fn from_le(bytes: &[u8]) -> Option<Self> {
+        <[u8; 8]>::try_from(bytes).ok().map(f64::from_le_bytes)
+    }
+}
+
+/// The reduced model at one speed: `A` (N/m, NQ x NQ) and `B` (1/s^2,
+/// NQ x NP), such that `A q_B = -Z_B q_B + B a` (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Terms<T, const NQ: usize, const NP: usize> {
+    /// `A = Z_R,BB - Y Z_R,iB`, row-major `a[row][col]`.
+    pub a: [[Complex<T>; NQ]; NQ],
+    /// `B = Omega^2 (T_B - Y T_i)`, row-major `b[row][plane]`.
+    pub b: [[Complex<T>; NP]; NQ],
+}
+
+impl<T: Real, const NQ: usize, const NP: usize> Terms<T, NQ, NP> {
+    /// All entries zero.
+    pub fn zero() -> Self {
+        let z = Complex::new(T::zero(), T::zero());
+        Terms {
+            a: [[z; NQ]; NQ],
+            b: [[z; NP]; NQ],
+        }
+    }
+}
+
+/// Anything that gives the reduced terms at a measured speed.
+pub trait BearingTable<T, const NQ: usize, const NP: usize> {
+    /// `A` and `B` at `omega` (rad/s): exact at grid speeds, interpolated
+    /// (pole-factored linear, see the module docs) between them.
+    ///
+    /// Errors: [`TableError::NonFinite`] for a non-finite speed,
+    /// [`TableError::OutOfRange`] outside the grid, [`TableError::Dimension`]
+    /// if `NQ`/`NP` are not the table's, [`TableError::Pole`] on a pole.
+    fn terms(&self, omega: T) -> Result<Terms<T, NQ, NP>, TableError>;
+    /// First and last grid speed (rad/s).
+    fn speed_range(&self) -> (T, T);
+}
+
+/// Where a speed falls on a grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Position {
+    /// On grid speed `i`.
+    Exact(usize),
+    /// Strictly between grid speeds `i` and `i + 1`.
+    Between(usize),
+}
+
+/// Locates `omega` on a grid of `n` speeds given by `speed(i)` (assumed
+/// strictly increasing; if they are not, the answer is some in-range index,
+/// never a panic). Binary search, `O(log n)`.
+pub fn locate<T: Real>(
+    n: usize,
+    speed: impl Fn(usize) -> Option<T>,
+    omega: T,
+) -> Result<Position, TableError> {
+    if !omega.is_finite() {
+        return Err(TableError::NonFinite);
+    }
+    if n == 0 {
+        return Err(TableError::OutOfRange);
+    }
+    let last = n - 1;
+    let first_speed = speed(0).ok_or(TableError::Corrupt)?;
+    let last_speed = speed(last).ok_or(TableError::Corrupt)?;
+    if omega < first_speed || omega > last_speed {
+        return Err(TableError::OutOfRange);
+    }
+    let (mut lo, mut hi) = (0usize, last);
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        if speed(mid).ok_or(TableError::Corrupt)? <= omega {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    if speed(lo).ok_or(TableError::Corrupt)? == omega {
+        Ok(Position::Exact(lo))
+    } else if speed(hi).ok_or(TableError::Corrupt)? == omega {
+        Ok(Position::Exact(hi))
+    } else if lo == hi {
+        Err(TableError::OutOfRange)
+    } else {
+        Ok(Position::Between(lo))
+    }
+}
+
+/// Interpolation weights between grid speeds `w0 < omega < w1`:
+/// `A = a0 A(w0) + a1 A(w1)`, `B = b0 B(w0) + b1 B(w1)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Weights<T> {
+    /// Weight of `A(w0)`: `(1 - t) p(w0) / p(omega)`.
+    pub a0: T,
+    /// Weight of `A(w1)`: `t p(w1) / p(omega)`.
+    pub a1: T,
+    /// Weight of `B(w0)`: `a0 omega^2 / w0^2`.
+    pub b0: T,
+    /// Weight of `B(w1)`: `a1 omega^2 / w1^2`.
+    pub b1: T,
+}
+
+/// The pole-factored linear interpolation weights of the module docs, with
+/// `p(Omega) = prod_k (Omega_k^2 - Omega^2)` over `poles` (rad/s).
+/// `t = (omega - w0) / (w1 - w0)`; each ratio `p(w) / p(omega)` is formed
+/// factor by factor as `(Omega_k - w)(Omega_k + w) / ((Omega_k - omega)(Omega_k + omega))`.
+///
+/// Errors: [`TableError::NonFinite`] if an input is not finite,
+/// [`TableError::Corrupt`] unless `0 < w0 < w1`, [`TableError::Pole`] if a
+/// weight is not finite (the speed is on a pole).
+pub fn weights<T: Real>(omega: T, w0: T, w1: T, poles: &[T]) -> Result<Weights<T>, TableError> {
+    if !(omega.is_finite() && w0.is_finite() && w1.is_finite()) {
+        return Err(TableError::NonFinite);
+    }
+    let zero = T::zero();
+    if !(w0 > zero && w1 > w0) {
+        return Err(TableError::Corrupt);
+    }
+    let t = (omega - w0) / (w1 - w0);
+    let mut r0 = T::one();
+    let mut r1 = T::one();
+    for &p in poles {
+        let den = (p - omega) * (p + omega);
+        r0 *= (p - w0) * (p + w0) / den;
+        r1 *= (p - w1) * (p + w1) / den;
+    }
+    let a0 = (T::one() - t) * r0;
+    let a1 = t * r1;
+    let s0 = omega / w0;
+    let s1 = omega / w1;
+    let w = Weights {
+        a0,
+        a1,
+        b0: a0 * s0 * s0,
+        b1: a1 * s1 * s1,
+    };
+    if w.a0.is_finite() && w.a1.is_finite() && w.b0.is_finite() && w.b1.is_finite() {
+        Ok(w)
+    } else {
+        Err(TableError::Pole)
+    }
+}
+
+/// Shared lookup: fills a [`Terms`] from entry accessors.
+fn lookup<T: Real, const NQ: usize, const NP: usize>(
+    n_s: usize,
+    speed: impl Fn(usize) -> Option<T>,
+    poles: &[T],
+    a_at: impl Fn(usize, usize, usize) -> Option<Complex<T>>,
+    b_at: impl Fn(usize, usize, usize) -> Option<Complex<T>>,
+    omega: T,
+) -> Result<Terms<T, NQ, NP>, TableError> {
+    let mut out = Terms::<T, NQ, NP>::zero();
+    match locate(n_s, &speed, omega)? {
+        Position::Exact(i) => {
+            for (r, row) in out.a.iter_mut().enumerate() {
+                for (c, x) in row.iter_mut().enumerate() {
+                    *x = a_at(i, r, c).ok_or(TableError::Corrupt)?;
+                }
+            }
+            for (r, row) in out.b.iter_mut().enumerate() {
+                for (c, x) in row.iter_mut().enumerate() {
+                    *x = b_at(i, r, c).ok_or(TableError::Corrupt)?;
+                }
+            }
+        }
+        Position::Between(i) => {
+            let j = i + 1;
+            let w0 = speed(i).ok_or(TableError::Corrupt)?;
+            let w1 = speed(j).ok_or(TableError::Corrupt)?;
+            let w = weights(omega, w0, w1, poles)?;
+            for (r, row) in out.a.iter_mut().enumerate() {
+                for (c, x) in row.iter_mut().enumerate() {
+                    let x0 = a_at(i, r, c).ok_or(TableError::Corrupt)?;
+                    let x1 = a_at(j, r, c).ok_or(TableError::Corrupt)?;
+                    *x = x0 * w.a0 + x1 * w.a1;
+                }
+            }
+            for (r, row) in out.b.iter_mut().enumerate() {
+                for (c, x) in row.iter_mut().enumerate() {
+                    let x0 = b_at(i, r, c).ok_or(TableError::Corrupt)?;
+                    let x1 = b_at(j, r, c).ok_or(TableError::Corrupt)?;
+                    *x = x0 * w.b0 + x1 * w.b1;
+                }
+            }
+            let finite = out
+                .a
+                .iter()
+                .flatten()
+                .chain(out.b.iter().flatten())
+                .all(|z| z.re.is_finite() && z.im.is_finite());
+            if !finite {
+                return Err(TableError::Pole);
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn read_u16(bytes: &[u8], off: usize) -> Option<u16> {
+    let s = bytes.get(off..off.checked_add(2)?)?;
+    <[u8; 2]>::try_from(s).ok().map(u16::from_le_bytes)
+}
+
+fn read_u32(bytes: &[u8], off: usize) -> Option<u32> {
+    let s = bytes.get(off..off.checked_add(4)?)?;
+    <[u8; 4]>::try_from(s).ok().map(u32::from_le_bytes)
+}
+
+fn read_t<T: TableScalar>(bytes: &[u8], off: usize) -> Option<T> {
+    T::from_le(bytes.get(off..off.checked_add(T::WIDTH)?)?)
+}
+
+/// Checks that `n` values given by `get` are finite, > 0 and strictly
+/// increasing.
+fn increasing_positive<T: Real>(n: usize, get: impl Fn(usize) -> Option<T>) -> Option<bool> {
+    let mut prev = T::zero();
+    for i in 0..n {
+        let v = get(i)?;
+        if !(v.is_finite() && v > prev) {
+            return Some(false);
+        }
+        prev = v;
+    }
+    Some(true)
+}
+
+/// A validated, borrowed view of a table blob (format in the module docs).
+/// Nothing is copied; lookups read the bytes.
+#[derive(Debug, Clone, Copy)]
+pub struct TableView<'a, T> {
+    bytes: &'a [u8],
+    n_nodes: u16,
+    n_b: usize,
+    n_p: usize,
+    n_k: usize,
+    n_s: usize,
+    off_planes: usize,
+    off_bearings: usize,
+    off_poles: usize,
+    off_speeds: usize,
+    off_data: usize,
+    per_speed: usize,
+    _t: PhantomData<T>,
+}
+
+/// Byte offsets of a blob's sections, from its counts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Layout {
+    /// Offset of the plane nodes.
+    pub planes: usize,
+    /// Offset of the bearing nodes.
+    pub bearings: usize,
+    /// Offset of the poles.
+    pub poles: usize,
+    /// Offset of the speeds.
+    pub speeds: usize,
+    /// Offset of the per-speed data.
+    pub data: usize,
+    /// Bytes per speed: `2 w (NQ^2 + NQ N_p)`.
+    pub per_speed: usize,
+    /// Offset of the CRC.
+    pub crc: usize,
+    /// Total length.
+    pub total: usize,
+}
+
+impl Layout {
+    /// Offsets for scalar width `w`, `n_b` bearings, `n_p` planes, `n_k`
+    /// poles and `n_s` speeds; `None` on arithmetic overflow.
+    pub fn new(w: usize, n_b: usize, n_p: usize, n_k: usize, n_s: usize) -> Option<Layout> {
+        let nq = n_b.checked_mul(2)?;
+        let planes = HEADER_LEN;
+        let bearings = planes.checked_add(n_p.checked_mul(2)?)?;
+        let poles = bearings.checked_add(n_b.checked_mul(2)?)?;
+        let speeds = poles.checked_add(n_k.checked_mul(w)?)?;
+        let data = speeds.checked_add(n_s.checked_mul(w)?)?;
+        let entries = nq.checked_mul(nq)?.checked_add(nq.checked_mul(n_p)?)?;
+        let per_speed = entries.checked_mul(2)?.checked_mul(w)?;
+        let crc = data.checked_add(n_s.checked_mul(per_speed)?)?;
+        let total = crc.checked_add(4)?;
+        Some(Layout {
+            planes,
+            bearings,
+            poles,
+            speeds,
+            data,
+            per_speed,
+            crc,
+            total,
+        })
+    }
+}
+
+impl<'a, T: TableScalar> TableView<'a, T> {
+    /// Validates every field of a blob and returns a view of it: magic,
+    /// version, scalar type equal to `T`, reserved byte, counts within their
+    /// limits, exact length, CRC, node numbers (1..=nodes, bearings strictly
+    /// increasing, planes distinct), poles and speeds finite, > 0 and
+    /// strictly increasing, every matrix entry finite.
+    pub fn parse(bytes: &'a [u8]) -> Result<Self, TableError> {
+        if bytes.len() < HEADER_LEN {
+            return Err(TableError::Truncated {
+                needed: HEADER_LEN,
+                found: bytes.len(),
+            });
+        }
+        let hdr = TableError::Truncated {
+            needed: HEADER_LEN,
+            found: bytes.len(),
+        };
+        if bytes.get(0..8) != Some(&MAGIC[..]) {
+            return Err(TableError::BadMagic);
+        }
+        let version = read_u16(bytes, 8).ok_or(hdr)?;
+        if version != FORMAT_VERSION {
+            return Err(TableError::UnsupportedVersion(version));
+        }
+        let scalar = *bytes.get(10).ok_or(hdr)?;
+        if scalar != T::TYPE_CODE {
+            return Err(TableError::ScalarType {
+                expected: T::TYPE_CODE,
+                found: scalar,
+            });
+        }
+        if *bytes.get(11).ok_or(hdr)? != 0 {
+            return Err(TableError::Reserved);
+        }
+        let n_nodes = read_u16(bytes, 12).ok_or(hdr)?;
+        let n_b = read_u16(bytes, 14).ok_or(hdr)? as usize;
+        let n_p = read_u16(bytes, 16).ok_or(hdr)? as usize;
+        let n_k = read_u16(bytes, 18).ok_or(hdr)? as usize;
+        let n_s =
+            usize::try_from(read_u32(bytes, 20).ok_or(hdr)?).map_err(|_| TableError::BadSize)?;
+        if n_nodes < 2
+            || n_b == 0
+            || n_b > MAX_BEARINGS
+            || n_b > n_nodes as usize
+            || n_p > MAX_PLANES
+            || n_k > MAX_POLES
+            || n_s == 0
+        {
+            return Err(TableError::BadSize);
+        }
+        let lay = Layout::new(T::WIDTH, n_b, n_p, n_k, n_s).ok_or(TableError::BadSize)?;
+        if bytes.len() != lay.total {
+            return Err(TableError::Length {
+                expected: lay.total,
+                found: bytes.len(),
+            });
+        }
+        let stored = read_u32(bytes, lay.crc).ok_or(TableError::Corrupt)?;
+        let computed = crc32(bytes.get(..lay.crc).ok_or(TableError::Corrupt)?);
+        if stored != computed {
+            return Err(TableError::Crc { stored, computed });
+        }
+        let view = TableView {
+            bytes,
+            n_nodes,
+            n_b,
+            n_p,
+            n_k,
+            n_s,
+            off_planes: lay.planes,
+            off_bearings: lay.bearings,
+            off_poles: lay.poles,
+            off_speeds: lay.speeds,
+            off_data: lay.data,
+            per_speed: lay.per_speed,
+            _t: PhantomData,
+        };
+        view.validate_values()?;
+        Ok(view)
+    }
+
+    fn validate_values(&self) -> Result<(), TableError> {
+        let c = TableError::Corrupt;
+        // Nodes.
+        let mut prev = 0u16;
+        for i in 0..self.n_b {
+            let n = self.bearing_node(i).ok_or(c)?;
+            if n == 0 || n > self.n_nodes || n <= prev {
+                return Err(TableError::BadNode);
+            }
+            prev = n;
+        }
+        for i in 0..self.n_p {
+            let n = self.plane_node(i).ok_or(c)?;
+            if n == 0 || n > self.n_nodes {
+                return Err(TableError::BadNode);
+            }
+            for j in 0..i {
+                if self.plane_node(j).ok_or(c)? == n {
+                    return Err(TableError::BadNode);
+                }
+            }
+        }
+        if !increasing_positive(self.n_k, |i| self.pole(i)).ok_or(c)? {
+            return Err(TableError::BadPole);
+        }
+        if !increasing_positive(self.n_s, |i| self.speed(i)).ok_or(c)? {
+            // Distinguish a NaN/infinite speed from a mis-ordered one.
+            for i in 0..self.n_s {
+                if !self.speed(i).ok_or(c)?.is_finite() {
+                    return Err(TableError::NonFinite);
+                }
+            }
+            return Err(TableError::SpeedsNotIncreasing);
+        }
+        let start = self.off_data;
+        let end = self
+            .per_speed
+            .checked_mul(self.n_s)
+            .and_then(|l| l.checked_add(start))
+            .ok_or(c)?;
+        let data = self.bytes.get(start..end).ok_or(c)?;
+        for chunk in data.chunks_exact(T::WIDTH) {
+            if !T::from_le(chunk).ok_or(c)?.is_finite() {
+                return Err(TableError::NonFinite);
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of bearings N_b.
+    pub fn n_bearings(&self) -> usize {
+        self.n_b
+    }
+    /// Number of channels `2 N_b`.
+    pub fn n_channels(&self) -> usize {
+        2 * self.n_b
+    }
+    /// Number of unbalance planes N_p.
+    pub fn n_planes(&self) -> usize {
+        self.n_p
+    }
+    /// Number of grid speeds.
+    pub fn n_speeds(&self) -> usize {
+        self.n_s
+    }
+    /// Number of poles carried.
+    pub fn n_poles(&self) -> usize {
+        self.n_k
+    }
+    /// Number of shaft nodes of the model the table came from.
+    pub fn n_nodes(&self) -> u16 {
+        self.n_nodes
+    }
+    /// Bearing `i`'s node (1-based).
+    pub fn bearing_node(&self, i: usize) -> Option<u16> {
+        if i >= self.n_b {
+            return None;
+        }
+        read_u16(
+            self.bytes,
+            self.off_bearings.checked_add(i.checked_mul(2)?)?,
+        )
+    }
+    /// Plane `i`'s node (1-based).
+    pub fn plane_node(&self, i: usize) -> Option<u16> {
+        if i >= self.n_p {
+            return None;
+        }
+        read_u16(self.bytes, self.off_planes.checked_add(i.checked_mul(2)?)?)
+    }
+    /// Pole `i` (rad/s).
+    pub fn pole(&self, i: usize) -> Option<T> {
+        if i >= self.n_k {
+            return None;
+        }
+        read_t(
+            self.bytes,
+            self.off_poles.checked_add(i.checked_mul(T::WIDTH)?)?,
+        )
+    }
+    /// Grid speed `i` (rad/s).
+    pub fn speed(&self, i: usize) -> Option<T> {
+        if i >= self.n_s {
+            return None;
+        }
+        read_t(
+            self.bytes,
+            self.off_speeds.checked_add(i.checked_mul(T::WIDTH)?)?,
+        )
+    }
+    fn entry(&self, s: usize, idx: usize) -> Option<Complex<T>> {
+        let off = self
+            .off_data
+            .checked_add(s.checked_mul(self.per_speed)?)?
+            .checked_add(idx.checked_mul(2 * T::WIDTH)?)?;
+        let re = read_t(self.bytes, off)?;
+        let im = read_t(self.bytes, off.checked_add(T::WIDTH)?)?;
+        Some(Complex::new(re, im))
+    }
+    /// Stored `A[r][c]` at grid speed `s`.
+    pub fn a_entry(&self, s: usize, r: usize, c: usize) -> Option<Complex<T>> {
+        let nq = 2 * self.n_b;
+        if s >= self.n_s || r >= nq || c >= nq {
+            return None;
+        }
+        self.entry(s, r * nq + c)
+    }
+    /// Stored `B[r][c]` at grid speed `s`.
+    pub fn b_entry(&self, s: usize, r: usize, c: usize) -> Option<Complex<T>> {
+        let nq = 2 * self.n_b;
+        if s >= self.n_s || r >= nq || c >= self.n_p {
+            return None;
+        }
+        self.entry(s, nq * nq + r * self.n_p + c)
+    }
+    /// The poles, copied into a fixed array (first [`Self::n_poles`] used).
+    pub fn poles(&self) -> [T; MAX_POLES] {
+        let mut p = [T::zero(); MAX_POLES];
+        for (i, x) in p.iter_mut().enumerate().take(self.n_k) {
+            *x = self.pole(i).unwrap_or_else(T::zero);
+        }
+        p
+    }
+}
+
+impl<T: TableScalar, const NQ: usize, const NP: usize> BearingTable<T, NQ, NP>
+    for TableView<'_, T>
+{
+    fn terms(&self, omega: T) -> Result<Terms<T, NQ, NP>, TableError> {
+        if NQ != 2 * self.n_b || NP != self.n_p {
+            return Err(TableError::Dimension);
+        }
+        let poles = self.poles();
+        let poles = poles.get(..self.n_k).ok_or(TableError::Corrupt)?;
+        lookup(
+            self.n_s,
+            |i| self.speed(i),
+            poles,
+            |s, r, c| self.a_entry(s, r, c),
+            |s, r, c| self.b_entry(s, r, c),
+            omega,
+        )
+    }
+
+    fn speed_range(&self) -> (T, T) {
+        let first = self.speed(0).unwrap_or_else(T::zero);
+        let last = self
+            .speed(self.n_s.saturating_sub(1))
+            .unwrap_or_else(T::zero);
+        (first, last)
+    }
+}
+
+/// An owned table with compile-time sizes: `NQ = 2 N_b` channels, `NP`
+/// planes, `NS` speeds. This is what a generated Rust source file defines
+/// (as a `static`, for `include!` in firmware); [`Table::from_view`] copies a
+/// blob into one. Mind the size (`NS (NQ^2 + NQ NP)` complex values): build
+/// large ones as `static`s, not on a small stack.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table<T, const NQ: usize, const NP: usize, const NS: usize> {
+    /// Poles (rad/s); the first `n_poles` are used, the rest are zero.
+    pub poles: [T; MAX_POLES],
+    /// Number of poles in use.
+    pub n_poles: usize,
+    /// Grid speeds (rad/s), > 0, strictly increasing.
+    pub speeds: [T; NS],
+    /// `A` per speed, `a[s][row][col]` (N/m).
+    pub a: [[[Complex<T>; NQ]; NQ]; NS],
+    /// `B` per speed, `b[s][row][plane]` (1/s^2).
+    pub b: [[[Complex<T>; NP]; NQ]; NS],
+}
+
+impl<T: Real, const NQ: usize, const NP: usize, const NS: usize> Table<T, NQ, NP, NS> {
+    /// Checks what [`TableView::parse`] checks of the values: `NQ` even and
+    /// non-zero, `NS >= 1`, poles and speeds finite, > 0, strictly
+    /// increasing, every entry finite.
+    pub fn validate(&self) -> Result<(), TableError> {
+        if NQ == 0 || NQ % 2 != 0 || NS == 0 {
+            return Err(TableError::Dimension);
+        }
+        let poles = self.poles.get(..self.n_poles).ok_or(TableError::BadPole)?;
+        if !increasing_positive(poles.len(), |i| poles.get(i).copied()).unwrap_or(false) {
+            return Err(TableError::BadPole);
+        }
+        if self.speeds.iter().any(|s| !s.is_finite()) {
+            return Err(TableError::NonFinite);
+        }
+        if !increasing_positive(NS, |i| self.speeds.get(i).copied()).unwrap_or(false) {
+            return Err(TableError::SpeedsNotIncreasing);
+        }
+        let finite = self
+            .a
+            .iter()
+            .flatten()
+            .flatten()
+            .chain(self.b.iter().flatten().flatten())
+            .all(|z| z.re.is_finite() && z.im.is_finite());
+        if finite {
+            Ok(())
+        } else {
+            Err(TableError::NonFinite)
+        }
+    }
+
+    /// Copies a validated blob view into an owned table; [`TableError::Dimension`]
+    /// unless the blob has exactly `NQ / 2` bearings, `NP` planes and `NS` speeds.
+    pub fn from_view(view: &TableView<'_, T>) -> Result<Self, TableError>
+    where
+        T: TableScalar,
+    {
+        if NQ != view.n_channels() || NP != view.n_planes() || NS != view.n_speeds() {
+            return Err(TableError::Dimension);
+        }
+        let z = Complex::new(T::zero(), T::zero());
+        let mut t = Table {
+            poles: view.poles(),
+            n_poles: view.n_poles(),
+            speeds: [T::zero(); NS],
+            a: [[[z; NQ]; NQ]; NS],
+            b: [[[z; NP]; NQ]; NS],
+        };
+        for (s, v) in t.speeds.iter_mut().enumerate() {
+            *v = view.speed(s).ok_or(TableError::Corrupt)?;
+        }
+        for (s, m) in t.a.iter_mut().enumerate() {
+            for (r, row) in m.iter_mut().enumerate() {
+                for (c, x) in row.iter_mut().enumerate() {
+                    *x = view.a_entry(s, r, c).ok_or(TableError::Corrupt)?;
+                }
+            }
+        }
+        for (s, m) in t.b.iter_mut().enumerate() {
+            for (r, row) in m.iter_mut().enumerate() {
+                for (c, x) in row.iter_mut().enumerate() {
+                    *x = view.b_entry(s, r, c).ok_or(TableError::Corrupt)?;
+                }
+            }
+        }
+        Ok(t)
+    }
+}
+
+impl<T: Real, const NQ: usize, const NP: usize, const NS: usize> BearingTable<T, NQ, NP>
+    for Table<T, NQ, NP, NS>
+{
+    fn terms(&self, omega: T) -> Result<Terms<T, NQ, NP>, TableError> {
+        let poles = self.poles.get(..self.n_poles).ok_or(TableError::Corrupt)?;
+        lookup(
+            NS,
+            |i| self.speeds.get(i).copied(),
+            poles,
+            |s, r, c| self.a.get(s)?.get(r)?.get(c).copied(),
+            |s, r, c| self.b.get(s)?.get(r)?.get(c).copied(),
+            omega,
+        )
+    }
+
+    fn speed_range(&self) -> (T, T) {
+        let first = self.speeds.first().copied().unwrap_or_else(T::zero);
+        let last = self.speeds.last().copied().unwrap_or_else(T::zero);
+        (first, last)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn locate_finds_intervals_and_exact_points() {
+        let s = [1.0f64, 2.0, 4.0, 8.0];
+        let f = |i: usize| s.get(i).copied();
+        assert_eq!(locate(4, f, 1.0), Ok(Position::Exact(0)));
+        assert_eq!(locate(4, f, 8.0), Ok(Position::Exact(3)));
+        assert_eq!(locate(4, f, 4.0), Ok(Position::Exact(2)));
+        assert_eq!(locate(4, f, 3.0), Ok(Position::Between(1)));
+        assert_eq!(locate(4, f, 7.9), Ok(Position::Between(2)));
+        assert_eq!(locate(4, f, 0.5), Err(TableError::OutOfRange));
+        assert_eq!(locate(4, f, 8.5), Err(TableError::OutOfRange));
+        assert_eq!(locate(4, f, f64::NAN), Err(TableError::NonFinite));
+        assert_eq!(locate(1, f, 1.0), Ok(Position::Exact(0)));
+        assert_eq!(locate(1, f, 1.5), Err(TableError::OutOfRange));
+    }
+
+    /// The scheme reproduces `c / (Omega_k^2 - Omega^2)` (and `B`'s
+    /// `Omega^2 c / (Omega_k^2 - Omega^2)`) exactly, even across the pole.
+    #[test]
+    fn pole_factored_weights_are_exact_for_a_simple_pole() {
+        let pk = 10.0f64;
+        let f = |w: f64| 3.0 / (pk * pk - w * w);
+        let (w0, w1) = (9.0, 11.5);
+        for &om in &[9.3, 9.99, 10.001, 11.2] {
+            let w = weights(om, w0, w1, &[pk]).unwrap();
+            let a = w.a0 * f(w0) + w.a1 * f(w1);
+            assert!((a - f(om)).abs() < 1e-12 * f(om).abs(), "{om}");
+            let b = w.b0 * w0 * w0 * f(w0) + w.b1 * w1 * w1 * f(w1);
+            assert!((b - om * om * f(om)).abs() < 1e-12 * (om * om * f(om)).abs());
+        }
+        assert_eq!(weights(10.0, w0, w1, &[pk]), Err(TableError::Pole));
+        // Without poles it is plain linear interpolation.
+        let w = weights(2.5, 2.0, 3.0, &[]).unwrap();
+        assert_eq!((w.a0, w.a1), (0.5, 0.5));
+    }
+}

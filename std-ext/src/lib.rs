@@ -19,24 +19,24 @@ pub use rotorid_core as core;
 pub mod model;
 
 // Finite-element model.
-pub mod shaft;
-pub mod disk;
-pub mod bearing;
-pub mod banded;
 pub mod assembly;
-pub mod response;
+pub mod banded;
+pub mod bearing;
 pub mod campbell;
+pub mod disk;
+pub mod response;
+pub mod shaft;
 
 // Bearing-level tables for firmware.
-pub mod reduction;
 pub mod grid;
+pub mod reduction;
 pub mod tables;
 
 // Files, simulation, identification, plots.
-pub mod model_file;
-pub mod ross;
-pub mod measurement;
-pub mod simulate;
 pub mod identify;
+pub mod measurement;
+pub mod model_file;
 pub mod plot;
+pub mod ross;
+pub mod simulate;
 pub mod units;

@@ -1,7 +1,40 @@
 //! Measured (or simulated) 1X responses at the bearings, and the
 //! measurement CSV format (see the README, "Measurement file").
+//!
+//! # File format
+//!
+//! ```text
+//! # any number of comment lines starting with '#'
+//! speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,b2_y_re,b2_y_im,b2_z_re,b2_z_im
+//! 10,1.2e-9,-3.4e-10,...
+//! ```
+//!
+//! - One row per speed (rpm, `>= 0`, any order: run-ups and run-downs are
+//!   both valid); one group of four columns per bearing, `b1..bNb` in
+//!   bearing order; values in metres, phasor convention
+//!   `y(t) = Re{ Y exp(j Omega t) }`.
+//! - Alternative header with amplitude and phase per channel:
+//!   `speed_rpm,b1_y_amp,b1_y_phase_deg,b1_z_amp,b1_z_phase_deg,...`
+//!   (amplitude `|Y|` in metres, `>= 0`; phase `arg Y` in degrees).
+//! - Comment lines (first non-blank character `#`) may appear anywhere;
+//!   blank lines are ignored. Fields may carry surrounding spaces; line
+//!   endings `\n` or `\r\n`.
+//! - N_b comes from the header. Every bad row (wrong column count, a field
+//!   that is not a number, NaN, infinity, negative speed or amplitude) is an
+//!   error carrying its 1-based line number and column name: nothing is
+//!   silently dropped.
+//!
+//! The writer prints every number with Rust's shortest round-trip
+//! representation (`{:e}`), so the phasors read back bit for bit; the speed
+//! is converted rad/s -> rpm -> rad/s, exact to about one ulp.
+
+use std::fmt::Write as _;
+use std::path::Path;
 
 use num_complex::Complex64;
+use thiserror::Error;
+
+use crate::units::{rad_s_to_rpm, rpm_to_rad_s};
 
 /// The 1X response phasors at all bearing channels at one speed.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,4 +54,295 @@ pub struct Measurements {
     pub n_bearings: usize,
     /// One sample per row.
     pub samples: Vec<Sample>,
+}
+
+/// How the phasors are written in the CSV columns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CsvLayout {
+    /// `bK_y_re, bK_y_im, bK_z_re, bK_z_im` (the default).
+    #[default]
+    Complex,
+    /// `bK_y_amp, bK_y_phase_deg, bK_z_amp, bK_z_phase_deg`.
+    AmplitudePhase,
+}
+
+/// Error reading or writing a measurement file. Line numbers are 1-based.
+#[derive(Debug, Error)]
+pub enum MeasurementError {
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The operating-system error.
+        source: std::io::Error,
+    },
+    /// No header line at all.
+    #[error("no header line (expected `speed_rpm,b1_y_re,...` or `speed_rpm,b1_y_amp,...`)")]
+    MissingHeader,
+    /// The header is not one of the two accepted forms.
+    #[error("line {line}: bad header: {reason}")]
+    Header {
+        /// Line of the header.
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A data row has the wrong number of columns.
+    #[error("line {line}: expected {expected} columns (from the header), found {found}")]
+    ColumnCount {
+        /// Line of the row.
+        line: usize,
+        /// Columns in the header.
+        expected: usize,
+        /// Columns in the row.
+        found: usize,
+    },
+    /// A field is not a valid value for its column.
+    #[error("line {line}, column {column}: {reason}")]
+    Field {
+        /// Line of the row.
+        line: usize,
+        /// Header name of the column.
+        column: String,
+        /// What is wrong (e.g. `not a number: "abc"`).
+        reason: String,
+    },
+    /// The header is followed by no data rows.
+    #[error("no data rows after the header")]
+    NoData,
+    /// The measurements to write are inconsistent.
+    #[error("sample {index}: {reason}")]
+    Inconsistent {
+        /// 0-based sample index.
+        index: usize,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// Header names of the `2 N_b` channels' columns for a layout.
+pub fn header_columns(n_bearings: usize, layout: CsvLayout) -> Vec<String> {
+    let mut cols = vec!["speed_rpm".to_string()];
+    for b in 1..=n_bearings {
+        for dir in ["y", "z"] {
+            match layout {
+                CsvLayout::Complex => {
+                    cols.push(format!("b{b}_{dir}_re"));
+                    cols.push(format!("b{b}_{dir}_im"));
+                }
+                CsvLayout::AmplitudePhase => {
+                    cols.push(format!("b{b}_{dir}_amp"));
+                    cols.push(format!("b{b}_{dir}_phase_deg"));
+                }
+            }
+        }
+    }
+    cols
+}
+
+/// Recognises a header line; returns N_b and the layout.
+fn parse_header(line_no: usize, line: &str) -> Result<(usize, CsvLayout), MeasurementError> {
+    let cols: Vec<&str> = line.split(',').map(str::trim).collect();
+    let bad = |reason: String| MeasurementError::Header {
+        line: line_no,
+        reason,
+    };
+    if cols.first() != Some(&"speed_rpm") {
+        return Err(bad(format!(
+            "first column must be `speed_rpm`, found `{}`",
+            cols.first().copied().unwrap_or("")
+        )));
+    }
+    let n_ch = cols.len() - 1;
+    if n_ch == 0 || n_ch % 4 != 0 {
+        return Err(bad(format!(
+            "expected 4 columns per bearing after `speed_rpm`, found {n_ch}"
+        )));
+    }
+    let n_b = n_ch / 4;
+    let layout = if cols[1].ends_with("_amp") {
+        CsvLayout::AmplitudePhase
+    } else {
+        CsvLayout::Complex
+    };
+    let expected = header_columns(n_b, layout);
+    for (i, (got, want)) in cols.iter().zip(expected.iter()).enumerate() {
+        if got != want {
+            return Err(bad(format!(
+                "column {} must be `{want}`, found `{got}`",
+                i + 1
+            )));
+        }
+    }
+    Ok((n_b, layout))
+}
+
+/// Parses the text of a measurement file.
+pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
+    let mut comments = Vec::new();
+    let mut header: Option<(usize, CsvLayout, Vec<String>)> = None;
+    let mut samples = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let line = raw.trim();
+        if line.is_empty() {
+            continue;
+        }
+        if let Some(c) = line.strip_prefix('#') {
+            comments.push(c.strip_prefix(' ').unwrap_or(c).to_string());
+            continue;
+        }
+        let Some((n_b, layout, names)) = &header else {
+            let (n_b, layout) = parse_header(line_no, line)?;
+            header = Some((n_b, layout, header_columns(n_b, layout)));
+            continue;
+        };
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != names.len() {
+            return Err(MeasurementError::ColumnCount {
+                line: line_no,
+                expected: names.len(),
+                found: fields.len(),
+            });
+        }
+        let mut values = Vec::with_capacity(fields.len());
+        for (f, name) in fields.iter().zip(names.iter()) {
+            let field_err = |reason: String| MeasurementError::Field {
+                line: line_no,
+                column: name.clone(),
+                reason,
+            };
+            let v: f64 = f
+                .parse()
+                .map_err(|_| field_err(format!("not a number: {f:?}")))?;
+            if !v.is_finite() {
+                return Err(field_err(format!("not finite: {f:?}")));
+            }
+            if (name == "speed_rpm" || name.ends_with("_amp")) && v < 0.0 {
+                return Err(field_err(format!("must be >= 0, got {f}")));
+            }
+            values.push(v);
+        }
+        let q = values[1..]
+            .chunks_exact(2)
+            .map(|p| match layout {
+                CsvLayout::Complex => Complex64::new(p[0], p[1]),
+                CsvLayout::AmplitudePhase => Complex64::from_polar(p[0], p[1].to_radians()),
+            })
+            .collect::<Vec<_>>();
+        debug_assert_eq!(q.len(), 2 * n_b);
+        samples.push(Sample {
+            omega: rpm_to_rad_s(values[0]),
+            q,
+        });
+    }
+    let Some((n_bearings, _, _)) = header else {
+        return Err(MeasurementError::MissingHeader);
+    };
+    if samples.is_empty() {
+        return Err(MeasurementError::NoData);
+    }
+    Ok(Measurements {
+        comments,
+        n_bearings,
+        samples,
+    })
+}
+
+/// Reads a measurement file.
+pub fn read_csv(path: impl AsRef<Path>) -> Result<Measurements, MeasurementError> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|source| MeasurementError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    parse_csv(&text)
+}
+
+/// Formats measurements as CSV text (comments, header, one row per sample).
+///
+/// Fails if a sample does not have `2 n_bearings` phasors or holds a
+/// non-finite or negative speed or a non-finite phasor.
+pub fn to_csv_string(m: &Measurements, layout: CsvLayout) -> Result<String, MeasurementError> {
+    let mut out = String::new();
+    for c in &m.comments {
+        // A comment containing a line break would break the format.
+        for part in c.lines() {
+            let _ = writeln!(out, "# {part}");
+        }
+    }
+    out.push_str(&header_columns(m.n_bearings, layout).join(","));
+    out.push('\n');
+    for (index, s) in m.samples.iter().enumerate() {
+        let bad = |reason: String| MeasurementError::Inconsistent { index, reason };
+        if s.q.len() != 2 * m.n_bearings {
+            return Err(bad(format!(
+                "{} phasors for {} bearings (expected {})",
+                s.q.len(),
+                m.n_bearings,
+                2 * m.n_bearings
+            )));
+        }
+        if !(s.omega.is_finite() && s.omega >= 0.0) {
+            return Err(bad(format!(
+                "speed {} rad/s is not finite and >= 0",
+                s.omega
+            )));
+        }
+        if s.q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
+            return Err(bad("non-finite phasor".into()));
+        }
+        let _ = write!(out, "{:e}", rad_s_to_rpm(s.omega));
+        for z in &s.q {
+            match layout {
+                CsvLayout::Complex => {
+                    let _ = write!(out, ",{:e},{:e}", z.re, z.im);
+                }
+                CsvLayout::AmplitudePhase => {
+                    let _ = write!(out, ",{:e},{:e}", z.norm(), z.arg().to_degrees());
+                }
+            }
+        }
+        out.push('\n');
+    }
+    Ok(out)
+}
+
+/// Writes a measurement file.
+pub fn write_csv(
+    m: &Measurements,
+    path: impl AsRef<Path>,
+    layout: CsvLayout,
+) -> Result<(), MeasurementError> {
+    let path = path.as_ref();
+    let text = to_csv_string(m, layout)?;
+    std::fs::write(path, text).map_err(|source| MeasurementError::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn header_both_layouts() {
+        assert_eq!(
+            parse_header(1, "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im").unwrap(),
+            (1, CsvLayout::Complex)
+        );
+        assert_eq!(
+            parse_header(
+                1,
+                "speed_rpm, b1_y_amp,b1_y_phase_deg,b1_z_amp,b1_z_phase_deg"
+            )
+            .unwrap(),
+            (1, CsvLayout::AmplitudePhase)
+        );
+        assert!(parse_header(1, "speed_rpm,b1_y_re,b1_y_im,b1_z_im,b1_z_re").is_err());
+        assert!(parse_header(1, "speed,b1_y_re,b1_y_im,b1_z_re,b1_z_im").is_err());
+        assert!(parse_header(1, "speed_rpm").is_err());
+    }
 }

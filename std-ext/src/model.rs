@@ -124,12 +124,7 @@ impl Disk {
         let mass = rho * PI * (d_o * d_o - d_i * d_i) * t / 4.0;
         let ip = mass * (d_o * d_o + d_i * d_i) / 8.0;
         let id = ip / 2.0 + mass * t * t / 12.0;
-        Disk {
-            node,
-            mass,
-            id,
-            ip,
-        }
+        Disk { node, mass, id, ip }
     }
 }
 
@@ -417,14 +412,20 @@ impl RotorModel {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(ModelError::invalid(field, format!("must be finite and > 0, got {v}")))
+                Err(ModelError::invalid(
+                    field,
+                    format!("must be finite and > 0, got {v}"),
+                ))
             }
         };
         let finite = |field: String, v: f64| -> Result<(), ModelError> {
             if v.is_finite() {
                 Ok(())
             } else {
-                Err(ModelError::invalid(field, format!("must be finite, got {v}")))
+                Err(ModelError::invalid(
+                    field,
+                    format!("must be finite, got {v}"),
+                ))
             }
         };
         if self.shaft.is_empty() {
@@ -440,10 +441,7 @@ impl RotorModel {
             {
                 return Err(ModelError::invalid(
                     f("inner_diameter"),
-                    format!(
-                        "must be in [0, outer_diameter), got {}",
-                        e.inner_diameter
-                    ),
+                    format!("must be in [0, outer_diameter), got {}", e.inner_diameter),
                 ));
             }
             pos(f("material.e"), e.material.e)?;

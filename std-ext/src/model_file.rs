@@ -1,1 +1,886 @@
-//! (to be written)
+//! The rotorid model file: a TOML description of a rotor-bearing system
+//! (see the README, "Model files", for a commented example).
+//!
+//! Units are SI (m, kg, Pa, N/m, N s/m, kg m) except where a key says
+//! otherwise (`rpm`, `phase_deg`). Nodes are numbered from 1, left to
+//! right; a shaft of sections with `elements` e_1, e_2, ... has
+//! `1 + sum e_i` nodes.
+//!
+//! ```toml
+//! name = "paper"                 # optional, for reports
+//! theory = "timoshenko"          # or "euler-bernoulli" (default timoshenko)
+//! planes = [5, 11, 21]           # unbalance planes to identify (nodes)
+//!
+//! [materials.steel]              # any number of named materials
+//! e = 200e9                      # Young's modulus (Pa)
+//! rho = 7800.0                   # density (kg/m^3)
+//! nu = 0.3                       # Poisson's ratio, or `g = ...` (Pa), not both
+//!
+//! [[shaft]]                      # sections, left to right
+//! length = 1.3                   # section length (m)
+//! outer_diameter = 0.1           # (m)
+//! inner_diameter = 0.0           # (m), optional, default 0 (solid)
+//! elements = 26                  # equal elements the section is split into (default 1)
+//! material = "steel"
+//!
+//! [[disk]]                       # from geometry (density from `material` or `rho`) ...
+//! node = 5
+//! material = "steel"
+//! outer_diameter = 0.12
+//! inner_diameter = 0.1
+//! thickness = 0.05
+//! # ... or from inertia: `node = 5, mass = 1.35, id = 2.1e-3, ip = 4.1e-3`
+//!
+//! [[bearing]]                    # constant coefficients, order yy, yz, zy, zz
+//! node = 1
+//! k = [5e7, 0.5e7, 1e7, 7e7]     # N/m
+//! c = [500.0, 50.0, 100.0, 700.0]  # N s/m
+//! # or a table against speed (linear interpolation, held beyond the ends):
+//! #   table = { rpm = [0, 15000], k = [[...], [...]], c = [[...], [...]] }
+//! # or polynomials in Omega (rad/s): K(Omega) = sum_p k[p] Omega^p
+//! #   polynomial = { k = [[0,0,0,0], [0,0,0,0], [k2yy, k2yz, k2zy, k2zz]], c = [[...]] }
+//! # optional pedestal (foundation mass) under the bearing:
+//! #   pedestal = { mass = 50.0, k = [1e8, 1e8], c = [2e3, 2e3] }   # [y, z]
+//!
+//! [[unbalance]]                  # optional true unbalance (used by the simulator)
+//! node = 5
+//! me = 0.0042                    # kg m
+//! phase_deg = 0.0
+//!
+//! [[bow]]                        # optional shaft bow (used by the simulator)
+//! node = 14
+//! amplitude = 1e-5               # m
+//! phase_deg = 0.0
+//!
+//! [simulate]                     # optional effects for `rotorid simulate`
+//! e_scale = 1.03                 # E and G of every shaft element x 1.03
+//! bearing_speed_law = { rpm_ref = 15000.0, law = "quadratic" }  # or "linear"
+//! pedestal = { mass = 50.0, k = [1e8, 1e8], c = [2e3, 2e3] }  # under every bearing without one
+//! runout = [{ channel = "b1_y", amplitude = 2e-6, phase_deg = 30.0 }]
+//! extra_unbalance = [{ node = 14, me = 0.002, phase_deg = 90.0 }]
+//! ```
+//!
+//! Unknown keys are errors, and every error names the field, with 1-based
+//! array indices (`bearing[2].node: node 40 is not on the shaft (nodes 1..=27)`).
+//! A file with a top-level `ross_version` key is read as a ROSS rotor
+//! instead (see [`crate::ross`]).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Deserialize;
+use thiserror::Error;
+
+use crate::model::{
+    BeamTheory, Bearing, BearingCoefficients, BearingLaw, BowPoint, Disk, Material, ModelError,
+    Pedestal, RotorModel, ShaftBow, ShaftElement, Unbalance,
+};
+use crate::ross::RossError;
+use crate::simulate::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
+use crate::units::rpm_to_rad_s;
+
+/// Error loading a model file or model name.
+#[derive(Debug, Error)]
+pub enum ModelFileError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The operating-system error.
+        source: std::io::Error,
+    },
+    /// Not valid TOML.
+    #[error("line {line}: {message}")]
+    Syntax {
+        /// 1-based line of the error.
+        line: usize,
+        /// The parser's message.
+        message: String,
+    },
+    /// A field is missing, unknown, of the wrong type or out of range.
+    #[error("{field}: {reason}")]
+    Field {
+        /// Dotted path of the field, 1-based array indices (`bearing[2].node`).
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The assembled model is inconsistent.
+    #[error("{0}")]
+    Model(#[from] ModelError),
+    /// A ROSS file that cannot be read.
+    #[error("ROSS file: {0}")]
+    Ross(#[from] RossError),
+    /// Neither a built-in model name nor an existing file.
+    #[error(
+        "unknown model `{0}`: not a built-in model (paper, paper-speed-dependent) nor a .toml file"
+    )]
+    UnknownModel(String),
+}
+
+impl ModelFileError {
+    fn field(field: impl Into<String>, reason: impl Into<String>) -> Self {
+        ModelFileError::Field {
+            field: field.into(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// A loaded model file: the rotor and the simulator effects it asks for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelFile {
+    /// The rotor.
+    pub model: RotorModel,
+    /// Effects of the `[simulate]` section (all off when absent).
+    pub effects: Effects,
+}
+
+// ---------------------------------------------------------------------------
+// Raw file structures (what serde reads), 1-based nodes.
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFile {
+    name: Option<String>,
+    theory: Option<String>,
+    #[serde(default)]
+    materials: BTreeMap<String, RawMaterial>,
+    shaft: Vec<RawSection>,
+    #[serde(default)]
+    disk: Vec<RawDisk>,
+    bearing: Vec<RawBearing>,
+    #[serde(default)]
+    planes: Vec<usize>,
+    #[serde(default)]
+    unbalance: Vec<RawUnbalance>,
+    #[serde(default)]
+    bow: Vec<RawBow>,
+    simulate: Option<RawSimulate>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    e: f64,
+    rho: f64,
+    nu: Option<f64>,
+    g: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSection {
+    length: f64,
+    outer_diameter: f64,
+    #[serde(default)]
+    inner_diameter: f64,
+    #[serde(default = "one")]
+    elements: usize,
+    material: String,
+}
+
+fn one() -> usize {
+    1
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawDisk {
+    node: usize,
+    mass: Option<f64>,
+    id: Option<f64>,
+    ip: Option<f64>,
+    material: Option<String>,
+    rho: Option<f64>,
+    outer_diameter: Option<f64>,
+    inner_diameter: Option<f64>,
+    thickness: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBearing {
+    node: usize,
+    k: Option<[f64; 4]>,
+    c: Option<[f64; 4]>,
+    table: Option<RawTable>,
+    polynomial: Option<RawPolynomial>,
+    pedestal: Option<RawPedestal>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTable {
+    rpm: Vec<f64>,
+    k: Vec<[f64; 4]>,
+    c: Vec<[f64; 4]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPolynomial {
+    k: Vec<[f64; 4]>,
+    c: Vec<[f64; 4]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPedestal {
+    mass: f64,
+    k: [f64; 2],
+    c: [f64; 2],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawUnbalance {
+    node: usize,
+    me: f64,
+    phase_deg: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBow {
+    node: usize,
+    amplitude: f64,
+    phase_deg: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSimulate {
+    e_scale: Option<f64>,
+    bearing_speed_law: Option<RawSpeedLaw>,
+    pedestal: Option<RawPedestal>,
+    #[serde(default)]
+    runout: Vec<RawRunout>,
+    #[serde(default)]
+    extra_unbalance: Vec<RawUnbalance>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSpeedLaw {
+    rpm_ref: f64,
+    law: String,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRunout {
+    channel: String,
+    amplitude: f64,
+    phase_deg: f64,
+}
+
+// ---------------------------------------------------------------------------
+
+/// Formats a serde path with 1-based sequence indices: `bearing[2].node`.
+fn format_path(path: &serde_path_to_error::Path) -> String {
+    use serde_path_to_error::Segment;
+    let mut out = String::new();
+    for seg in path.iter() {
+        match seg {
+            Segment::Seq { index } => out.push_str(&format!("[{}]", index + 1)),
+            Segment::Map { key } => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(key);
+            }
+            Segment::Enum { variant } => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(variant);
+            }
+            Segment::Unknown => out.push_str(".?"),
+        }
+    }
+    out
+}
+
+/// 1-based line of a byte offset.
+fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// Deserializes `T` from TOML text; errors name the field path (1-based
+/// indices) and the line.
+pub(crate) fn deserialize_toml<T: serde::de::DeserializeOwned>(
+    text: &str,
+) -> Result<T, ModelFileError> {
+    let de = toml::Deserializer::parse(text).map_err(|e| ModelFileError::Syntax {
+        line: e.span().map(|s| line_of(text, s.start)).unwrap_or(1),
+        message: e.message().trim().to_string(),
+    })?;
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let field = format_path(e.path());
+        let inner = e.inner();
+        let mut reason = inner.message().trim().replace('\n', " ");
+        if let Some(span) = inner.span() {
+            reason = format!("{reason} (line {})", line_of(text, span.start));
+        }
+        if field.is_empty() || field == "." {
+            ModelFileError::field("(top level)", reason)
+        } else {
+            ModelFileError::Field { field, reason }
+        }
+    })
+}
+
+fn finite_pos(field: &str, v: f64) -> Result<f64, ModelFileError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(ModelFileError::field(
+            field,
+            format!("must be finite and > 0, got {v}"),
+        ))
+    }
+}
+
+fn finite_nonneg(field: &str, v: f64) -> Result<f64, ModelFileError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(ModelFileError::field(
+            field,
+            format!("must be finite and >= 0, got {v}"),
+        ))
+    }
+}
+
+fn finite(field: &str, v: f64) -> Result<f64, ModelFileError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(ModelFileError::field(
+            field,
+            format!("must be finite, got {v}"),
+        ))
+    }
+}
+
+/// 1-based file node -> 0-based, checked against the node count.
+fn node(field: &str, n: usize, n_nodes: usize) -> Result<usize, ModelFileError> {
+    if n == 0 || n > n_nodes {
+        Err(ModelFileError::field(
+            field,
+            format!("node {n} is not on the shaft (nodes 1..={n_nodes})"),
+        ))
+    } else {
+        Ok(n - 1)
+    }
+}
+
+fn pedestal(field: &str, p: &RawPedestal) -> Result<Pedestal, ModelFileError> {
+    let mass = finite_pos(&format!("{field}.mass"), p.mass)?;
+    let mut k = [0.0; 2];
+    let mut c = [0.0; 2];
+    for j in 0..2 {
+        k[j] = finite_pos(&format!("{field}.k[{}]", j + 1), p.k[j])?;
+        c[j] = finite_nonneg(&format!("{field}.c[{}]", j + 1), p.c[j])?;
+    }
+    Ok(Pedestal { mass, k, c })
+}
+
+fn check4(field: &str, v: &[f64; 4]) -> Result<(), ModelFileError> {
+    for (j, x) in v.iter().enumerate() {
+        finite(&format!("{field}[{}]", j + 1), *x)?;
+    }
+    Ok(())
+}
+
+fn parse_channel(field: &str, s: &str, n_bearings: usize) -> Result<Channel, ModelFileError> {
+    Channel::parse(s, n_bearings).map_err(|reason| ModelFileError::field(field, reason))
+}
+
+/// Parses the text of a rotorid model file (not ROSS).
+pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
+    let raw: RawFile = deserialize_toml(text)?;
+
+    let theory = match raw.theory.as_deref() {
+        None | Some("timoshenko") => BeamTheory::Timoshenko,
+        Some("euler-bernoulli") => BeamTheory::EulerBernoulli,
+        Some(other) => {
+            return Err(ModelFileError::field(
+                "theory",
+                format!("unknown beam theory `{other}` (timoshenko, euler-bernoulli)"),
+            ))
+        }
+    };
+
+    let mut materials = BTreeMap::new();
+    for (name, m) in &raw.materials {
+        let f = |k: &str| format!("materials.{name}.{k}");
+        let e = finite_pos(&f("e"), m.e)?;
+        let rho = finite_pos(&f("rho"), m.rho)?;
+        let mat = match (m.nu, m.g) {
+            (Some(nu), None) => {
+                if !(nu.is_finite() && nu > -1.0 && nu < 0.5) {
+                    return Err(ModelFileError::field(
+                        f("nu"),
+                        format!("Poisson's ratio must be in (-1, 0.5), got {nu}"),
+                    ));
+                }
+                Material::from_e_nu(name.clone(), e, rho, nu)
+            }
+            (None, Some(g)) => Material {
+                name: name.clone(),
+                e,
+                g: finite_pos(&f("g"), g)?,
+                rho,
+            },
+            (Some(_), Some(_)) => {
+                return Err(ModelFileError::field(
+                    f("g"),
+                    "give either nu or g, not both",
+                ))
+            }
+            (None, None) => return Err(ModelFileError::field(f("nu"), "missing: give nu or g")),
+        };
+        materials.insert(name.clone(), mat);
+    }
+    let material = |field: String, name: &str| -> Result<Material, ModelFileError> {
+        materials.get(name).cloned().ok_or_else(|| {
+            ModelFileError::field(
+                field,
+                format!(
+                    "unknown material `{name}` (defined: {})",
+                    materials.keys().cloned().collect::<Vec<_>>().join(", ")
+                ),
+            )
+        })
+    };
+
+    if raw.shaft.is_empty() {
+        return Err(ModelFileError::field("shaft", "needs at least one section"));
+    }
+    let mut shaft = Vec::new();
+    for (i, s) in raw.shaft.iter().enumerate() {
+        let f = |k: &str| format!("shaft[{}].{k}", i + 1);
+        let length = finite_pos(&f("length"), s.length)?;
+        let od = finite_pos(&f("outer_diameter"), s.outer_diameter)?;
+        let id = finite_nonneg(&f("inner_diameter"), s.inner_diameter)?;
+        if id >= od {
+            return Err(ModelFileError::field(
+                f("inner_diameter"),
+                format!("must be smaller than outer_diameter ({od}), got {id}"),
+            ));
+        }
+        if s.elements == 0 || s.elements > 100_000 {
+            return Err(ModelFileError::field(
+                f("elements"),
+                format!("must be in 1..=100000, got {}", s.elements),
+            ));
+        }
+        let mat = material(f("material"), &s.material)?;
+        for _ in 0..s.elements {
+            shaft.push(ShaftElement {
+                length: length / s.elements as f64,
+                outer_diameter: od,
+                inner_diameter: id,
+                material: mat.clone(),
+            });
+        }
+    }
+    let n_nodes = shaft.len() + 1;
+
+    let mut disks = Vec::new();
+    for (i, d) in raw.disk.iter().enumerate() {
+        let f = |k: &str| format!("disk[{}].{k}", i + 1);
+        let n = node(&f("node"), d.node, n_nodes)?;
+        let geometry = d.outer_diameter.is_some() || d.thickness.is_some();
+        let inertia = d.mass.is_some() || d.id.is_some() || d.ip.is_some();
+        let disk =
+            match (geometry, inertia) {
+                (true, true) => return Err(ModelFileError::field(
+                    f("mass"),
+                    "give either geometry (outer_diameter, thickness, ...) or mass/id/ip, not both",
+                )),
+                (false, false) => {
+                    return Err(ModelFileError::field(
+                        f("mass"),
+                        "missing: give mass, id, ip or outer_diameter, thickness and a density",
+                    ))
+                }
+                (false, true) => {
+                    let get = |k: &str, v: Option<f64>| -> Result<f64, ModelFileError> {
+                        match v {
+                            Some(v) => finite_pos(&f(k), v),
+                            None => Err(ModelFileError::field(f(k), "missing")),
+                        }
+                    };
+                    if d.material.is_some() || d.rho.is_some() || d.inner_diameter.is_some() {
+                        return Err(ModelFileError::field(
+                            f("material"),
+                            "only used with the geometry form (outer_diameter, thickness)",
+                        ));
+                    }
+                    Disk {
+                        node: n,
+                        mass: get("mass", d.mass)?,
+                        id: get("id", d.id)?,
+                        ip: get("ip", d.ip)?,
+                    }
+                }
+                (true, false) => {
+                    let od = match d.outer_diameter {
+                        Some(v) => finite_pos(&f("outer_diameter"), v)?,
+                        None => return Err(ModelFileError::field(f("outer_diameter"), "missing")),
+                    };
+                    let t = match d.thickness {
+                        Some(v) => finite_pos(&f("thickness"), v)?,
+                        None => return Err(ModelFileError::field(f("thickness"), "missing")),
+                    };
+                    let id = finite_nonneg(&f("inner_diameter"), d.inner_diameter.unwrap_or(0.0))?;
+                    if id >= od {
+                        return Err(ModelFileError::field(
+                            f("inner_diameter"),
+                            format!("must be smaller than outer_diameter ({od}), got {id}"),
+                        ));
+                    }
+                    let rho = match (&d.material, d.rho) {
+                        (Some(m), None) => material(f("material"), m)?.rho,
+                        (None, Some(r)) => finite_pos(&f("rho"), r)?,
+                        (Some(_), Some(_)) => {
+                            return Err(ModelFileError::field(
+                                f("rho"),
+                                "give either material or rho, not both",
+                            ))
+                        }
+                        (None, None) => {
+                            return Err(ModelFileError::field(
+                                f("material"),
+                                "missing: give material or rho for a disk from geometry",
+                            ))
+                        }
+                    };
+                    Disk::from_geometry(n, rho, od, id, t)
+                }
+            };
+        disks.push(disk);
+    }
+
+    if raw.bearing.is_empty() {
+        return Err(ModelFileError::field(
+            "bearing",
+            "needs at least one bearing",
+        ));
+    }
+    let mut bearings = Vec::new();
+    for (i, b) in raw.bearing.iter().enumerate() {
+        let f = |k: &str| format!("bearing[{}].{k}", i + 1);
+        let n = node(&f("node"), b.node, n_nodes)?;
+        let law = match (&b.k, &b.c, &b.table, &b.polynomial) {
+            (Some(k), Some(c), None, None) => {
+                check4(&f("k"), k)?;
+                check4(&f("c"), c)?;
+                BearingLaw::Constant(BearingCoefficients { k: *k, c: *c })
+            }
+            (None, None, Some(t), None) => {
+                if t.rpm.is_empty() || t.rpm.len() != t.k.len() || t.rpm.len() != t.c.len() {
+                    return Err(ModelFileError::field(
+                        f("table"),
+                        format!(
+                            "rpm, k and c need the same non-zero length (got {}, {}, {})",
+                            t.rpm.len(),
+                            t.k.len(),
+                            t.c.len()
+                        ),
+                    ));
+                }
+                for (j, r) in t.rpm.iter().enumerate() {
+                    finite_nonneg(&f(&format!("table.rpm[{}]", j + 1)), *r)?;
+                    if j > 0 && *r <= t.rpm[j - 1] {
+                        return Err(ModelFileError::field(
+                            f(&format!("table.rpm[{}]", j + 1)),
+                            "speeds must be strictly increasing",
+                        ));
+                    }
+                }
+                let mut coefficients = Vec::new();
+                for (j, (k, c)) in t.k.iter().zip(t.c.iter()).enumerate() {
+                    check4(&f(&format!("table.k[{}]", j + 1)), k)?;
+                    check4(&f(&format!("table.c[{}]", j + 1)), c)?;
+                    coefficients.push(BearingCoefficients { k: *k, c: *c });
+                }
+                BearingLaw::Table {
+                    speeds: t.rpm.iter().map(|&r| rpm_to_rad_s(r)).collect(),
+                    coefficients,
+                }
+            }
+            (None, None, None, Some(p)) => {
+                if p.k.is_empty() && p.c.is_empty() {
+                    return Err(ModelFileError::field(
+                        f("polynomial"),
+                        "k and c are both empty",
+                    ));
+                }
+                for (j, row) in p.k.iter().enumerate() {
+                    check4(&f(&format!("polynomial.k[{}]", j + 1)), row)?;
+                }
+                for (j, row) in p.c.iter().enumerate() {
+                    check4(&f(&format!("polynomial.c[{}]", j + 1)), row)?;
+                }
+                BearingLaw::Polynomial {
+                    k: p.k.clone(),
+                    c: p.c.clone(),
+                }
+            }
+            (Some(_), None, None, None) => {
+                return Err(ModelFileError::field(f("c"), "missing (k given without c)"))
+            }
+            (None, Some(_), None, None) => {
+                return Err(ModelFileError::field(f("k"), "missing (c given without k)"))
+            }
+            (None, None, None, None) => {
+                return Err(ModelFileError::field(
+                    f("k"),
+                    "missing: give k and c, or a table, or a polynomial",
+                ))
+            }
+            _ => {
+                return Err(ModelFileError::field(
+                    f("table"),
+                    "give exactly one of: k and c, table, polynomial",
+                ))
+            }
+        };
+        let ped = match &b.pedestal {
+            Some(p) => Some(pedestal(&f("pedestal"), p)?),
+            None => None,
+        };
+        bearings.push(Bearing {
+            node: n,
+            law,
+            pedestal: ped,
+        });
+    }
+    bearings.sort_by_key(|b| b.node);
+
+    let mut planes = Vec::new();
+    for (i, &p) in raw.planes.iter().enumerate() {
+        planes.push(node(&format!("planes[{}]", i + 1), p, n_nodes)?);
+    }
+
+    let unbalance = raw
+        .unbalance
+        .iter()
+        .enumerate()
+        .map(|(i, u)| unbalance_entry(&format!("unbalance[{}]", i + 1), u, n_nodes))
+        .collect::<Result<Vec<_>, _>>()?;
+
+    let bow = if raw.bow.is_empty() {
+        None
+    } else {
+        let mut points = Vec::new();
+        for (i, p) in raw.bow.iter().enumerate() {
+            let f = |k: &str| format!("bow[{}].{k}", i + 1);
+            points.push(BowPoint {
+                node: node(&f("node"), p.node, n_nodes)?,
+                amplitude: finite(&f("amplitude"), p.amplitude)?,
+                phase: finite(&f("phase_deg"), p.phase_deg)?.to_radians(),
+            });
+        }
+        points.sort_by_key(|p| p.node);
+        Some(ShaftBow { points })
+    };
+
+    let model = RotorModel {
+        name: raw.name.unwrap_or_else(|| "model".into()),
+        theory,
+        shaft,
+        disks,
+        bearings,
+        planes,
+        unbalance,
+        bow,
+    };
+    model.validate()?;
+
+    let mut effects = Effects::default();
+    if let Some(s) = &raw.simulate {
+        if let Some(e) = s.e_scale {
+            effects.e_scale = finite_pos("simulate.e_scale", e)?;
+        }
+        if let Some(l) = &s.bearing_speed_law {
+            let rpm_ref = finite_pos("simulate.bearing_speed_law.rpm_ref", l.rpm_ref)?;
+            let law = match l.law.as_str() {
+                "quadratic" => SpeedLaw::Quadratic,
+                "linear" => SpeedLaw::Linear,
+                other => {
+                    return Err(ModelFileError::field(
+                        "simulate.bearing_speed_law.law",
+                        format!("unknown law `{other}` (quadratic, linear)"),
+                    ))
+                }
+            };
+            effects.bearing_speed_law = Some(SpeedScaling { rpm_ref, law });
+        }
+        if let Some(p) = &s.pedestal {
+            effects.pedestal = Some(pedestal("simulate.pedestal", p)?);
+        }
+        for (i, r) in s.runout.iter().enumerate() {
+            let f = |k: &str| format!("simulate.runout[{}].{k}", i + 1);
+            effects.runout.push(Runout {
+                channel: parse_channel(&f("channel"), &r.channel, model.bearings.len())?,
+                amplitude: finite_nonneg(&f("amplitude"), r.amplitude)?,
+                phase: finite(&f("phase_deg"), r.phase_deg)?.to_radians(),
+            });
+        }
+        for (i, u) in s.extra_unbalance.iter().enumerate() {
+            effects.extra_unbalance.push(unbalance_entry(
+                &format!("simulate.extra_unbalance[{}]", i + 1),
+                u,
+                n_nodes,
+            )?);
+        }
+    }
+    Ok(ModelFile { model, effects })
+}
+
+fn unbalance_entry(
+    field: &str,
+    u: &RawUnbalance,
+    n_nodes: usize,
+) -> Result<Unbalance, ModelFileError> {
+    Ok(Unbalance {
+        node: node(&format!("{field}.node"), u.node, n_nodes)?,
+        me: finite_nonneg(&format!("{field}.me"), u.me)?,
+        phase: finite(&format!("{field}.phase_deg"), u.phase_deg)?.to_radians(),
+    })
+}
+
+/// True if the TOML text has a top-level `ross_version` key (a ROSS rotor).
+pub fn is_ross(text: &str) -> bool {
+    match toml::from_str::<toml::Table>(text) {
+        Ok(t) => t.contains_key("ross_version"),
+        Err(_) => false,
+    }
+}
+
+/// Loads a model file, own format or ROSS (detected by its `ross_version`
+/// key), with the `[simulate]` effects (none for ROSS files).
+pub fn load_model_file(path: impl AsRef<Path>) -> Result<ModelFile, ModelFileError> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|source| ModelFileError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    if is_ross(&text) {
+        let model = crate::ross::parse_ross(&text)?;
+        Ok(ModelFile {
+            model,
+            effects: Effects::default(),
+        })
+    } else {
+        parse_model_file(&text)
+    }
+}
+
+/// Loads a model file (own format or ROSS).
+pub fn load_model(path: impl AsRef<Path>) -> Result<RotorModel, ModelFileError> {
+    Ok(load_model_file(path)?.model)
+}
+
+/// A built-in model by name: `paper` (SPEC section 3) or
+/// `paper-speed-dependent` (Eq. 49).
+pub fn builtin_model(name: &str) -> Option<RotorModel> {
+    match name {
+        "paper" => Some(RotorModel::paper()),
+        "paper-speed-dependent" => Some(RotorModel::paper_speed_dependent()),
+        _ => None,
+    }
+}
+
+/// The model named `paper` (or another built-in), else the file at that
+/// path, with its `[simulate]` effects.
+pub fn model_file_by_name_or_path(name_or_path: &str) -> Result<ModelFile, ModelFileError> {
+    if let Some(model) = builtin_model(name_or_path) {
+        return Ok(ModelFile {
+            model,
+            effects: Effects::default(),
+        });
+    }
+    let p = Path::new(name_or_path);
+    if !p.exists() {
+        return Err(ModelFileError::UnknownModel(name_or_path.to_string()));
+    }
+    load_model_file(p)
+}
+
+/// The model named `paper` (or another built-in), else the file at that path.
+pub fn model_by_name_or_path(name_or_path: &str) -> Result<RotorModel, ModelFileError> {
+    Ok(model_file_by_name_or_path(name_or_path)?.model)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINI: &str = r#"
+[materials.steel]
+e = 200e9
+rho = 7800.0
+nu = 0.3
+
+[[shaft]]
+length = 1.0
+outer_diameter = 0.05
+elements = 4
+material = "steel"
+
+[[bearing]]
+node = 1
+k = [1e7, 0, 0, 1e7]
+c = [100, 0, 0, 100]
+
+[[bearing]]
+node = 5
+k = [1e7, 0, 0, 1e7]
+c = [100, 0, 0, 100]
+"#;
+
+    #[test]
+    fn minimal_file_loads() {
+        let m = parse_model_file(MINI).unwrap().model;
+        assert_eq!(m.n_nodes(), 5);
+        assert_eq!(m.bearing_nodes(), vec![0, 4]);
+        assert_eq!(m.theory, BeamTheory::Timoshenko);
+    }
+
+    #[test]
+    fn errors_name_the_field() {
+        let e = parse_model_file(&MINI.replace("node = 5", "node = 40"))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "bearing[2].node: node 40 is not on the shaft (nodes 1..=5)"
+        );
+        let e = parse_model_file(&MINI.replace("node = 5", "nod = 5"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("bearing[2].nod: unknown field `nod`"), "{e}");
+        let e = parse_model_file(&MINI.replace("length = 1.0", "length = -1.0"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("shaft[1].length: must be finite and > 0"),
+            "{e}"
+        );
+        let e = parse_model_file(&MINI.replace("node = 5\n", ""))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("bearing[2]: missing field `node`"), "{e}");
+    }
+}

@@ -1,1 +1,811 @@
-//! (to be written)
+//! Reading (and writing) rotors in the TOML format of ROSS, the Python
+//! rotordynamics package (`Rotor.save`, format 2.x: a top-level
+//! `ross_version` key and one table per element named `"<Class>_<tag>"`,
+//! holding the arguments of the element's constructor).
+//!
+//! # Mapping
+//!
+//! - **Axes.** ROSS's rotor axis is z, with transverse axes x and y; ours is
+//!   x with transverse y and z. The map is the cyclic permutation
+//!   `ROSS (x, y, z) -> ours (y, z, x)`, which keeps the frame right-handed
+//!   and the sense of rotation: ROSS `kxx, kxy, kyx, kyy` are our
+//!   `kyy, kyz, kzy, kzz` (same for damping), ROSS `cxx..` likewise.
+//!   ROSS's axial `kzz, czz` act on a DOF our beam model does not have and
+//!   are ignored.
+//! - **Nodes.** ROSS numbers nodes from 0, as our code does internally
+//!   (our files and reports show them + 1). ROSS shaft element `n` joins
+//!   nodes `n` and `n + 1`; element `n` becomes our shaft element `n`.
+//! - **Shaft elements** (`ShaftElement_*`: `L`, `idl`, `odl`, `idr`, `odr`,
+//!   `n`, `material = {name, rho, E, G_s, Poisson}`, `shear_effects`,
+//!   `rotary_inertia`, `gyroscopic`, `shear_method_calc`, `alpha`, `beta`,
+//!   `axial_force`, `torque`): `shear_effects = true` -> Timoshenko (with
+//!   Cowper's shear coefficient, ROSS's `"cowper"`), `false` ->
+//!   Euler-Bernoulli; all elements must agree. Tapered elements
+//!   (`idl != idr` or `odl != odr`) are **refused** (split them into
+//!   uniform elements in ROSS first): averaging diameters would silently
+//!   change the stiffness the identification relies on. Several elements
+//!   with the same `n` (ROSS's coaxial layers) are merged into one tube
+//!   when they are contiguous (one's outer diameter is the next one's
+//!   inner) and of the same material; otherwise refused. Refused too:
+//!   proportional damping (`alpha`, `beta` non-zero), axial force, torque,
+//!   `rotary_inertia = false`, `gyroscopic = false`, a shear method other
+//!   than Cowper's.
+//! - **Disks** (`DiskElement_*`: `n`, `m`, `Id`, `Ip`): as given.
+//! - **Bearings** (`BearingElement_*`: `n`, `kxx`, `kxy`, `kyx`, `kyy`,
+//!   `cxx`, ... as numbers or arrays over `frequency` (rad/s; older files
+//!   call it `speed` or `w`), `n_link`, and the mass coefficients `mxx`,
+//!   ...): one value -> [`BearingLaw::Constant`]; arrays -> a
+//!   [`BearingLaw::Table`] against speed (rotorid interpolates linearly
+//!   and holds the end values beyond the table; ROSS uses its own
+//!   interpolation). `kyy`/`cyy` default to `kxx`/`cxx` as in ROSS. Non-zero
+//!   bearing mass coefficients are refused.
+//! - **Pedestals.** The ROSS pattern "bearing at shaft node s with
+//!   `n_link = p`, a `PointMass` at node p, and a bearing at node p (no
+//!   link) to ground" becomes a bearing at s on a [`Pedestal`] (mass `m`,
+//!   or `mx = my`; stiffness `[kxx, kyy]` and damping `[cxx, cyy]` of the
+//!   ground bearing, which must be constant with no cross-coupling). Any
+//!   other use of `n_link` or `PointMass` is refused.
+//! - **Unbalance planes.** A ROSS rotor carries none; the disk nodes are
+//!   taken as the planes to identify.
+//! - Every other class (seals, magnetic, ball/roller, fluid-film bearings,
+//!   couplings, gears, 6-DOF elements, ...) is refused with an error that
+//!   names the element.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use serde::Deserialize;
+use thiserror::Error;
+
+use crate::model::{
+    BeamTheory, Bearing, BearingCoefficients, BearingLaw, Disk, Material, ModelError, Pedestal,
+    RotorModel, ShaftElement,
+};
+
+/// Error reading a ROSS rotor file, naming the element.
+#[derive(Debug, Error)]
+pub enum RossError {
+    /// Not valid TOML, or not a ROSS rotor.
+    #[error("{0}")]
+    Format(String),
+    /// An element with a missing or ill-typed field.
+    #[error("{element}: {reason}")]
+    Field {
+        /// The element's table name, e.g. `BearingElement_Bearing 0`.
+        element: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// An element that rotorid does not model.
+    #[error("{element}: not supported: {reason}")]
+    Unsupported {
+        /// The element's table name.
+        element: String,
+        /// Why.
+        reason: String,
+    },
+    /// The assembled model is inconsistent.
+    #[error("{0}")]
+    Model(#[from] ModelError),
+}
+
+fn unsupported(element: &str, reason: impl Into<String>) -> RossError {
+    RossError::Unsupported {
+        element: element.to_string(),
+        reason: reason.into(),
+    }
+}
+
+/// A coefficient: a number or an array of numbers.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+enum OneOrMany {
+    One(f64),
+    Many(Vec<f64>),
+}
+
+impl OneOrMany {
+    fn values(&self) -> Vec<f64> {
+        match self {
+            OneOrMany::One(v) => vec![*v],
+            OneOrMany::Many(v) => v.clone(),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(non_snake_case, dead_code)]
+struct RossShaft {
+    L: f64,
+    idl: f64,
+    odl: f64,
+    idr: Option<f64>,
+    odr: Option<f64>,
+    n: usize,
+    material: RossMaterial,
+    axial_force: Option<f64>,
+    torque: Option<f64>,
+    shear_effects: Option<bool>,
+    rotary_inertia: Option<bool>,
+    gyroscopic: Option<bool>,
+    shear_method_calc: Option<String>,
+    tag: Option<String>,
+    alpha: Option<f64>,
+    beta: Option<f64>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[allow(non_snake_case)]
+struct RossMaterial {
+    name: Option<String>,
+    rho: f64,
+    E: f64,
+    G_s: Option<f64>,
+    Poisson: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(non_snake_case, dead_code)]
+struct RossDisk {
+    n: usize,
+    m: f64,
+    Id: f64,
+    Ip: f64,
+    tag: Option<String>,
+    scale_factor: Option<f64>,
+    color: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct RossBearing {
+    n: usize,
+    kxx: OneOrMany,
+    cxx: OneOrMany,
+    kyy: Option<OneOrMany>,
+    cyy: Option<OneOrMany>,
+    kxy: Option<OneOrMany>,
+    kyx: Option<OneOrMany>,
+    cxy: Option<OneOrMany>,
+    cyx: Option<OneOrMany>,
+    kzz: Option<OneOrMany>,
+    czz: Option<OneOrMany>,
+    mxx: Option<OneOrMany>,
+    mxy: Option<OneOrMany>,
+    myx: Option<OneOrMany>,
+    myy: Option<OneOrMany>,
+    mzz: Option<OneOrMany>,
+    frequency: Option<Vec<f64>>,
+    speed: Option<Vec<f64>>,
+    w: Option<Vec<f64>>,
+    n_link: Option<usize>,
+    tag: Option<String>,
+    scale_factor: Option<f64>,
+    color: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct RossPointMass {
+    n: usize,
+    m: Option<f64>,
+    mx: Option<f64>,
+    my: Option<f64>,
+    tag: Option<String>,
+    color: Option<String>,
+}
+
+fn element<T: serde::de::DeserializeOwned>(name: &str, v: &toml::Value) -> Result<T, RossError> {
+    serde_path_to_error::deserialize(v.clone()).map_err(|e| {
+        let path = e.path().to_string();
+        let msg = e.inner().message().trim().replace('\n', " ");
+        RossError::Field {
+            element: name.to_string(),
+            reason: if path == "." {
+                msg
+            } else {
+                format!("{path}: {msg}")
+            },
+        }
+    })
+}
+
+/// A bearing's law from ROSS coefficients, in our axes.
+fn bearing_law(name: &str, b: &RossBearing) -> Result<BearingLaw, RossError> {
+    for (key, m) in [
+        ("mxx", &b.mxx),
+        ("mxy", &b.mxy),
+        ("myx", &b.myx),
+        ("myy", &b.myy),
+    ] {
+        if let Some(m) = m {
+            if m.values().iter().any(|v| *v != 0.0) {
+                return Err(unsupported(
+                    name,
+                    format!("bearing mass coefficients ({key} non-zero)"),
+                ));
+            }
+        }
+    }
+    let kxx = b.kxx.values();
+    let cxx = b.cxx.values();
+    let get = |v: &Option<OneOrMany>, default: &[f64]| -> Vec<f64> {
+        match v {
+            Some(x) => x.values(),
+            None => default.to_vec(),
+        }
+    };
+    let zeros = vec![0.0; kxx.len().max(1)];
+    // ROSS order xx, xy, yx, yy == ours yy, yz, zy, zz.
+    let k = [
+        kxx.clone(),
+        get(&b.kxy, &zeros),
+        get(&b.kyx, &zeros),
+        get(&b.kyy, &kxx),
+    ];
+    let c = [
+        cxx.clone(),
+        get(&b.cxy, &zeros),
+        get(&b.cyx, &zeros),
+        get(&b.cyy, &cxx),
+    ];
+    let speeds = match (&b.frequency, &b.speed, &b.w) {
+        (Some(f), None, None) | (None, Some(f), None) | (None, None, Some(f)) => Some(f.clone()),
+        (None, None, None) => None,
+        _ => {
+            return Err(RossError::Field {
+                element: name.into(),
+                reason: "give only one of frequency, speed, w".into(),
+            })
+        }
+    };
+    // Length of each coefficient array: 1 (constant) or the table length.
+    let n = match &speeds {
+        Some(s) => s.len(),
+        None => 1,
+    };
+    let expand = |v: &Vec<f64>, key: &str| -> Result<Vec<f64>, RossError> {
+        if v.len() == n {
+            Ok(v.clone())
+        } else if v.len() == 1 {
+            Ok(vec![v[0]; n])
+        } else {
+            Err(RossError::Field {
+                element: name.into(),
+                reason: format!(
+                    "{key} has {} values, expected 1 or {n} (the length of frequency)",
+                    v.len()
+                ),
+            })
+        }
+    };
+    let keys_k = ["kxx", "kxy", "kyx", "kyy"];
+    let keys_c = ["cxx", "cxy", "cyx", "cyy"];
+    let mut kk = Vec::new();
+    let mut cc = Vec::new();
+    for j in 0..4 {
+        kk.push(expand(&k[j], keys_k[j])?);
+        cc.push(expand(&c[j], keys_c[j])?);
+    }
+    let at = |i: usize| BearingCoefficients {
+        k: [kk[0][i], kk[1][i], kk[2][i], kk[3][i]],
+        c: [cc[0][i], cc[1][i], cc[2][i], cc[3][i]],
+    };
+    if n == 0 {
+        return Err(RossError::Field {
+            element: name.into(),
+            reason: "empty coefficient arrays".into(),
+        });
+    }
+    match speeds {
+        None => Ok(BearingLaw::Constant(at(0))),
+        Some(s) if s.len() == 1 => Ok(BearingLaw::Constant(at(0))),
+        Some(s) => {
+            if s.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                return Err(RossError::Field {
+                    element: name.into(),
+                    reason: "frequency values must be finite and >= 0".into(),
+                });
+            }
+            let mut pairs: Vec<(f64, BearingCoefficients)> =
+                s.iter().enumerate().map(|(i, &w)| (w, at(i))).collect();
+            pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+            if pairs.windows(2).any(|p| p[0].0 == p[1].0) {
+                return Err(RossError::Field {
+                    element: name.into(),
+                    reason: "repeated frequency value".into(),
+                });
+            }
+            // Constant tables become constant laws.
+            if pairs.iter().all(|p| p.1 == pairs[0].1) {
+                return Ok(BearingLaw::Constant(pairs[0].1));
+            }
+            Ok(BearingLaw::Table {
+                speeds: pairs.iter().map(|p| p.0).collect(),
+                coefficients: pairs.iter().map(|p| p.1).collect(),
+            })
+        }
+    }
+}
+
+fn material(name: &str, m: &RossMaterial) -> Result<Material, RossError> {
+    let label = m.name.clone().unwrap_or_else(|| "material".into());
+    let g = match (m.G_s, m.Poisson) {
+        (Some(g), _) => g,
+        (None, Some(nu)) => m.E / (2.0 * (1.0 + nu)),
+        (None, None) => {
+            return Err(RossError::Field {
+                element: name.into(),
+                reason: "material needs G_s or Poisson".into(),
+            })
+        }
+    };
+    Ok(Material {
+        name: label,
+        e: m.E,
+        g,
+        rho: m.rho,
+    })
+}
+
+/// Parses the text of a ROSS rotor file (see the module docs for the mapping).
+pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
+    let table: toml::Table = toml::from_str(text)
+        .map_err(|e| RossError::Format(format!("not valid TOML: {}", e.message().trim())))?;
+    if !table.contains_key("ross_version") {
+        return Err(RossError::Format(
+            "no `ross_version` key: not a ROSS rotor file".into(),
+        ));
+    }
+    let mut shafts: Vec<(String, RossShaft)> = Vec::new();
+    let mut disks: Vec<(String, RossDisk)> = Vec::new();
+    let mut bearings: Vec<(String, RossBearing)> = Vec::new();
+    let mut masses: Vec<(String, RossPointMass)> = Vec::new();
+    for (key, value) in &table {
+        if key == "ross_version" || key == "parameters" {
+            continue;
+        }
+        let class = key.split('_').next().unwrap_or("");
+        if !value.is_table() {
+            return Err(unsupported(
+                key,
+                "top-level key that is not an element table",
+            ));
+        }
+        match class {
+            "ShaftElement" => shafts.push((key.clone(), element(key, value)?)),
+            "DiskElement" => disks.push((key.clone(), element(key, value)?)),
+            "BearingElement" => bearings.push((key.clone(), element(key, value)?)),
+            "PointMass" => masses.push((key.clone(), element(key, value)?)),
+            "SealElement" | "LabyrinthSeal" | "HoleePatternSeal" | "HolePatternSeal" => {
+                return Err(unsupported(
+                    key,
+                    "seal elements (rotorid's bearings are the measured supports)",
+                ))
+            }
+            "MagneticBearingElement" => {
+                return Err(unsupported(key, "magnetic bearings (controller dynamics)"))
+            }
+            other => {
+                return Err(unsupported(
+                    key,
+                    format!(
+                        "element class `{other}` (supported: ShaftElement, DiskElement, BearingElement, PointMass)"
+                    ),
+                ))
+            }
+        }
+    }
+    if shafts.is_empty() {
+        return Err(RossError::Format("no ShaftElement in the file".into()));
+    }
+
+    // Shaft: group by n, merge coaxial layers, check contiguity.
+    let mut theory: Option<(BeamTheory, String)> = None;
+    let mut by_n: BTreeMap<usize, Vec<(String, ShaftElement)>> = BTreeMap::new();
+    for (name, s) in &shafts {
+        let idr = s.idr.unwrap_or(s.idl);
+        let odr = s.odr.unwrap_or(s.odl);
+        if idr != s.idl || odr != s.odl {
+            return Err(unsupported(
+                name,
+                format!(
+                    "tapered element (idl {} idr {}, odl {} odr {}); split it into uniform elements",
+                    s.idl, idr, s.odl, odr
+                ),
+            ));
+        }
+        for (key, v) in [
+            ("alpha", s.alpha),
+            ("beta", s.beta),
+            ("axial_force", s.axial_force),
+            ("torque", s.torque),
+        ] {
+            if let Some(v) = v {
+                if v != 0.0 {
+                    return Err(unsupported(name, format!("{key} = {v} (must be 0)")));
+                }
+            }
+        }
+        if s.rotary_inertia == Some(false) {
+            return Err(unsupported(name, "rotary_inertia = false"));
+        }
+        if s.gyroscopic == Some(false) {
+            return Err(unsupported(name, "gyroscopic = false"));
+        }
+        let t = if s.shear_effects.unwrap_or(true) {
+            if let Some(m) = &s.shear_method_calc {
+                if m != "cowper" {
+                    return Err(unsupported(
+                        name,
+                        format!("shear_method_calc = \"{m}\" (rotorid uses Cowper's coefficient)"),
+                    ));
+                }
+            }
+            BeamTheory::Timoshenko
+        } else {
+            BeamTheory::EulerBernoulli
+        };
+        match &theory {
+            None => theory = Some((t, name.clone())),
+            Some((t0, first)) if *t0 != t => {
+                return Err(unsupported(
+                    name,
+                    format!("shear_effects differs from {first}: mixed beam theories"),
+                ))
+            }
+            _ => {}
+        }
+        by_n.entry(s.n).or_default().push((
+            name.clone(),
+            ShaftElement {
+                length: s.L,
+                outer_diameter: s.odl,
+                inner_diameter: s.idl,
+                material: material(name, &s.material)?,
+            },
+        ));
+    }
+    let mut shaft = Vec::new();
+    for (expect, (n, mut layers)) in by_n.into_iter().enumerate() {
+        let first = layers[0].0.clone();
+        if n != expect {
+            return Err(RossError::Field {
+                element: first,
+                reason: format!("n = {n}: shaft elements must be numbered 0, 1, 2, ... without gaps (expected {expect})"),
+            });
+        }
+        layers.sort_by(|a, b| a.1.inner_diameter.total_cmp(&b.1.inner_diameter));
+        let (_, mut merged) = layers[0].clone();
+        for (name, l) in &layers[1..] {
+            if l.length != merged.length {
+                return Err(unsupported(
+                    name,
+                    format!("coaxial layer of element n = {n} with a different length"),
+                ));
+            }
+            if l.material != merged.material {
+                return Err(unsupported(
+                    name,
+                    format!("coaxial layer of element n = {n} in a different material"),
+                ));
+            }
+            if l.inner_diameter != merged.outer_diameter {
+                return Err(unsupported(
+                    name,
+                    format!(
+                        "coaxial layer of element n = {n} not contiguous with the one inside it"
+                    ),
+                ));
+            }
+            merged.outer_diameter = l.outer_diameter;
+        }
+        shaft.push(merged);
+    }
+    let n_nodes = shaft.len() + 1;
+
+    let mut out_disks = Vec::new();
+    for (name, d) in &disks {
+        if d.n >= n_nodes {
+            return Err(RossError::Field {
+                element: name.clone(),
+                reason: format!("n = {} is not a shaft node (0..={})", d.n, n_nodes - 1),
+            });
+        }
+        out_disks.push(Disk {
+            node: d.n,
+            mass: d.m,
+            id: d.Id,
+            ip: d.Ip,
+        });
+    }
+    out_disks.sort_by_key(|d| d.node);
+
+    // Point masses are pedestal nodes; index them by node.
+    let mut pm_by_node: BTreeMap<usize, &(String, RossPointMass)> = BTreeMap::new();
+    for pm in &masses {
+        if pm.1.n < n_nodes {
+            return Err(unsupported(
+                &pm.0,
+                "point mass on a shaft node (only pedestal point masses linked to a bearing are read)",
+            ));
+        }
+        if pm_by_node.insert(pm.1.n, pm).is_some() {
+            return Err(unsupported(&pm.0, "two point masses on one node"));
+        }
+    }
+    let mut ground: BTreeMap<usize, &(String, RossBearing)> = BTreeMap::new();
+    let mut shaft_bearings = Vec::new();
+    for b in &bearings {
+        if b.1.n < n_nodes {
+            shaft_bearings.push(b);
+        } else if pm_by_node.contains_key(&b.1.n) {
+            if b.1.n_link.is_some() {
+                return Err(unsupported(
+                    &b.0,
+                    "bearing linking a point mass to another node (only point mass to ground)",
+                ));
+            }
+            if ground.insert(b.1.n, b).is_some() {
+                return Err(unsupported(
+                    &b.0,
+                    "two bearings from one point mass to ground",
+                ));
+            }
+        } else {
+            return Err(RossError::Field {
+                element: b.0.clone(),
+                reason: format!("n = {} is neither a shaft node nor a point mass", b.1.n),
+            });
+        }
+    }
+    let mut used_pm = std::collections::BTreeSet::new();
+    let mut out_bearings = Vec::new();
+    for (name, b) in shaft_bearings {
+        let law = bearing_law(name, b)?;
+        let pedestal = match b.n_link {
+            None => None,
+            Some(p) => {
+                let Some((pm_name, pm)) = pm_by_node.get(&p).map(|x| (&x.0, &x.1)) else {
+                    return Err(unsupported(
+                        name,
+                        format!("n_link = {p} is not a point mass node"),
+                    ));
+                };
+                let Some((g_name, g)) = ground.get(&p).map(|x| (&x.0, &x.1)) else {
+                    return Err(unsupported(
+                        pm_name,
+                        "point mass without a bearing to ground",
+                    ));
+                };
+                if !used_pm.insert(p) {
+                    return Err(unsupported(pm_name, "point mass linked to two bearings"));
+                }
+                let mass = match (pm.m, pm.mx, pm.my) {
+                    (Some(m), None, None) => m,
+                    (None, Some(mx), Some(my)) if mx == my => mx,
+                    (Some(m), Some(mx), Some(my)) if mx == m && my == m => m,
+                    _ => {
+                        return Err(unsupported(
+                            pm_name,
+                            "point mass needs m, or mx equal to my",
+                        ))
+                    }
+                };
+                let gl = bearing_law(g_name, g)?;
+                let BearingLaw::Constant(gc) = gl else {
+                    return Err(unsupported(g_name, "speed-dependent pedestal support"));
+                };
+                if gc.k[1] != 0.0 || gc.k[2] != 0.0 || gc.c[1] != 0.0 || gc.c[2] != 0.0 {
+                    return Err(unsupported(
+                        g_name,
+                        "cross-coupled pedestal support (kxy, kyx, cxy, cyx must be 0)",
+                    ));
+                }
+                Some(Pedestal {
+                    mass,
+                    k: [gc.k[0], gc.k[3]],
+                    c: [gc.c[0], gc.c[3]],
+                })
+            }
+        };
+        out_bearings.push(Bearing {
+            node: b.n,
+            law,
+            pedestal,
+        });
+    }
+    for (p, (name, _)) in pm_by_node.iter().map(|(p, x)| (p, (&x.0, &x.1))) {
+        if !used_pm.contains(p) {
+            return Err(unsupported(
+                name,
+                "point mass not linked to a shaft bearing",
+            ));
+        }
+    }
+    out_bearings.sort_by_key(|b| b.node);
+    let planes = out_disks.iter().map(|d| d.node).collect::<Vec<_>>();
+    let mut planes_dedup = planes.clone();
+    planes_dedup.dedup();
+    let model = RotorModel {
+        name: "ross".into(),
+        theory: theory.map(|t| t.0).unwrap_or_default(),
+        shaft,
+        disks: out_disks,
+        bearings: out_bearings,
+        planes: planes_dedup,
+        unbalance: Vec::new(),
+        bow: None,
+    };
+    model.validate()?;
+    Ok(model)
+}
+
+/// Float in a form TOML reads back exactly (Rust's shortest round-trip
+/// representation).
+fn f(v: f64) -> String {
+    let s = format!("{v:?}");
+    if s.contains('.') || s.contains('e') || s.contains("inf") || s.contains("NaN") {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+fn arr(v: &[f64]) -> String {
+    format!(
+        "[{}]",
+        v.iter().map(|x| f(*x)).collect::<Vec<_>>().join(", ")
+    )
+}
+
+/// Writes a model as a ROSS rotor file (format 2.x), the inverse of
+/// [`parse_ross`]: shaft elements, disks, bearings (constant or tables over
+/// `frequency`), pedestals as a linked `PointMass` with a bearing to ground.
+/// Polynomial bearing laws, unbalance and bow have no ROSS equivalent here
+/// and are refused.
+pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
+    model.validate()?;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# ROSS rotor file (format 2.x) written by rotorid: {}",
+        model.name
+    );
+    let _ = writeln!(s, "ross_version = \"2.0.0\"\n\n[parameters]\n");
+    let shear = model.theory == BeamTheory::Timoshenko;
+    for (i, e) in model.shaft.iter().enumerate() {
+        let key = format!("ShaftElement_ShaftElement {i}");
+        let _ = writeln!(
+            s,
+            "[\"{key}\"]\nL = {}\nidl = {}\nodl = {}\nidr = {}\nodr = {}\nn = {i}\naxial_force = 0\ntorque = 0\nshear_effects = {shear}\nrotary_inertia = true\ngyroscopic = true\nshear_method_calc = \"cowper\"\ntag = \"ShaftElement {i}\"\nalpha = 0.0\nbeta = 0.0\n",
+            f(e.length),
+            f(e.inner_diameter),
+            f(e.outer_diameter),
+            f(e.inner_diameter),
+            f(e.outer_diameter),
+        );
+        let _ = writeln!(
+            s,
+            "[\"{key}\".material]\nname = \"{}\"\nrho = {}\nE = {}\nG_s = {}\n",
+            e.material.name.replace('"', "'"),
+            f(e.material.rho),
+            f(e.material.e),
+            f(e.material.g),
+        );
+    }
+    for (i, d) in model.disks.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "[\"DiskElement_Disk {i}\"]\nn = {}\nm = {}\nId = {}\nIp = {}\ntag = \"Disk {i}\"\nscale_factor = 1.0\n",
+            d.node,
+            f(d.mass),
+            f(d.id),
+            f(d.ip)
+        );
+    }
+    let mut next_node = model.n_nodes();
+    let bearing_table = |s: &mut String,
+                         tag: &str,
+                         n: usize,
+                         link: Option<usize>,
+                         speeds: Option<&[f64]>,
+                         co: &[BearingCoefficients]| {
+        let _ = writeln!(s, "[\"BearingElement_{tag}\"]\nn = {n}");
+        if let Some(p) = link {
+            let _ = writeln!(s, "n_link = {p}");
+        }
+        let names_k = ["kxx", "kxy", "kyx", "kyy"];
+        let names_c = ["cxx", "cxy", "cyx", "cyy"];
+        for j in 0..4 {
+            let v: Vec<f64> = co.iter().map(|c| c.k[j]).collect();
+            let _ = writeln!(s, "{} = {}", names_k[j], arr(&v));
+        }
+        for j in 0..4 {
+            let v: Vec<f64> = co.iter().map(|c| c.c[j]).collect();
+            let _ = writeln!(s, "{} = {}", names_c[j], arr(&v));
+        }
+        // Axial and mass coefficients, zero (as ROSS 2.x writes them).
+        let zeros = vec![0.0; co.len()];
+        for key in ["kzz", "czz", "mxx", "mxy", "myx", "myy", "mzz"] {
+            let _ = writeln!(s, "{key} = {}", arr(&zeros));
+        }
+        if let Some(w) = speeds {
+            let _ = writeln!(s, "frequency = {}", arr(w));
+        }
+        let _ = writeln!(s, "tag = \"{tag}\"\nscale_factor = 1\n");
+    };
+    for (i, b) in model.bearings.iter().enumerate() {
+        let (speeds, co): (Option<&[f64]>, Vec<BearingCoefficients>) = match &b.law {
+            BearingLaw::Constant(c) => (None, vec![*c]),
+            BearingLaw::Table {
+                speeds,
+                coefficients,
+            } => (Some(speeds.as_slice()), coefficients.clone()),
+            BearingLaw::Polynomial { .. } => {
+                return Err(unsupported(
+                    &format!("bearing {}", i + 1),
+                    "polynomial bearing laws have no ROSS equivalent",
+                ))
+            }
+        };
+        let link = b.pedestal.map(|_| {
+            next_node += 1;
+            next_node - 1
+        });
+        bearing_table(&mut s, &format!("Bearing {i}"), b.node, link, speeds, &co);
+        if let (Some(p), Some(ped)) = (link, b.pedestal) {
+            let _ = writeln!(
+                s,
+                "[\"PointMass_Pedestal {i}\"]\nn = {p}\nm = {}\ntag = \"Pedestal {i}\"\n",
+                f(ped.mass)
+            );
+            let g = BearingCoefficients {
+                k: [ped.k[0], 0.0, 0.0, ped.k[1]],
+                c: [ped.c[0], 0.0, 0.0, ped.c[1]],
+            };
+            bearing_table(&mut s, &format!("Support {i}"), p, None, None, &[g]);
+        }
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_round_trips_through_ross() {
+        let m = RotorModel::paper();
+        let text = to_ross_toml(&m).unwrap();
+        let r = parse_ross(&text).unwrap();
+        assert_eq!(r.shaft, m.shaft);
+        assert_eq!(r.disks, m.disks);
+        assert_eq!(r.bearings, m.bearings);
+        assert_eq!(r.planes, m.planes);
+        assert_eq!(r.theory, m.theory);
+    }
+
+    #[test]
+    fn pedestal_and_table_round_trip() {
+        let mut m = RotorModel::paper();
+        m.bearings[0].pedestal = Some(Pedestal {
+            mass: 30.0,
+            k: [1e8, 2e8],
+            c: [1e3, 2e3],
+        });
+        let c0 = m.bearings[1].law.at(0.0);
+        let mut c1 = c0;
+        c1.k[0] *= 2.0;
+        m.bearings[1].law = BearingLaw::Table {
+            speeds: vec![0.0, 1000.0],
+            coefficients: vec![c0, c1],
+        };
+        let r = parse_ross(&to_ross_toml(&m).unwrap()).unwrap();
+        assert_eq!(r.bearings, m.bearings);
+    }
+}

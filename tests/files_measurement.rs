@@ -1,0 +1,177 @@
+//! Measurement CSV (SPEC section 4): round trips for both headers, and
+//! every kind of bad row rejected with its line number and column.
+
+use num_complex::Complex64;
+use rotorid::measurement::{
+    parse_csv, to_csv_string, CsvLayout, MeasurementError, Measurements, Sample,
+};
+use rotorid::units::rpm_to_rad_s;
+
+fn sample_data() -> Measurements {
+    // Awkward values: tiny, huge, negative, irrational, subnormal-ish.
+    let vals = [
+        Complex64::new(1.2e-9, -3.4e-10),
+        Complex64::new(std::f64::consts::PI * 1e-7, -std::f64::consts::E * 1e-12),
+        Complex64::new(-0.0, 1.0 / 3.0 * 1e-5),
+        Complex64::new(1e-300, -7.77e-6),
+    ];
+    Measurements {
+        comments: vec!["source: rig A".into(), "second comment".into()],
+        n_bearings: 2,
+        samples: (0..7)
+            .map(|i| Sample {
+                omega: rpm_to_rad_s(10.0 + 1234.5 * i as f64),
+                q: vals.iter().map(|v| v * (1.0 + i as f64 / 7.0)).collect(),
+            })
+            .collect(),
+    }
+}
+
+#[test]
+fn complex_layout_round_trips_exactly() {
+    let m = sample_data();
+    let text = to_csv_string(&m, CsvLayout::Complex).unwrap();
+    assert!(text
+        .contains("\nspeed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,b2_y_re,b2_y_im,b2_z_re,b2_z_im\n"));
+    let r = parse_csv(&text).unwrap();
+    assert_eq!(r.comments, m.comments);
+    assert_eq!(r.n_bearings, 2);
+    assert_eq!(r.samples.len(), m.samples.len());
+    for (a, b) in r.samples.iter().zip(&m.samples) {
+        // Phasors bit for bit; speed through rpm within an ulp or two.
+        assert_eq!(a.q, b.q);
+        assert!((a.omega - b.omega).abs() <= 4.0 * f64::EPSILON * b.omega);
+    }
+    // Writing what was read gives the same text.
+    assert_eq!(to_csv_string(&r, CsvLayout::Complex).unwrap(), text);
+}
+
+#[test]
+fn amplitude_phase_layout_round_trips() {
+    let m = sample_data();
+    let text = to_csv_string(&m, CsvLayout::AmplitudePhase).unwrap();
+    assert!(text.contains("speed_rpm,b1_y_amp,b1_y_phase_deg,b1_z_amp,b1_z_phase_deg,b2_y_amp"));
+    let r = parse_csv(&text).unwrap();
+    for (a, b) in r.samples.iter().zip(&m.samples) {
+        for (x, y) in a.q.iter().zip(&b.q) {
+            assert!((x - y).norm() <= 1e-15 * y.norm(), "{x} vs {y}");
+        }
+    }
+}
+
+#[test]
+fn amplitude_phase_values_mean_what_they_say() {
+    let text = "speed_rpm,b1_y_amp,b1_y_phase_deg,b1_z_amp,b1_z_phase_deg\n600,2e-6,90,1e-6,-180\n";
+    let r = parse_csv(text).unwrap();
+    let q = &r.samples[0].q;
+    assert!((q[0] - Complex64::new(0.0, 2e-6)).norm() < 1e-20);
+    assert!((q[1] - Complex64::new(-1e-6, 0.0)).norm() < 1e-20);
+    assert!((r.samples[0].omega - 20.0 * std::f64::consts::PI).abs() < 1e-12);
+}
+
+#[test]
+fn comments_blank_lines_spaces_and_crlf_are_accepted() {
+    let text = "# a\r\n\r\n speed_rpm , b1_y_re,b1_y_im,b1_z_re,b1_z_im\r\n# mid\r\n10, 1e-9 ,0,0,0\r\n\r\n5,2e-9,0,0,0\r\n";
+    let r = parse_csv(text).unwrap();
+    assert_eq!(r.comments, vec!["a".to_string(), "mid".to_string()]);
+    assert_eq!(r.samples.len(), 2);
+    // A run-down (decreasing speed) is valid.
+    assert!(r.samples[1].omega < r.samples[0].omega);
+}
+
+const HEAD: &str = "# c\nspeed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im\n10,1,2,3,4\n";
+
+fn bad(row: &str) -> MeasurementError {
+    parse_csv(&format!("{HEAD}{row}\n")).unwrap_err()
+}
+
+#[test]
+fn bad_rows_carry_line_and_column() {
+    let cases = [
+        (
+            "20,1,2,3",
+            "line 4: expected 5 columns (from the header), found 4",
+        ),
+        (
+            "20,1,2,3,4,5",
+            "line 4: expected 5 columns (from the header), found 6",
+        ),
+        (
+            "20,1,abc,3,4",
+            "line 4, column b1_y_im: not a number: \"abc\"",
+        ),
+        (
+            "20,1,2,NaN,4",
+            "line 4, column b1_z_re: not finite: \"NaN\"",
+        ),
+        (
+            "20,1,2,3,inf",
+            "line 4, column b1_z_im: not finite: \"inf\"",
+        ),
+        (
+            "20,-infinity,2,3,4",
+            "line 4, column b1_y_re: not finite: \"-infinity\"",
+        ),
+        (
+            "-5,1,2,3,4",
+            "line 4, column speed_rpm: must be >= 0, got -5",
+        ),
+        ("x,1,2,3,4", "line 4, column speed_rpm: not a number: \"x\""),
+        ("20,1,,3,4", "line 4, column b1_y_im: not a number: \"\""),
+    ];
+    for (row, msg) in cases {
+        assert_eq!(bad(row).to_string(), msg, "row {row:?}");
+    }
+    // Negative amplitude in the amplitude/phase layout.
+    let e = parse_csv(
+        "speed_rpm,b1_y_amp,b1_y_phase_deg,b1_z_amp,b1_z_phase_deg\n1,1,0,0,0\n2,-1,0,0,0\n",
+    )
+    .unwrap_err()
+    .to_string();
+    assert_eq!(e, "line 3, column b1_y_amp: must be >= 0, got -1");
+}
+
+#[test]
+fn bad_headers_and_empty_files() {
+    assert!(matches!(
+        parse_csv(""),
+        Err(MeasurementError::MissingHeader)
+    ));
+    assert!(matches!(
+        parse_csv("# only\n\n"),
+        Err(MeasurementError::MissingHeader)
+    ));
+    assert!(matches!(
+        parse_csv("speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im\n"),
+        Err(MeasurementError::NoData)
+    ));
+    let e = parse_csv("# x\nspeed_rpm,b1_y_re,b1_y_im\n")
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("line 2: bad header"), "{e}");
+    let e = parse_csv("rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im\n")
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("line 1: bad header: first column"), "{e}");
+    let e =
+        parse_csv("speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,b3_y_re,b2_y_im,b2_z_re,b2_z_im\n")
+            .unwrap_err()
+            .to_string();
+    assert!(e.contains("`b2_y_re`"), "{e}");
+    // Mixed layouts are rejected.
+    let e = parse_csv("speed_rpm,b1_y_amp,b1_y_phase_deg,b1_z_re,b1_z_im\n").unwrap_err();
+    assert!(matches!(e, MeasurementError::Header { .. }));
+}
+
+#[test]
+fn writer_refuses_inconsistent_data() {
+    let mut m = sample_data();
+    m.samples[3].q.pop();
+    assert!(to_csv_string(&m, CsvLayout::Complex).is_err());
+    let mut m = sample_data();
+    m.samples[1].q[0].re = f64::NAN;
+    assert!(to_csv_string(&m, CsvLayout::Complex).is_err());
+    let mut m = sample_data();
+    m.samples[1].omega = -1.0;
+    assert!(to_csv_string(&m, CsvLayout::Complex).is_err());
+}
