@@ -251,3 +251,23 @@ fn speed_dependent_bearings_are_evaluated_per_speed() {
     let fe = FeModel::new(&c).unwrap();
     assert!(fe.system_dynamic_stiffness(f64::NAN).is_err());
 }
+
+/// The inner DOFs and the bearing DOFs partition the shaft DOFs, and the
+/// bearing-only response equals the bearing channels of the full one.
+#[test]
+fn dof_partition_and_bearing_channels() {
+    let m = RotorModel::paper();
+    let fe = FeModel::new(&m).unwrap();
+    let (b, i) = (fe.bearing_dofs(), fe.interior_dofs());
+    assert_eq!(b, vec![0, 1, 104, 105]);
+    assert_eq!(b.len() + i.len(), fe.n_shaft_dof());
+    assert!(i.iter().all(|d| !b.contains(d)));
+    let f = Forcing::from_model(&m);
+    let w = [300.0, 900.0];
+    let full = unbalance_response(&fe, &f, &w).unwrap();
+    let only = rotorid::response::bearing_response(&fe, &f, &w).unwrap();
+    for (a, q) in full.iter().zip(&only) {
+        assert_eq!(&a.bearings, q);
+        assert_eq!(a.bearings[2], a.q[fe.dof(26, Dir::Y)]);
+    }
+}
