@@ -243,8 +243,7 @@ impl BandedMatrix {
             }
             let i0 = j.saturating_sub(self.ku);
             let i1 = (j + self.kl).min(self.n - 1);
-            for i in i0..=i1 {
-                let in_ = new_index[i];
+            for (i, &in_) in new_index.iter().enumerate().take(i1 + 1).skip(i0) {
                 if in_ != usize::MAX {
                     // |in_ - jn| <= |i - j|, so (in_, jn) is in the new band.
                     let k = out.idx(in_, jn);
