@@ -66,7 +66,10 @@
 //!
 //! * a-priori error `alpha_j = d_j - u_j w^(j-1)`,
 //! * **conversion factor** `gamma_j = 1 - u_j P^(j) u_j^H
-//!   = 1 / (1 + u_j (Phi^(j-1))^-1 u_j^H)`, in `(0, 1]` (returned, `T`),
+//!   = 1 / (1 + u_j (Phi^(j-1))^-1 u_j^H)`, in `(0, 1]` (returned, `T`;
+//!   it underflows to `0` only if `u_j (Phi^(j-1))^-1 u_j^H` exceeds the
+//!   inverse of the smallest normal number, e.g. a first row of size 1e25
+//!   against `delta = 1` in `f32`),
 //! * **a-posteriori error** `xi_j = d_j - u_j w^(j) = gamma_j alpha_j`
 //!   (returned, `F`),
 //! * the rotations deliver the angle-normalised error
@@ -95,7 +98,7 @@
 //! * The strictly lower triangle of the `r` buffer is used as workspace for
 //!   the working row during an update and is zero again on return.
 
-use crate::givens::rotation_real_pivot;
+use crate::givens::{min_normal, rotation_real_pivot};
 use crate::Real;
 use core::fmt;
 use nalgebra::ComplexField;
@@ -303,8 +306,10 @@ where
 
 /// Back-substitution `R w = p` for the weights (`w_out` has `M` entries).
 ///
-/// Errors: `Dimension`; `Singular` if a diagonal entry of `R` is zero or a
-/// weight overflows (then `w_out` holds no meaningful values).
+/// Errors: `Dimension`; `Singular` if a diagonal entry of `R` is zero,
+/// subnormal (below the smallest normal number of `T`: its relative
+/// precision is lost) or not finite, or a weight overflows (then `w_out` holds no
+/// meaningful values).
 pub fn solve_weights<F, T>(r: &[F], p: &[F], w_out: &mut [F]) -> Result<(), FilterError>
 where
     F: ComplexField<RealField = T> + Copy,
@@ -321,7 +326,8 @@ where
             acc -= *rik * *wk;
         }
         let rii = row[i];
-        if rii.real() == T::zero() && rii.imaginary() == T::zero() {
+        let mag = rii.real().abs().max(rii.imaginary().abs());
+        if !rii.is_finite() || mag < min_normal::<T>() {
             return Err(FilterError::Singular);
         }
         let wi = acc / rii;
@@ -548,8 +554,10 @@ where
 
     /// Current weights by back-substitution of `R w = p` (`O(M^2)`).
     ///
-    /// Errors: `Singular` if a diagonal entry of `R` has underflowed to zero
-    /// (only after extremely long runs of zero rows with `lambda < 1`).
+    /// Errors: `Singular` if a diagonal entry of `R` has decayed below the
+    /// smallest normal number (only after extremely long runs without
+    /// excitation in some direction with `lambda < 1`, e.g. 2045 steps of
+    /// zero rows with `lambda = 0.5` in `f64`).
     pub fn weights(&self) -> Result<[F; M], FilterError> {
         let mut w = [F::zero(); M];
         solve_weights(self.r.as_flattened(), &self.p, &mut w)?;

@@ -202,6 +202,8 @@ impl fmt::Display for TableError {
     }
 }
 
+impl core::error::Error for TableError {}
+
 /// A scalar type a table can be stored in: `f32` (code 4) or `f64` (code 8).
 pub trait TableScalar: Real {
     /// Type code in the blob header (its width in bytes).

@@ -721,13 +721,13 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
         }
         let names_k = ["kxx", "kxy", "kyx", "kyy"];
         let names_c = ["cxx", "cxy", "cyx", "cyy"];
-        for j in 0..4 {
+        for (j, name) in names_k.iter().enumerate() {
             let v: Vec<f64> = co.iter().map(|c| c.k[j]).collect();
-            let _ = writeln!(s, "{} = {}", names_k[j], arr(&v));
+            let _ = writeln!(s, "{name} = {}", arr(&v));
         }
-        for j in 0..4 {
+        for (j, name) in names_c.iter().enumerate() {
             let v: Vec<f64> = co.iter().map(|c| c.c[j]).collect();
-            let _ = writeln!(s, "{} = {}", names_c[j], arr(&v));
+            let _ = writeln!(s, "{name} = {}", arr(&v));
         }
         // Axial and mass coefficients, zero (as ROSS 2.x writes them).
         let zeros = vec![0.0; co.len()];

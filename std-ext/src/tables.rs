@@ -1,1 +1,403 @@
-//! (to be written)
+//! Bearing-level model tables for firmware: the per-speed reduced terms
+//! `A(Omega)`, `B(Omega)` of [`crate::reduction`] on a speed grid
+//! ([`crate::grid`]), written as
+//!
+//! * a binary blob (little-endian, CRC-32; byte layout in
+//!   [`rotorid_core::table`] and the README section "Model tables"), read in
+//!   firmware by [`rotorid_core::table::TableView::parse`], or
+//! * Rust source defining a `static TABLE: rotorid_core::table::Table<T, NQ,
+//!   NP, NS>` (plus `N_NODES`, `BEARING_NODES`, `PLANE_NODES`) for
+//!   `include!` in firmware.
+//!
+//! Both carry the poles of the reduced model (speeds where the shaft with
+//! its bearing points held fixed resonates) that the firmware's
+//! pole-factored interpolation needs.
+
+use std::fmt::Write as _;
+
+use num_complex::Complex64;
+use rotorid_core::crc32::crc32;
+use rotorid_core::table::{
+    Layout, TableError, TableScalar, TableView, FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_BEARINGS,
+    MAX_PLANES, MAX_POLES,
+};
+use thiserror::Error;
+
+use crate::grid;
+use crate::reduction::ReducedTerms;
+
+/// Error writing or reading a table.
+#[derive(Debug, Error)]
+pub enum TablesError {
+    /// The table cannot be written (sizes, ordering, non-finite values).
+    #[error("invalid table: {0}")]
+    Invalid(String),
+    /// A blob was rejected by the firmware parser.
+    #[error("table blob rejected: {0}")]
+    Blob(#[from] TableError),
+}
+
+/// Scalar type of a written table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scalar {
+    /// 4-byte IEEE floats (type code 4).
+    F32,
+    /// 8-byte IEEE floats (type code 8).
+    F64,
+}
+
+impl Scalar {
+    /// Rust type name.
+    pub fn rust_name(self) -> &'static str {
+        match self {
+            Scalar::F32 => "f32",
+            Scalar::F64 => "f64",
+        }
+    }
+}
+
+/// A complete model table, in f64, nodes 0-based.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelTable {
+    /// Name of the model, for the Rust source header comment.
+    pub model_name: String,
+    /// Number of shaft nodes of the model.
+    pub n_nodes: usize,
+    /// Bearing nodes (0-based), increasing: channel `2 m` is bearing `m`'s
+    /// `y`, `2 m + 1` its `z`.
+    pub bearing_nodes: Vec<usize>,
+    /// Unbalance plane nodes (0-based): column `k` of `B` is plane `k`.
+    pub plane_nodes: Vec<usize>,
+    /// Poles of the reduced model used by the interpolation (rad/s),
+    /// increasing, at most [`MAX_POLES`].
+    pub poles: Vec<f64>,
+    /// Terms per grid speed, strictly increasing speed.
+    pub terms: Vec<ReducedTerms>,
+}
+
+impl ModelTable {
+    /// Grid speeds (rad/s).
+    pub fn speeds(&self) -> Vec<f64> {
+        self.terms.iter().map(|t| t.omega).collect()
+    }
+
+    /// `A` and `B` at `omega` with the firmware's interpolation scheme.
+    pub fn interpolate(&self, omega: f64) -> Result<ReducedTerms, TableError> {
+        grid::interpolate(&self.terms, &self.poles, omega)
+    }
+
+    /// Checks that the table can be written: counts within the format's
+    /// limits, nodes valid, poles and speeds finite, > 0, strictly
+    /// increasing, matrices of the right shape with finite entries.
+    pub fn validate(&self) -> Result<(), TablesError> {
+        let bad = |s: String| Err(TablesError::Invalid(s));
+        let (n_b, n_p) = (self.bearing_nodes.len(), self.plane_nodes.len());
+        if self.n_nodes < 2 || self.n_nodes > u16::MAX as usize {
+            return bad(format!("{} nodes (must be 2..=65535)", self.n_nodes));
+        }
+        if n_b == 0 || n_b > MAX_BEARINGS || n_b > self.n_nodes {
+            return bad(format!("{n_b} bearings (must be 1..={MAX_BEARINGS})"));
+        }
+        if n_p > MAX_PLANES {
+            return bad(format!("{n_p} planes (at most {MAX_PLANES})"));
+        }
+        if self.poles.len() > MAX_POLES {
+            return bad(format!("{} poles (at most {MAX_POLES})", self.poles.len()));
+        }
+        if self.terms.is_empty() || self.terms.len() > u32::MAX as usize {
+            return bad(format!("{} speeds", self.terms.len()));
+        }
+        for (i, &n) in self.bearing_nodes.iter().enumerate() {
+            if n >= self.n_nodes || (i > 0 && n <= self.bearing_nodes[i - 1]) {
+                return bad("bearing nodes must be on the shaft and increasing".into());
+            }
+        }
+        for (i, &n) in self.plane_nodes.iter().enumerate() {
+            if n >= self.n_nodes || self.plane_nodes[..i].contains(&n) {
+                return bad("plane nodes must be on the shaft and distinct".into());
+            }
+        }
+        fn increasing(v: impl Iterator<Item = f64>) -> bool {
+            let mut prev = 0.0;
+            for x in v {
+                if !(x.is_finite() && x > prev) {
+                    return false;
+                }
+                prev = x;
+            }
+            true
+        }
+        if !increasing(self.poles.iter().copied()) {
+            return bad("poles must be finite, > 0 and increasing".into());
+        }
+        if !increasing(self.terms.iter().map(|t| t.omega)) {
+            return bad("speeds must be finite, > 0 and strictly increasing".into());
+        }
+        let nq = 2 * n_b;
+        for t in &self.terms {
+            if t.a.shape() != (nq, nq) || t.b.shape() != (nq, n_p) {
+                return bad(format!("terms at {} rad/s have the wrong shape", t.omega));
+            }
+            if t.a
+                .iter()
+                .chain(t.b.iter())
+                .any(|z| !(z.re.is_finite() && z.im.is_finite()))
+            {
+                return bad(format!("non-finite entry at {} rad/s", t.omega));
+            }
+        }
+        Ok(())
+    }
+
+    /// The binary blob (format version 1, layout in [`rotorid_core::table`]).
+    /// In f32 every value is rounded to nearest; a value that overflows f32
+    /// is an error.
+    pub fn to_blob(&self, scalar: Scalar) -> Result<Vec<u8>, TablesError> {
+        self.validate()?;
+        let (n_b, n_p, n_k, n_s) = (
+            self.bearing_nodes.len(),
+            self.plane_nodes.len(),
+            self.poles.len(),
+            self.terms.len(),
+        );
+        let w = match scalar {
+            Scalar::F32 => f32::WIDTH,
+            Scalar::F64 => f64::WIDTH,
+        };
+        let lay = Layout::new(w, n_b, n_p, n_k, n_s)
+            .ok_or_else(|| TablesError::Invalid("table too large".into()))?;
+        let mut out = Vec::with_capacity(lay.total);
+        out.extend_from_slice(&MAGIC);
+        out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        out.push(match scalar {
+            Scalar::F32 => f32::TYPE_CODE,
+            Scalar::F64 => f64::TYPE_CODE,
+        });
+        out.push(0);
+        // Counts were range-checked by validate().
+        for v in [self.n_nodes, n_b, n_p, n_k] {
+            out.extend_from_slice(&(v as u16).to_le_bytes());
+        }
+        out.extend_from_slice(&(n_s as u32).to_le_bytes());
+        debug_assert_eq!(out.len(), HEADER_LEN);
+        for &n in self.plane_nodes.iter().chain(&self.bearing_nodes) {
+            out.extend_from_slice(&((n + 1) as u16).to_le_bytes());
+        }
+        let mut overflow = false;
+        let mut put = |out: &mut Vec<u8>, x: f64| match scalar {
+            Scalar::F32 => {
+                let y = x as f32;
+                overflow |= !y.is_finite();
+                out.extend_from_slice(&y.to_le_bytes());
+            }
+            Scalar::F64 => out.extend_from_slice(&x.to_le_bytes()),
+        };
+        for &p in &self.poles {
+            put(&mut out, p);
+        }
+        for t in &self.terms {
+            put(&mut out, t.omega);
+        }
+        for t in &self.terms {
+            for z in row_major(&t.a).chain(row_major(&t.b)) {
+                put(&mut out, z.re);
+                put(&mut out, z.im);
+            }
+        }
+        if overflow {
+            return Err(TablesError::Invalid(
+                "a value overflows f32; write the table in f64".into(),
+            ));
+        }
+        let crc = crc32(&out);
+        out.extend_from_slice(&crc.to_le_bytes());
+        debug_assert_eq!(out.len(), lay.total);
+        Ok(out)
+    }
+
+    /// Reads a blob (either scalar type) through the firmware parser, which
+    /// validates it, and widens it to f64. Returns the table and its scalar
+    /// type. The model name is not stored in blobs (it comes back empty).
+    pub fn from_blob(bytes: &[u8]) -> Result<(ModelTable, Scalar), TablesError> {
+        match bytes.get(10) {
+            Some(&c) if c == f32::TYPE_CODE => Ok((
+                Self::from_view(&TableView::<f32>::parse(bytes)?)?,
+                Scalar::F32,
+            )),
+            _ => Ok((
+                Self::from_view(&TableView::<f64>::parse(bytes)?)?,
+                Scalar::F64,
+            )),
+        }
+    }
+
+    fn from_view<T: TableScalar>(v: &TableView<'_, T>) -> Result<ModelTable, TablesError> {
+        let c = TablesError::Blob(TableError::Corrupt);
+        let node = |n: Option<u16>| n.map(|n| n as usize - 1).ok_or(TableError::Corrupt);
+        let nq = v.n_channels();
+        let mut terms = Vec::with_capacity(v.n_speeds());
+        for s in 0..v.n_speeds() {
+            let z = |x: Option<num_complex::Complex<T>>| {
+                x.map(|x| Complex64::new(x.re.to_f64(), x.im.to_f64()))
+                    .ok_or(TableError::Corrupt)
+            };
+            let mut a = nalgebra::DMatrix::zeros(nq, nq);
+            let mut b = nalgebra::DMatrix::zeros(nq, v.n_planes());
+            for r in 0..nq {
+                for col in 0..nq {
+                    a[(r, col)] = z(v.a_entry(s, r, col))?;
+                }
+                for col in 0..v.n_planes() {
+                    b[(r, col)] = z(v.b_entry(s, r, col))?;
+                }
+            }
+            let omega = v.speed(s).ok_or(TableError::Corrupt)?.to_f64();
+            terms.push(ReducedTerms { omega, a, b });
+        }
+        let poles = (0..v.n_poles())
+            .map(|i| v.pole(i).map(|p| p.to_f64()))
+            .collect::<Option<Vec<_>>>()
+            .ok_or(c)?;
+        Ok(ModelTable {
+            model_name: String::new(),
+            n_nodes: v.n_nodes() as usize,
+            bearing_nodes: (0..v.n_bearings())
+                .map(|i| node(v.bearing_node(i)))
+                .collect::<Result<_, _>>()?,
+            plane_nodes: (0..v.n_planes())
+                .map(|i| node(v.plane_node(i)))
+                .collect::<Result<_, _>>()?,
+            poles,
+            terms,
+        })
+    }
+
+    /// Rust source defining the same table for firmware `include!`:
+    ///
+    /// ```text
+    /// pub const N_NODES: u16 = ..;
+    /// pub const BEARING_NODES: [u16; N_b] = [..];   // 1-based
+    /// pub const PLANE_NODES: [u16; N_p] = [..];     // 1-based
+    /// pub static TABLE: rotorid_core::table::Table<T, NQ, NP, NS> = ..;
+    /// ```
+    ///
+    /// Values are written with Rust's shortest round-trip formatting of the
+    /// chosen scalar type, so the included table equals the blob bit for
+    /// bit. The output is deterministic (no dates or versions in it).
+    pub fn to_rust_source(&self, scalar: Scalar) -> Result<String, TablesError> {
+        self.validate()?;
+        let fmt = |x: f64| -> Result<String, TablesError> {
+            let s = match scalar {
+                Scalar::F32 => {
+                    let y = x as f32;
+                    if !y.is_finite() {
+                        return Err(TablesError::Invalid(
+                            "a value overflows f32; write the table in f64".into(),
+                        ));
+                    }
+                    format!("{y:?}")
+                }
+                Scalar::F64 => format!("{x:?}"),
+            };
+            Ok(s)
+        };
+        let (n_b, n_p, n_s) = (
+            self.bearing_nodes.len(),
+            self.plane_nodes.len(),
+            self.terms.len(),
+        );
+        let nq = 2 * n_b;
+        let ty = scalar.rust_name();
+        let list = |v: &[usize]| {
+            v.iter()
+                .map(|n| (n + 1).to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let mut s = String::new();
+        let w = &mut s;
+        // writeln! into a String cannot fail.
+        let _ = writeln!(
+            w,
+            "// rotorid bearing-level model table, generated by `rotorid tables`: do not edit."
+        );
+        let _ = writeln!(
+            w,
+            "// Model `{}`: {n_b} bearings, {n_p} unbalance planes, {n_s} speeds from {} to {} rad/s, {ty}.",
+            self.model_name.replace('\n', " "),
+            fmt(self.terms[0].omega)?,
+            fmt(self.terms[n_s - 1].omega)?
+        );
+        let _ = writeln!(
+            w,
+            "// A(Omega) q_B = -Z_B(Omega) q_B + B(Omega) a; see rotorid_core::table."
+        );
+        let _ = writeln!(w, "\n/// Number of shaft nodes of the model.");
+        let _ = writeln!(w, "pub const N_NODES: u16 = {};", self.n_nodes);
+        let _ = writeln!(
+            w,
+            "/// Bearing nodes (1-based); channels are b1_y, b1_z, b2_y, ..."
+        );
+        let _ = writeln!(
+            w,
+            "pub const BEARING_NODES: [u16; {n_b}] = [{}];",
+            list(&self.bearing_nodes)
+        );
+        let _ = writeln!(w, "/// Unbalance plane nodes (1-based), the columns of B.");
+        let _ = writeln!(
+            w,
+            "pub const PLANE_NODES: [u16; {n_p}] = [{}];",
+            list(&self.plane_nodes)
+        );
+        let _ = writeln!(w, "/// A (N/m) and B (1/s^2) per speed (rad/s), with the poles (rad/s) of the reduced model.");
+        let _ = writeln!(
+            w,
+            "#[allow(clippy::approx_constant, clippy::excessive_precision, clippy::unreadable_literal)]"
+        );
+        let _ = writeln!(
+            w,
+            "pub static TABLE: rotorid_core::table::Table<{ty}, {nq}, {n_p}, {n_s}> = rotorid_core::table::Table {{"
+        );
+        let mut poles = Vec::with_capacity(MAX_POLES);
+        for i in 0..MAX_POLES {
+            poles.push(fmt(self.poles.get(i).copied().unwrap_or(0.0))?);
+        }
+        let _ = writeln!(w, "    poles: [{}],", poles.join(", "));
+        let _ = writeln!(w, "    n_poles: {},", self.poles.len());
+        let speeds = self
+            .terms
+            .iter()
+            .map(|t| fmt(t.omega))
+            .collect::<Result<Vec<_>, _>>()?;
+        let _ = writeln!(w, "    speeds: [{}],", speeds.join(", "));
+        let cplx = |z: &Complex64| -> Result<String, TablesError> {
+            Ok(format!(
+                "rotorid_core::Complex {{ re: {}, im: {} }}",
+                fmt(z.re)?,
+                fmt(z.im)?
+            ))
+        };
+        for (name, pick) in [("a", 0usize), ("b", 1)] {
+            let _ = writeln!(w, "    {name}: [");
+            for t in &self.terms {
+                let m = if pick == 0 { &t.a } else { &t.b };
+                let _ = writeln!(w, "        [");
+                for r in 0..m.nrows() {
+                    let row = (0..m.ncols())
+                        .map(|c| cplx(&m[(r, c)]))
+                        .collect::<Result<Vec<_>, _>>()?;
+                    let _ = writeln!(w, "            [{}],", row.join(", "));
+                }
+                let _ = writeln!(w, "        ],");
+            }
+            let _ = writeln!(w, "    ],");
+        }
+        let _ = writeln!(w, "}};");
+        Ok(s)
+    }
+}
+
+/// Entries of a matrix in row-major order.
+fn row_major(m: &nalgebra::DMatrix<Complex64>) -> impl Iterator<Item = Complex64> + '_ {
+    (0..m.nrows()).flat_map(move |r| (0..m.ncols()).map(move |c| m[(r, c)]))
+}
