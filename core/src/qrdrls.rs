@@ -98,6 +98,38 @@
 //! * The strictly lower triangle of the `r` buffer is used as workspace for
 //!   the working row during an update and is zero again on return.
 
+//!
+//! # Example
+//!
+//! ```
+//! use rotorid_core::qrdrls::{self, VectorQrdRls};
+//! use rotorid_core::Complex;
+//!
+//! // Owning, fixed-size: 2 complex unknowns, 2 rows per step.
+//! let w = [Complex::new(1.0, -2.0), Complex::new(0.5, 3.0)];
+//! let mut f = VectorQrdRls::<Complex<f64>, 2, 2>::new(0.99, 1e-9)?;
+//! let u = [
+//!     [Complex::new(1.0, 0.0), Complex::new(0.0, 1.0)],
+//!     [Complex::new(2.0, 1.0), Complex::new(-1.0, 0.5)],
+//! ];
+//! let d = [u[0][0] * w[0] + u[0][1] * w[1], u[1][0] * w[0] + u[1][1] * w[1]];
+//! let info = f.update(&u, &d)?;
+//! assert!(info.gamma.iter().all(|g| *g > 0.0 && *g <= 1.0));
+//! let est = f.weights()?;
+//! assert!((est[0] - w[0]).norm() < 1e-6 && (est[1] - w[1]).norm() < 1e-6);
+//!
+//! // The same with runtime sizes on caller buffers (real field here).
+//! let m = 2;
+//! let (mut r, mut p) = (vec![0.0f64; m * m], vec![0.0f64; m]);
+//! qrdrls::init(&mut r, &mut p, 1e-9, None)?;
+//! let (mut xi, mut gamma) = ([0.0; 2], [0.0; 2]);
+//! qrdrls::update_rows(&mut r, &mut p, &[1.0, 2.0, 3.0, -1.0], &[5.0, 1.0], 1.0, &mut xi, &mut gamma)?;
+//! let mut w = [0.0; 2];
+//! qrdrls::solve_weights(&r, &p, &mut w)?;
+//! assert!((w[0] - 1.0).abs() < 1e-6 && (w[1] - 2.0).abs() < 1e-6);
+//! # Ok::<(), qrdrls::FilterError>(())
+//! ```
+
 use crate::givens::{min_normal, rotation_real_pivot};
 use crate::Real;
 use core::fmt;
