@@ -391,8 +391,8 @@ where
 /// instead of once per row.
 ///
 /// `top` = rows `0..M-1` of `R`, `last_diag` = `R[M-1][M-1]`, `work` holds
-/// at least `B (M - 1)` entries (working rows interleaved:
-/// `work[(k - 1) B + j]` = entry `k` of row `j`).
+/// at least `B (M - 1)` entries (working row `j` at `work[j (M-1)..]`,
+/// entries `1..M` of the row).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn fold_block<F, T, const B: usize>(
@@ -415,11 +415,14 @@ fn fold_block<F, T, const B: usize>(
     for (j, row) in rows.chunks_exact(m).take(B).enumerate() {
         e[j] = d[j];
         first[j] = row[0];
-        for (k, x) in row[1..].iter().enumerate() {
-            work[k * B + j] = *x;
-        }
+        work[j * (m - 1)..(j + 1) * (m - 1)].copy_from_slice(&row[1..]);
     }
     let work = &mut work[..B * (m - 1)];
+    // Real fields (F = T): apply each row's rotation along the whole row
+    // (contiguous, vectorisable); complex fields: keep each R_ik in a
+    // register through the B rotations. Same operations in the same order
+    // per entry either way.
+    let real_field = core::mem::size_of::<F>() == core::mem::size_of::<T>();
 
     for i in 0..m {
         let (diag, rest): (&mut F, &mut [F]) = if i + 1 < m {
@@ -437,7 +440,7 @@ fn fold_block<F, T, const B: usize>(
             let b = if i == 0 {
                 first[j]
             } else {
-                work[(i - 1) * B + j]
+                work[j * (m - 1) + i - 1]
             };
             if b.real() == T::zero() && b.imaginary() == T::zero() {
                 continue; // identity rotation
@@ -451,26 +454,28 @@ fn fold_block<F, T, const B: usize>(
         if !active.iter().any(|a| *a) {
             continue;
         }
-        let wrest = &mut work[i * B..];
-        if active.iter().all(|a| *a) {
-            for (x, ys) in rest.iter_mut().zip(wrest.chunks_exact_mut(B)) {
-                let mut xv = *x;
-                for (rot, y) in rots.iter().zip(ys.iter_mut()) {
-                    let (nx, ny) = rot.apply(xv, *y);
-                    xv = nx;
-                    *y = ny;
-                }
-                *x = xv;
-            }
-        } else {
-            for (x, ys) in rest.iter_mut().zip(wrest.chunks_exact_mut(B)) {
-                let mut xv = *x;
-                for ((rot, y), act) in rots.iter().zip(ys.iter_mut()).zip(&active) {
-                    if *act {
-                        let (nx, ny) = rot.apply(xv, *y);
-                        xv = nx;
+        let skip = m - 1 - rest.len(); // working-row index of column i + 1
+        if rest.is_empty() {
+            // Last column (or M = 1): only p is left.
+        } else if real_field || !active.iter().all(|a| *a) {
+            // Row after row over the trailing entries.
+            for ((rot, act), wj) in rots.iter().zip(&active).zip(work.chunks_exact_mut(m - 1)) {
+                if *act {
+                    for (x, y) in rest.iter_mut().zip(&mut wj[skip..]) {
+                        let (nx, ny) = rot.apply(*x, *y);
+                        *x = nx;
                         *y = ny;
                     }
+                }
+            }
+        } else {
+            // Entry after entry, the B rotations on one R_ik kept in a register.
+            for (k, x) in (skip..).zip(rest.iter_mut()) {
+                let mut xv = *x;
+                for (rot, wj) in rots.iter().zip(work.chunks_exact_mut(m - 1)) {
+                    let (nx, ny) = rot.apply(xv, wj[k]);
+                    xv = nx;
+                    wj[k] = ny;
                 }
                 *x = xv;
             }
