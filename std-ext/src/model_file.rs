@@ -760,10 +760,12 @@ fn unbalance_entry(
     })
 }
 
-/// True if the TOML text has a top-level `ross_version` key (a ROSS rotor).
+/// True if the TOML text is a ROSS rotor: a top-level `ross_version` key,
+/// or (older ROSS files, saved without it) a top-level `ShaftElement_*`
+/// table.
 pub fn is_ross(text: &str) -> bool {
     match toml::from_str::<toml::Table>(text) {
-        Ok(t) => t.contains_key("ross_version"),
+        Ok(t) => t.contains_key("ross_version") || t.keys().any(|k| k.starts_with("ShaftElement_")),
         Err(_) => false,
     }
 }
