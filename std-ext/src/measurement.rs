@@ -232,10 +232,15 @@ pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
             })
             .collect::<Vec<_>>();
         debug_assert_eq!(q.len(), 2 * n_b);
-        samples.push(Sample {
-            omega: rpm_to_rad_s(values[0]),
-            q,
-        });
+        let omega = rpm_to_rad_s(values[0]);
+        if !omega.is_finite() {
+            return Err(MeasurementError::Field {
+                line: line_no,
+                column: "speed_rpm".into(),
+                reason: format!("too large: {}", fields[0]),
+            });
+        }
+        samples.push(Sample { omega, q });
     }
     let Some((n_bearings, _, _)) = header else {
         return Err(MeasurementError::MissingHeader);

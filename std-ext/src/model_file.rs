@@ -181,6 +181,9 @@ struct RawSection {
     material: String,
 }
 
+/// Upper bound on the total number of shaft elements of a model file.
+pub const MAX_ELEMENTS: usize = 100_000;
+
 fn one() -> usize {
     1
 }
@@ -480,6 +483,12 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
             return Err(ModelFileError::field(
                 f("elements"),
                 format!("must be in 1..=100000, got {}", s.elements),
+            ));
+        }
+        if shaft.len() + s.elements > MAX_ELEMENTS {
+            return Err(ModelFileError::field(
+                f("elements"),
+                format!("more than {MAX_ELEMENTS} shaft elements in all"),
             ));
         }
         let mat = material(f("material"), &s.material)?;
