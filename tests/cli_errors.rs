@@ -235,6 +235,19 @@ fn bad_values_exit_2() {
         "node 0",
     );
     assert!(!out.exists(), "nothing written on error");
+    // Unwritable output.
+    fails(
+        &[
+            "simulate",
+            "--model",
+            "paper",
+            "--out",
+            "/no/such/dir/x.csv",
+            "--rpm-max",
+            "100",
+        ],
+        "/no/such/dir/x.csv",
+    );
 }
 
 #[test]
