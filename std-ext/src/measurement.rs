@@ -183,6 +183,8 @@ pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
     let mut comments = Vec::new();
     let mut header: Option<(usize, CsvLayout, Vec<String>)> = None;
     let mut samples = Vec::new();
+    // A byte-order mark (spreadsheet exports) is not part of the header.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let line = raw.trim();
