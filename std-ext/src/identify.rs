@@ -247,6 +247,19 @@ fn reduce_dense(
     Ok((a, b))
 }
 
+/// The reduced terms `A`, `B` of `model` (its planes) at `omega` (rad/s),
+/// as the identification uses them.
+pub fn reduce_terms(
+    fe: &crate::assembly::FeModel,
+    model: &RotorModel,
+    omega: f64,
+) -> Result<TermsAt, IdentifyError> {
+    let t = fe
+        .unbalance_distribution(&model.planes)
+        .map_err(|e| IdentifyError::Model(e.to_string()))?;
+    reduce_dense(fe, &t, omega)
+}
+
 /// Highest speed of a sweep (rad/s), 0 if empty.
 pub fn max_speed(samples: &[Sample]) -> f64 {
     samples.iter().map(|s| s.omega).fold(0.0, f64::max)
