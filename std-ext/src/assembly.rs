@@ -229,6 +229,14 @@ impl FeModel {
             .collect()
     }
 
+    /// The shaft DOFs that are not bearing translations (the "inner" DOFs
+    /// `i` of the paper's Eq. 35), ascending: `Z_R,ii` is
+    /// `rotor_dynamic_stiffness(omega).remove(&bearing_dofs())`.
+    pub fn interior_dofs(&self) -> Vec<usize> {
+        let b = self.bearing_dofs();
+        (0..self.n_shaft_dof()).filter(|d| !b.contains(d)).collect()
+    }
+
     fn check_speed(omega: f64) -> Result<(), FeError> {
         if omega.is_finite() {
             Ok(())

@@ -226,11 +226,25 @@ impl BandedMatrix {
             }
             drop[d] = true;
         }
-        let keep: Vec<usize> = (0..self.n).filter(|&i| !drop[i]).collect();
-        let mut out = BandedMatrix::zeros(keep.len(), self.kl, self.ku);
-        for (jn, &j) in keep.iter().enumerate() {
-            for (in_, &i) in keep.iter().enumerate() {
-                if self.in_band(i, j) {
+        // New index of every kept old index.
+        let mut new_index = vec![usize::MAX; self.n];
+        let mut kept = 0;
+        for (i, d) in drop.iter().enumerate() {
+            if !d {
+                new_index[i] = kept;
+                kept += 1;
+            }
+        }
+        let mut out = BandedMatrix::zeros(kept, self.kl, self.ku);
+        for j in 0..self.n {
+            let jn = new_index[j];
+            if jn == usize::MAX {
+                continue;
+            }
+            let i0 = j.saturating_sub(self.ku);
+            let i1 = (j + self.kl).min(self.n - 1);
+            for (i, &in_) in new_index.iter().enumerate().take(i1 + 1).skip(i0) {
+                if in_ != usize::MAX {
                     // |in_ - jn| <= |i - j|, so (in_, jn) is in the new band.
                     let k = out.idx(in_, jn);
                     out.ab[k] = self.ab[self.idx(i, j)];

@@ -111,6 +111,20 @@ pub fn unbalance_response(
     Ok(out)
 }
 
+/// Only the bearing channels `(b1_y, b1_z, b2_y, ...)` of
+/// [`unbalance_response`], one vector per speed (what a probe on each
+/// bearing measures).
+pub fn bearing_response(
+    fe: &FeModel,
+    forcing: &Forcing,
+    speeds: &[f64],
+) -> Result<Vec<Vec<Complex64>>, FeError> {
+    Ok(unbalance_response(fe, forcing, speeds)?
+        .into_iter()
+        .map(|r| r.bearings)
+        .collect())
+}
+
 /// Reference implementation: the same response from the dense matrices
 /// with the pedestal DOFs kept explicitly, one dense complex LU per speed
 /// (`O(n^3)`; for tests and benchmarks).
