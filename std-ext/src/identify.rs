@@ -156,6 +156,9 @@ pub struct Identification {
     pub covariance: Option<DMatrix<Complex64>>,
 }
 
+/// A sparse linear functional of the scaled weights: `(index, coefficient)`.
+type Functional = Vec<(usize, f64)>;
+
 /// Standard deviations of the final estimates (same units as the values).
 #[derive(Debug, Clone, PartialEq)]
 pub struct StdSet {
@@ -677,7 +680,7 @@ impl Identification {
             let mut cs = [0.0; 4];
             for e in 0..4 {
                 let (r, c) = (e / 2, e % 2);
-                let (gk, gc): (Vec<(usize, f64)>, Vec<(usize, f64)>) = match st.formulation {
+                let (gk, gc): (Functional, Functional) = match st.formulation {
                     Formulation::Paper if st.order == 1 => {
                         let j0 = st.paper_index(m, r, 0, c);
                         let j1 = st.paper_index(m, r, 1, c);
