@@ -122,8 +122,10 @@ where
     T: Real,
 {
     let a = a.abs();
-    let bm = b.real().abs().max(b.imaginary().abs());
-    let m = a.max(bm);
+    // Plain comparisons (not the NaN-aware `max`): the inputs are finite.
+    let (br, bi) = (b.real().abs(), b.imaginary().abs());
+    let bm = if br > bi { br } else { bi };
+    let m = if a > bm { a } else { bm };
     if m == T::zero() {
         return (Rotation::identity(), T::zero());
     }
