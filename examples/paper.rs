@@ -142,6 +142,39 @@ fn main() -> Res<()> {
         "~1e-6, 'very slow convergence'",
         errors(&m1, &raw.last),
     );
+    {
+        // The paper's setup needs many more speeds: the sweep repeated 80
+        // times (24000 speeds), terms computed once.
+        let fe = FeModel::new(&m1)?;
+        let mut cache = std::collections::HashMap::new();
+        for &w in &speeds {
+            cache.insert(w.to_bits(), rotorid::identify::reduce_terms(&fe, &m1, w)?);
+        }
+        let mut long = d1.clone();
+        long.samples = (0..80).flat_map(|_| d1.samples.clone()).collect();
+        let mut opts = Options::new(Structure::paper(1));
+        opts.scaling = Some(ColumnScaling::identity());
+        opts.record_history = false;
+        let mut src = |w: f64| {
+            cache
+                .get(&w.to_bits())
+                .cloned()
+                .ok_or_else(|| rotorid::identify::IdentifyError::Model("speed not cached".into()))
+        };
+        let id = rotorid::identify::identify_with(
+            &m1.bearing_nodes(),
+            &m1.planes,
+            &long,
+            &opts,
+            &mut src,
+            None,
+        )?;
+        row(
+            "4.1 same, sweep repeated 80x (24000 speeds)",
+            "",
+            errors(&m1, &id.last),
+        );
+    }
     let p1 = run(&m1, &d1, Structure::paper(1), 0.999, false, false)?;
     row(
         "4.1 paper Z0+Omega Z1, scaled, f64",

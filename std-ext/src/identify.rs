@@ -148,6 +148,24 @@ pub struct Identification {
     /// Final scaled weights `w~` (for the physical structure the real
     /// weights in `re`), see `rotorid_core::regressor` for the layout.
     pub scaled_weights: Vec<Complex64>,
+    /// Estimated covariance of the scaled weights: White's
+    /// heteroscedasticity-consistent sandwich from the final residuals of
+    /// every row, with the forgetting weights (`None` with too few rows).
+    /// It describes the scatter due to noise, not the errors-in-variables
+    /// bias of noisy `q_B` in `U`.
+    pub covariance: Option<DMatrix<Complex64>>,
+}
+
+/// A sparse linear functional of the scaled weights: `(index, coefficient)`.
+type Functional = Vec<(usize, f64)>;
+
+/// Standard deviations of the final estimates (same units as the values).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StdSet {
+    /// Per bearing: std of `k` (N/m) and `c` (N s/m), `yy..zz`.
+    pub bearings: Vec<([f64; 4], [f64; 4])>,
+    /// Per plane: std of `m e` (kg m) and of the phase (deg).
+    pub unbalance: Vec<(f64, f64)>,
 }
 
 /// Reference magnitudes for the column scaling from the known part of the
@@ -346,9 +364,15 @@ struct State<T, F> {
     xi: Vec<F>,
     gamma: Vec<T>,
     w: Vec<F>,
+    /// Every row folded in (as the filter saw it: scaled, normalised) with
+    /// the cumulative log forgetting at the time it was folded in, for the
+    /// covariance estimate.
+    rows: Vec<(Vec<Complex64>, Complex64, f64)>,
+    /// `sum ln lambda_used` so far.
+    log_w: f64,
 }
 
-impl<T: Real, F: IdField<T>> State<T, F> {
+impl<T: Real, F: IdField<T> + Widen> State<T, F> {
     fn new(config: Config<T>, nb: usize, np: usize) -> Result<Self, CoreError> {
         let m = config.structure.n_unknowns(nb, np);
         let n = config.structure.n_rows(nb);
@@ -365,6 +389,8 @@ impl<T: Real, F: IdField<T>> State<T, F> {
             xi: vec![F::zero(); n],
             gamma: vec![T::zero(); n],
             w: vec![F::zero(); m],
+            rows: Vec::new(),
+            log_w: 0.0,
         };
         s.kernel().init()?;
         Ok(s)
@@ -398,7 +424,76 @@ impl<T: Real, F: IdField<T>> State<T, F> {
             .kernel()
             .step(omega, a, b, q, &mut d, &mut u, &mut xi, &mut gamma);
         (self.d, self.u, self.xi, self.gamma) = (d, u, xi, gamma);
+        if let Ok(rep) = &res {
+            let lam = rep.lambda_used.to_f64();
+            if lam > 0.0 {
+                self.log_w += lam.ln();
+                let m = self.p.len();
+                for (row, dj) in self.u.chunks_exact(m).zip(&self.d) {
+                    let row = row.iter().map(|x| x.widen()).collect();
+                    self.rows.push((row, dj.widen(), self.log_w));
+                }
+            }
+        }
         res
+    }
+
+    /// Heteroscedasticity-consistent covariance of the scaled weights
+    /// (White's sandwich with the HC3 leverage correction): with the row
+    /// weights `v_j` (product of the forgetting factors applied after row
+    /// `j`), `Phi = R^H R`, the final residuals `e_j = d_j - u_j w~` and the
+    /// leverages `h_j = v_j u_j Phi^-1 u_j^H`,
+    /// `Cov = Phi^-1 (sum_j v_j^2 |e_j / (1 - h_j)|^2 u_j^H u_j) Phi^-1`.
+    /// The leverage correction matters here: the few speeds near the
+    /// critical speeds carry most of the information (large `|q_B|`), so
+    /// their residuals are strongly shrunk by the fit.
+    /// `None` with fewer rows than unknowns or a singular factor.
+    fn covariance(&self) -> Option<DMatrix<Complex64>> {
+        let m = self.p.len();
+        if self.rows.len() <= m {
+            return None;
+        }
+        let r = DMatrix::from_fn(m, m, |i, j| {
+            if j >= i {
+                self.r[i * m + j].widen()
+            } else {
+                Complex64::new(0.0, 0.0)
+            }
+        });
+        let rinv = r.solve_upper_triangular(&DMatrix::identity(m, m))?;
+        let phi_inv = &rinv * rinv.adjoint();
+        let w: Vec<Complex64> = self.w.iter().map(|x| x.widen()).collect();
+        let mut meat = DMatrix::<Complex64>::zeros(m, m);
+        for (u, d, lw) in &self.rows {
+            let v = (self.log_w - lw).exp();
+            let e = d - u.iter().zip(&w).map(|(a, b)| a * b).sum::<Complex64>();
+            // Leverage h = v u Phi^-1 u^H in [0, 1): the fit pulls row j's
+            // residual toward zero by (1 - h); undo it (HC3).
+            let mut h = Complex64::new(0.0, 0.0);
+            for i in 0..m {
+                if u[i] == Complex64::new(0.0, 0.0) {
+                    continue;
+                }
+                for (k, uk) in u.iter().enumerate() {
+                    h += u[i] * phi_inv[(i, k)] * uk.conj();
+                }
+            }
+            let one_minus_h = (1.0 - v * h.re).max(1e-3);
+            let s2 = v * v * e.norm_sqr() / (one_minus_h * one_minus_h);
+            if s2 == 0.0 {
+                continue;
+            }
+            for i in 0..m {
+                let ui = u[i].conj() * s2;
+                for (k, uk) in u.iter().enumerate() {
+                    meat[(i, k)] += ui * uk;
+                }
+            }
+        }
+        let c = &phi_inv * meat * &phi_inv;
+        c.iter()
+            .all(|z| z.re.is_finite() && z.im.is_finite())
+            .then_some(c)
     }
 
     fn estimates(&mut self, omega: T) -> Result<EstimateSet, CoreError> {
@@ -533,6 +628,7 @@ fn run<T: Real, F: IdField<T> + Widen>(
         .estimates(T::lit(last_omega))
         .map_err(IdentifyError::Estimates)?;
     let scaled_weights = st.w.iter().map(|x| F::widen(*x)).collect();
+    let covariance = st.covariance();
     let mut opts = *options;
     opts.scaling = Some(scaling);
     Ok(Identification {
@@ -545,6 +641,7 @@ fn run<T: Real, F: IdField<T> + Widen>(
         steps: st.guard.steps,
         frozen: st.guard.frozen,
         scaled_weights,
+        covariance,
     })
 }
 
@@ -553,6 +650,100 @@ fn coef_json(v: &[f64; 4]) -> Value {
 }
 
 impl Identification {
+    /// Standard deviations of the final estimates from [`Self::covariance`]
+    /// by linearisation: each reported quantity is a linear functional
+    /// `g . w~` of the scaled weights (`K`, `C` at the last speed), and
+    /// `m e`, phase are linearised about the estimate. For the complex paper
+    /// structure the errors are taken circular (`var Re = var Im = E|.|^2 / 2`).
+    pub fn std(&self) -> Option<StdSet> {
+        let cov = self.covariance.as_ref()?;
+        let st = self.options.structure;
+        let nb = self.last.bearings.len();
+        let np = self.last.unbalance.len();
+        let omega = self.last.omega;
+        let scale = |j: usize| st.column_scale(&self.scaling, nb, np, j).unwrap_or(0.0);
+        // E|g . dw|^2 for a sparse real-coefficient functional.
+        let quad = |g: &[(usize, f64)]| -> f64 {
+            let mut v = Complex64::new(0.0, 0.0);
+            for &(i, gi) in g {
+                for &(j, gj) in g {
+                    v += cov[(i, j)] * gi * gj;
+                }
+            }
+            v.re.max(0.0)
+        };
+        let complex = st.formulation == Formulation::Paper;
+        let half = if complex { 0.5 } else { 1.0 };
+        let mut bearings = Vec::with_capacity(nb);
+        for m in 0..nb {
+            let mut ks = [0.0; 4];
+            let mut cs = [0.0; 4];
+            for e in 0..4 {
+                let (r, c) = (e / 2, e % 2);
+                let (gk, gc): (Functional, Functional) = match st.formulation {
+                    Formulation::Paper if st.order == 1 => {
+                        let j0 = st.paper_index(m, r, 0, c);
+                        let j1 = st.paper_index(m, r, 1, c);
+                        (vec![(j0, scale(j0))], vec![(j1, scale(j1))])
+                    }
+                    Formulation::Paper => {
+                        let g: Vec<(usize, f64)> = (0..=st.order)
+                            .map(|p| {
+                                let j = st.paper_index(m, r, p, c);
+                                (j, scale(j) * omega.powi(p as i32))
+                            })
+                            .collect();
+                        let gc = g
+                            .iter()
+                            .map(|&(j, x)| (j, if omega > 0.0 { x / omega } else { 0.0 }))
+                            .collect();
+                        (g, gc)
+                    }
+                    Formulation::Physical => {
+                        let gk = (0..st.order)
+                            .map(|p| {
+                                let j = st.physical_index(m, r, p, 0, c);
+                                (j, scale(j) * omega.powi(p as i32))
+                            })
+                            .collect();
+                        let gc = (0..st.order)
+                            .map(|p| {
+                                let j = st.physical_index(m, r, p, 1, c);
+                                (j, scale(j) * omega.powi(p as i32))
+                            })
+                            .collect();
+                        (gk, gc)
+                    }
+                };
+                ks[e] = (half * quad(&gk)).sqrt();
+                cs[e] = (half * quad(&gc)).sqrt();
+            }
+            bearings.push((ks, cs));
+        }
+        let mut unbalance = Vec::with_capacity(np);
+        for (k, u) in self.last.unbalance.iter().enumerate() {
+            let j = st.plane_index(nb, k);
+            let sa = self.scaling.unbalance;
+            let (var_me, var_ph) = if complex {
+                let v = 0.5 * cov[(j, j)].re.max(0.0) * sa * sa;
+                (v, v / (u.me * u.me).max(f64::MIN_POSITIVE))
+            } else {
+                // d me = (x dx + y dy) / |a|, d phase = (x dy - y dx) / |a|^2.
+                let (x, y) = (u.a.re, u.a.im);
+                let r2 = (x * x + y * y).max(f64::MIN_POSITIVE);
+                let r = r2.sqrt();
+                let me = quad(&[(j, sa * x / r), (j + 1, sa * y / r)]);
+                let ph = quad(&[(j, -sa * y / r2), (j + 1, sa * x / r2)]);
+                (me, ph)
+            };
+            unbalance.push((var_me.sqrt(), var_ph.sqrt().to_degrees()));
+        }
+        Some(StdSet {
+            bearings,
+            unbalance,
+        })
+    }
+
     /// Physical (unscaled, SI) weight `j`: `s_j w~_j`.
     fn weight(&self, j: usize) -> Complex64 {
         let nb = self.last.bearings.len();
@@ -642,13 +833,16 @@ impl Identification {
     /// The SPEC section 5 JSON: `bearings` (node 1-based, `k` and `c` as
     /// `yy..zz` in SI, evaluated at the last speed), `unbalance` (node
     /// 1-based, `me` in kg m, `phase_deg`), plus `structure`, `order`,
-    /// `last_speed_rpm`, and for the paper structure the consistency values
-    /// `check: {im_z0, re_z1}` per bearing.
+    /// `last_speed_rpm`, for the paper structure the consistency values
+    /// `check: {im_z0, re_z1}` per bearing, and the standard deviations of
+    /// [`Self::std`] when known: `std: {k, c}` per bearing, `me_std`,
+    /// `phase_deg_std` (also as `std: {me, phase_deg}`) per plane.
     pub fn to_json(&self) -> Value {
         let structure = match self.options.structure.formulation {
             Formulation::Paper => "paper",
             Formulation::Physical => "physical",
         };
+        let std = self.std();
         let bearings: Vec<Value> = self
             .last
             .bearings
@@ -663,6 +857,9 @@ impl Identification {
                 if let (Some(i0), Some(r1)) = (b.im_z0, b.re_z1) {
                     v["check"] = json!({"im_z0": coef_json(&i0), "re_z1": coef_json(&r1)});
                 }
+                if let Some((ks, cs)) = std.as_ref().and_then(|s| s.bearings.get(m)) {
+                    v["std"] = json!({"k": coef_json(ks), "c": coef_json(cs)});
+                }
                 v
             })
             .collect();
@@ -672,11 +869,17 @@ impl Identification {
             .iter()
             .enumerate()
             .map(|(k, u)| {
-                json!({
+                let mut v = json!({
                     "node": self.plane_nodes.get(k).map(|n| n + 1).unwrap_or(k + 1),
                     "me": u.me,
                     "phase_deg": u.phase_deg(),
-                })
+                });
+                if let Some(&(me_std, ph_std)) = std.as_ref().and_then(|s| s.unbalance.get(k)) {
+                    v["me_std"] = json!(me_std);
+                    v["phase_deg_std"] = json!(ph_std);
+                    v["std"] = json!({"me": me_std, "phase_deg": ph_std});
+                }
+                v
             })
             .collect();
         json!({
