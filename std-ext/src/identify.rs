@@ -1,8 +1,8 @@
 //! Desktop identification driver: bearing stiffness, damping and unbalance
 //! from a measurement sweep, with runtime sizes.
 //!
-//! The per-speed terms `A(Omega)`, `B(Omega)` come from the FE model through
-//! [`crate::reduction::reduce`] at each measured speed (no interpolation),
+//! The per-speed terms `A(Omega)`, `B(Omega)` come from the FE model,
+//! reduced exactly at each measured speed (no interpolation),
 //! and the identification itself runs the very same core kernels as the
 //! firmware ([`rotorid_core::identify::Kernel`]: regressor, scaling,
 //! excitation guard, Givens QRD/RLS slice kernel) on `Vec` buffers, in `f64`
@@ -148,6 +148,24 @@ pub struct Identification {
     /// Final scaled weights `w~` (for the physical structure the real
     /// weights in `re`), see `rotorid_core::regressor` for the layout.
     pub scaled_weights: Vec<Complex64>,
+    /// Estimated covariance of the scaled weights: White's
+    /// heteroscedasticity-consistent sandwich from the final residuals of
+    /// every row, with the forgetting weights (`None` with too few rows).
+    /// It describes the scatter due to noise, not the errors-in-variables
+    /// bias of noisy `q_B` in `U`.
+    pub covariance: Option<DMatrix<Complex64>>,
+}
+
+/// A sparse linear functional of the scaled weights: `(index, coefficient)`.
+type Functional = Vec<(usize, f64)>;
+
+/// Standard deviations of the final estimates (same units as the values).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StdSet {
+    /// Per bearing: std of `k` (N/m) and `c` (N s/m), `yy..zz`.
+    pub bearings: Vec<([f64; 4], [f64; 4])>,
+    /// Per plane: std of `m e` (kg m) and of the phase (deg).
+    pub unbalance: Vec<(f64, f64)>,
 }
 
 /// Reference magnitudes for the column scaling from the known part of the
@@ -190,6 +208,75 @@ pub fn auto_scaling(model: &RotorModel, omega_ref: f64) -> ColumnScaling<f64> {
 
 /// The reduced terms at one speed: `A` (`2N_b x 2N_b`), `B` (`2N_b x N_p`).
 pub type TermsAt = (DMatrix<Complex64>, DMatrix<Complex64>);
+
+/// Identification over `model`'s shaft and planes: builds the FE model,
+/// reduces it at every measured speed and runs [`identify_with`].
+/// `progress` is called with the number of samples done.
+pub fn identify(
+    model: &RotorModel,
+    meas: &Measurements,
+    options: &Options,
+    progress: Option<&dyn Fn(usize)>,
+) -> Result<Identification, IdentifyError> {
+    let fe =
+        crate::assembly::FeModel::new(model).map_err(|e| IdentifyError::Model(e.to_string()))?;
+    let t_planes = fe
+        .unbalance_distribution(&model.planes)
+        .map_err(|e| IdentifyError::Model(e.to_string()))?;
+    let mut terms =
+        |omega: f64| -> Result<TermsAt, IdentifyError> { reduce_dense(&fe, &t_planes, omega) };
+    let scaling = match options.scaling {
+        Some(s) => s,
+        None => auto_scaling(model, max_speed(&meas.samples)),
+    };
+    let mut opts = *options;
+    opts.scaling = Some(scaling);
+    identify_with(
+        &model.bearing_nodes(),
+        &model.planes,
+        meas,
+        &opts,
+        &mut terms,
+        progress,
+    )
+}
+
+/// Dense reduction of the shaft-and-disk model to the bearing channels at
+/// `omega`: `Y = Z_R,Bi Z_R,ii^-1`, `A = Z_R,BB - Y Z_R,iB`,
+/// `B = Omega^2 (T_B - Y T_i)` (`t` = the plane distribution `T`).
+fn reduce_dense(
+    fe: &crate::assembly::FeModel,
+    t: &DMatrix<Complex64>,
+    omega: f64,
+) -> Result<TermsAt, IdentifyError> {
+    let z = fe.rotor_dynamic_stiffness(omega).to_dense();
+    let bd = fe.bearing_dofs();
+    let id: Vec<usize> = (0..z.nrows()).filter(|i| !bd.contains(i)).collect();
+    let sub = |m: &DMatrix<Complex64>, r: &[usize], c: &[usize]| {
+        DMatrix::from_fn(r.len(), c.len(), |i, j| m[(r[i], c[j])])
+    };
+    let planes: Vec<usize> = (0..t.ncols()).collect();
+    let lu = sub(&z, &id, &id).lu();
+    let singular = || IdentifyError::Model(format!("shaft model singular at {omega} rad/s"));
+    let zbi = sub(&z, &bd, &id);
+    let a = sub(&z, &bd, &bd) - &zbi * lu.solve(&sub(&z, &id, &bd)).ok_or_else(singular)?;
+    let b = (sub(t, &bd, &planes) - &zbi * lu.solve(&sub(t, &id, &planes)).ok_or_else(singular)?)
+        * Complex64::new(omega * omega, 0.0);
+    Ok((a, b))
+}
+
+/// The reduced terms `A`, `B` of `model` (its planes) at `omega` (rad/s),
+/// as the identification uses them.
+pub fn reduce_terms(
+    fe: &crate::assembly::FeModel,
+    model: &RotorModel,
+    omega: f64,
+) -> Result<TermsAt, IdentifyError> {
+    let t = fe
+        .unbalance_distribution(&model.planes)
+        .map_err(|e| IdentifyError::Model(e.to_string()))?;
+    reduce_dense(fe, &t, omega)
+}
 
 /// Highest speed of a sweep (rad/s), 0 if empty.
 pub fn max_speed(samples: &[Sample]) -> f64 {
@@ -277,9 +364,15 @@ struct State<T, F> {
     xi: Vec<F>,
     gamma: Vec<T>,
     w: Vec<F>,
+    /// Every row folded in (as the filter saw it: scaled, normalised) with
+    /// the cumulative log forgetting at the time it was folded in, for the
+    /// covariance estimate.
+    rows: Vec<(Vec<Complex64>, Complex64, f64)>,
+    /// `sum ln lambda_used` so far.
+    log_w: f64,
 }
 
-impl<T: Real, F: IdField<T>> State<T, F> {
+impl<T: Real, F: IdField<T> + Widen> State<T, F> {
     fn new(config: Config<T>, nb: usize, np: usize) -> Result<Self, CoreError> {
         let m = config.structure.n_unknowns(nb, np);
         let n = config.structure.n_rows(nb);
@@ -296,6 +389,8 @@ impl<T: Real, F: IdField<T>> State<T, F> {
             xi: vec![F::zero(); n],
             gamma: vec![T::zero(); n],
             w: vec![F::zero(); m],
+            rows: Vec::new(),
+            log_w: 0.0,
         };
         s.kernel().init()?;
         Ok(s)
@@ -329,7 +424,76 @@ impl<T: Real, F: IdField<T>> State<T, F> {
             .kernel()
             .step(omega, a, b, q, &mut d, &mut u, &mut xi, &mut gamma);
         (self.d, self.u, self.xi, self.gamma) = (d, u, xi, gamma);
+        if let Ok(rep) = &res {
+            let lam = rep.lambda_used.to_f64();
+            if lam > 0.0 {
+                self.log_w += lam.ln();
+                let m = self.p.len();
+                for (row, dj) in self.u.chunks_exact(m).zip(&self.d) {
+                    let row = row.iter().map(|x| x.widen()).collect();
+                    self.rows.push((row, dj.widen(), self.log_w));
+                }
+            }
+        }
         res
+    }
+
+    /// Heteroscedasticity-consistent covariance of the scaled weights
+    /// (White's sandwich with the HC3 leverage correction): with the row
+    /// weights `v_j` (product of the forgetting factors applied after row
+    /// `j`), `Phi = R^H R`, the final residuals `e_j = d_j - u_j w~` and the
+    /// leverages `h_j = v_j u_j Phi^-1 u_j^H`,
+    /// `Cov = Phi^-1 (sum_j v_j^2 |e_j / (1 - h_j)|^2 u_j^H u_j) Phi^-1`.
+    /// The leverage correction matters here: the few speeds near the
+    /// critical speeds carry most of the information (large `|q_B|`), so
+    /// their residuals are strongly shrunk by the fit.
+    /// `None` with fewer rows than unknowns or a singular factor.
+    fn covariance(&self) -> Option<DMatrix<Complex64>> {
+        let m = self.p.len();
+        if self.rows.len() <= m {
+            return None;
+        }
+        let r = DMatrix::from_fn(m, m, |i, j| {
+            if j >= i {
+                self.r[i * m + j].widen()
+            } else {
+                Complex64::new(0.0, 0.0)
+            }
+        });
+        let rinv = r.solve_upper_triangular(&DMatrix::identity(m, m))?;
+        let phi_inv = &rinv * rinv.adjoint();
+        let w: Vec<Complex64> = self.w.iter().map(|x| x.widen()).collect();
+        let mut meat = DMatrix::<Complex64>::zeros(m, m);
+        for (u, d, lw) in &self.rows {
+            let v = (self.log_w - lw).exp();
+            let e = d - u.iter().zip(&w).map(|(a, b)| a * b).sum::<Complex64>();
+            // Leverage h = v u Phi^-1 u^H in [0, 1): the fit pulls row j's
+            // residual toward zero by (1 - h); undo it (HC3).
+            let mut h = Complex64::new(0.0, 0.0);
+            for i in 0..m {
+                if u[i] == Complex64::new(0.0, 0.0) {
+                    continue;
+                }
+                for (k, uk) in u.iter().enumerate() {
+                    h += u[i] * phi_inv[(i, k)] * uk.conj();
+                }
+            }
+            let one_minus_h = (1.0 - v * h.re).max(1e-3);
+            let s2 = v * v * e.norm_sqr() / (one_minus_h * one_minus_h);
+            if s2 == 0.0 {
+                continue;
+            }
+            for i in 0..m {
+                let ui = u[i].conj() * s2;
+                for (k, uk) in u.iter().enumerate() {
+                    meat[(i, k)] += ui * uk;
+                }
+            }
+        }
+        let c = &phi_inv * meat * &phi_inv;
+        c.iter()
+            .all(|z| z.re.is_finite() && z.im.is_finite())
+            .then_some(c)
     }
 
     fn estimates(&mut self, omega: T) -> Result<EstimateSet, CoreError> {
@@ -464,6 +628,7 @@ fn run<T: Real, F: IdField<T> + Widen>(
         .estimates(T::lit(last_omega))
         .map_err(IdentifyError::Estimates)?;
     let scaled_weights = st.w.iter().map(|x| F::widen(*x)).collect();
+    let covariance = st.covariance();
     let mut opts = *options;
     opts.scaling = Some(scaling);
     Ok(Identification {
@@ -476,6 +641,7 @@ fn run<T: Real, F: IdField<T> + Widen>(
         steps: st.guard.steps,
         frozen: st.guard.frozen,
         scaled_weights,
+        covariance,
     })
 }
 
@@ -484,6 +650,100 @@ fn coef_json(v: &[f64; 4]) -> Value {
 }
 
 impl Identification {
+    /// Standard deviations of the final estimates from [`Self::covariance`]
+    /// by linearisation: each reported quantity is a linear functional
+    /// `g . w~` of the scaled weights (`K`, `C` at the last speed), and
+    /// `m e`, phase are linearised about the estimate. For the complex paper
+    /// structure the errors are taken circular (`var Re = var Im = E|.|^2 / 2`).
+    pub fn std(&self) -> Option<StdSet> {
+        let cov = self.covariance.as_ref()?;
+        let st = self.options.structure;
+        let nb = self.last.bearings.len();
+        let np = self.last.unbalance.len();
+        let omega = self.last.omega;
+        let scale = |j: usize| st.column_scale(&self.scaling, nb, np, j).unwrap_or(0.0);
+        // E|g . dw|^2 for a sparse real-coefficient functional.
+        let quad = |g: &[(usize, f64)]| -> f64 {
+            let mut v = Complex64::new(0.0, 0.0);
+            for &(i, gi) in g {
+                for &(j, gj) in g {
+                    v += cov[(i, j)] * gi * gj;
+                }
+            }
+            v.re.max(0.0)
+        };
+        let complex = st.formulation == Formulation::Paper;
+        let half = if complex { 0.5 } else { 1.0 };
+        let mut bearings = Vec::with_capacity(nb);
+        for m in 0..nb {
+            let mut ks = [0.0; 4];
+            let mut cs = [0.0; 4];
+            for e in 0..4 {
+                let (r, c) = (e / 2, e % 2);
+                let (gk, gc): (Functional, Functional) = match st.formulation {
+                    Formulation::Paper if st.order == 1 => {
+                        let j0 = st.paper_index(m, r, 0, c);
+                        let j1 = st.paper_index(m, r, 1, c);
+                        (vec![(j0, scale(j0))], vec![(j1, scale(j1))])
+                    }
+                    Formulation::Paper => {
+                        let g: Vec<(usize, f64)> = (0..=st.order)
+                            .map(|p| {
+                                let j = st.paper_index(m, r, p, c);
+                                (j, scale(j) * omega.powi(p as i32))
+                            })
+                            .collect();
+                        let gc = g
+                            .iter()
+                            .map(|&(j, x)| (j, if omega > 0.0 { x / omega } else { 0.0 }))
+                            .collect();
+                        (g, gc)
+                    }
+                    Formulation::Physical => {
+                        let gk = (0..st.order)
+                            .map(|p| {
+                                let j = st.physical_index(m, r, p, 0, c);
+                                (j, scale(j) * omega.powi(p as i32))
+                            })
+                            .collect();
+                        let gc = (0..st.order)
+                            .map(|p| {
+                                let j = st.physical_index(m, r, p, 1, c);
+                                (j, scale(j) * omega.powi(p as i32))
+                            })
+                            .collect();
+                        (gk, gc)
+                    }
+                };
+                ks[e] = (half * quad(&gk)).sqrt();
+                cs[e] = (half * quad(&gc)).sqrt();
+            }
+            bearings.push((ks, cs));
+        }
+        let mut unbalance = Vec::with_capacity(np);
+        for (k, u) in self.last.unbalance.iter().enumerate() {
+            let j = st.plane_index(nb, k);
+            let sa = self.scaling.unbalance;
+            let (var_me, var_ph) = if complex {
+                let v = 0.5 * cov[(j, j)].re.max(0.0) * sa * sa;
+                (v, v / (u.me * u.me).max(f64::MIN_POSITIVE))
+            } else {
+                // d me = (x dx + y dy) / |a|, d phase = (x dy - y dx) / |a|^2.
+                let (x, y) = (u.a.re, u.a.im);
+                let r2 = (x * x + y * y).max(f64::MIN_POSITIVE);
+                let r = r2.sqrt();
+                let me = quad(&[(j, sa * x / r), (j + 1, sa * y / r)]);
+                let ph = quad(&[(j, -sa * y / r2), (j + 1, sa * x / r2)]);
+                (me, ph)
+            };
+            unbalance.push((var_me.sqrt(), var_ph.sqrt().to_degrees()));
+        }
+        Some(StdSet {
+            bearings,
+            unbalance,
+        })
+    }
+
     /// Physical (unscaled, SI) weight `j`: `s_j w~_j`.
     fn weight(&self, j: usize) -> Complex64 {
         let nb = self.last.bearings.len();
@@ -573,13 +833,16 @@ impl Identification {
     /// The SPEC section 5 JSON: `bearings` (node 1-based, `k` and `c` as
     /// `yy..zz` in SI, evaluated at the last speed), `unbalance` (node
     /// 1-based, `me` in kg m, `phase_deg`), plus `structure`, `order`,
-    /// `last_speed_rpm`, and for the paper structure the consistency values
-    /// `check: {im_z0, re_z1}` per bearing.
+    /// `last_speed_rpm`, for the paper structure the consistency values
+    /// `check: {im_z0, re_z1}` per bearing, and the standard deviations of
+    /// [`Self::std`] when known: `std: {k, c}` per bearing, `me_std`,
+    /// `phase_deg_std` (also as `std: {me, phase_deg}`) per plane.
     pub fn to_json(&self) -> Value {
         let structure = match self.options.structure.formulation {
             Formulation::Paper => "paper",
             Formulation::Physical => "physical",
         };
+        let std = self.std();
         let bearings: Vec<Value> = self
             .last
             .bearings
@@ -594,6 +857,9 @@ impl Identification {
                 if let (Some(i0), Some(r1)) = (b.im_z0, b.re_z1) {
                     v["check"] = json!({"im_z0": coef_json(&i0), "re_z1": coef_json(&r1)});
                 }
+                if let Some((ks, cs)) = std.as_ref().and_then(|s| s.bearings.get(m)) {
+                    v["std"] = json!({"k": coef_json(ks), "c": coef_json(cs)});
+                }
                 v
             })
             .collect();
@@ -603,11 +869,17 @@ impl Identification {
             .iter()
             .enumerate()
             .map(|(k, u)| {
-                json!({
+                let mut v = json!({
                     "node": self.plane_nodes.get(k).map(|n| n + 1).unwrap_or(k + 1),
                     "me": u.me,
                     "phase_deg": u.phase_deg(),
-                })
+                });
+                if let Some(&(me_std, ph_std)) = std.as_ref().and_then(|s| s.unbalance.get(k)) {
+                    v["me_std"] = json!(me_std);
+                    v["phase_deg_std"] = json!(ph_std);
+                    v["std"] = json!({"me": me_std, "phase_deg": ph_std});
+                }
+                v
             })
             .collect();
         json!({
@@ -623,4 +895,356 @@ impl Identification {
             "unbalance": unbalance,
         })
     }
+}
+
+// ---------------------------------------------------------------------------
+// Reports and plots (shared by `rotorid identify` and `examples/paper.rs`).
+
+const COEF: [&str; 4] = ["yy", "yz", "zy", "zz"];
+
+fn rel(x: f64, truth: f64) -> f64 {
+    if truth != 0.0 {
+        (x - truth).abs() / truth.abs()
+    } else {
+        (x - truth).abs()
+    }
+}
+
+/// A plain-text table of the final estimates (SI units, 1-based nodes) and,
+/// when `reference` is given, the reference values (its bearing laws at the
+/// last speed, its unbalance at the plane nodes) with relative errors.
+pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let omega = id.last.omega;
+    let st = id.options.structure;
+    let _ = writeln!(
+        s,
+        "structure {} order {}, {} speeds ({} with forgetting frozen), last speed {:.1} rpm",
+        match st.formulation {
+            Formulation::Paper => "paper",
+            Formulation::Physical => "physical",
+        },
+        st.order,
+        id.steps,
+        id.frozen,
+        crate::units::rad_s_to_rpm(omega)
+    );
+    let has_ref = reference.is_some();
+    let header = if has_ref {
+        format!(
+            "{:<12} {:>14} {:>14} {:>10}",
+            "quantity", "identified", "model", "rel.err"
+        )
+    } else {
+        format!("{:<12} {:>14}", "quantity", "identified")
+    };
+    let _ = writeln!(s, "{header}");
+    fn line(s: &mut String, name: String, v: f64, t: Option<f64>) {
+        use std::fmt::Write;
+        let _ = match t {
+            Some(t) => writeln!(s, "{name:<12} {v:>14.6e} {t:>14.6e} {:>10.2e}", rel(v, t)),
+            None => writeln!(s, "{name:<12} {v:>14.6e}"),
+        };
+    }
+    for (m, b) in id.last.bearings.iter().enumerate() {
+        let node = id.bearing_nodes.get(m).map(|n| n + 1).unwrap_or(m + 1);
+        let truth = reference
+            .and_then(|r| r.bearings.get(m))
+            .map(|rb| rb.law.at(omega));
+        for (e, name) in COEF.iter().enumerate() {
+            line(
+                &mut s,
+                format!("b{}@{node} k{name}", m + 1),
+                b.k[e],
+                truth.map(|t| t.k[e]),
+            );
+        }
+        for (e, name) in COEF.iter().enumerate() {
+            line(
+                &mut s,
+                format!("b{}@{node} c{name}", m + 1),
+                b.c[e],
+                truth.map(|t| t.c[e]),
+            );
+        }
+    }
+    for (k, u) in id.last.unbalance.iter().enumerate() {
+        let node = id.plane_nodes.get(k).copied().unwrap_or(k);
+        let truth = reference.and_then(|r| r.unbalance.iter().find(|t| t.node == node));
+        line(
+            &mut s,
+            format!("n{} me", node + 1),
+            u.me,
+            truth.map(|t| t.me),
+        );
+        let _ = match truth {
+            Some(t) => {
+                let mut d = u.phase_deg() - t.phase.to_degrees();
+                d = (d + 180.0).rem_euclid(360.0) - 180.0;
+                writeln!(
+                    s,
+                    "{:<12} {:>14.6} {:>14.6} {:>10.2e}",
+                    format!("n{} phase_deg", node + 1),
+                    u.phase_deg(),
+                    t.phase.to_degrees(),
+                    d.abs()
+                )
+            }
+            None => writeln!(
+                s,
+                "{:<12} {:>14.6}",
+                format!("n{} phase_deg", node + 1),
+                u.phase_deg()
+            ),
+        };
+    }
+    if st.formulation == Formulation::Paper {
+        let _ = writeln!(
+            s,
+            "consistency (physically zero): Im Z0 (N/m), Re Z1 (N s/m)"
+        );
+        for (m, b) in id.last.bearings.iter().enumerate() {
+            if let (Some(i0), Some(r1)) = (b.im_z0, b.re_z1) {
+                let _ = writeln!(
+                    s,
+                    "b{} Im Z0 {:.3e} {:.3e} {:.3e} {:.3e}   Re Z1 {:.3e} {:.3e} {:.3e} {:.3e}",
+                    m + 1,
+                    i0[0],
+                    i0[1],
+                    i0[2],
+                    i0[3],
+                    r1[0],
+                    r1[1],
+                    r1[2],
+                    r1[3]
+                );
+            }
+        }
+    }
+    s
+}
+
+/// Errors of [`write_plots`].
+#[derive(Debug, Error)]
+pub enum ReportError {
+    /// Writing a plot failed.
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
+    /// Creating the folder failed.
+    #[error("{0}")]
+    Io(String),
+    /// The Campbell analysis failed.
+    #[error("campbell: {0}")]
+    Campbell(String),
+    /// No history was recorded.
+    #[error("no estimates recorded against speed")]
+    NoHistory,
+}
+
+/// Writes SVG plots of the estimates against speed into `dir` (created if
+/// needed), like the paper's Figs. 4 and 5: per bearing its stiffness and its
+/// damping (identified as lines; the `reference` model's values as dashed
+/// lines), the unbalance m e and phase per plane, and the Campbell diagram
+/// of the identified rotor (lines) against the reference rotor (points) up to
+/// `rpm_max`, like Fig. 6. `prefix` starts every file name. Returns the
+/// files written.
+pub fn write_plots(
+    dir: &std::path::Path,
+    prefix: &str,
+    id: &Identification,
+    model: &RotorModel,
+    reference: Option<&RotorModel>,
+    rpm_max: f64,
+) -> Result<Vec<std::path::PathBuf>, ReportError> {
+    use crate::plot::{line_plot, line_plot_with, Marker, PlotOptions, Series};
+    use crate::units::rad_s_to_rpm;
+    if id.history.is_empty() {
+        return Err(ReportError::NoHistory);
+    }
+    std::fs::create_dir_all(dir).map_err(|e| ReportError::Io(format!("{}: {e}", dir.display())))?;
+    let mut files = Vec::new();
+    let rpm: Vec<f64> = id.history.iter().map(|h| rad_s_to_rpm(h.omega)).collect();
+    for (m, _) in id.last.bearings.iter().enumerate() {
+        for (what, unit, pick) in [("stiffness", "N/m", 0usize), ("damping", "N s/m", 1usize)] {
+            let mut series = Vec::new();
+            for (e, name) in COEF.iter().enumerate() {
+                let y: Vec<f64> = id
+                    .history
+                    .iter()
+                    .map(|h| {
+                        let b = &h.estimate.bearings[m];
+                        if pick == 0 {
+                            b.k[e]
+                        } else {
+                            b.c[e]
+                        }
+                    })
+                    .collect();
+                let letter = if pick == 0 { "k" } else { "c" };
+                series.push(Series::line(format!("{letter}{name}"), rpm.clone(), y));
+                if let Some(r) = reference.and_then(|r| r.bearings.get(m)) {
+                    let yt: Vec<f64> = id
+                        .history
+                        .iter()
+                        .map(|h| {
+                            let c = r.law.at(h.omega);
+                            if pick == 0 {
+                                c.k[e]
+                            } else {
+                                c.c[e]
+                            }
+                        })
+                        .collect();
+                    series.push(
+                        Series::line(format!("{letter}{name} model"), rpm.clone(), yt).dashed(),
+                    );
+                }
+            }
+            // Same colour for an entry and its reference.
+            let palette = [(31, 119, 180), (214, 39, 40), (44, 160, 44), (255, 127, 14)];
+            let per = if reference.is_some() { 2 } else { 1 };
+            let series: Vec<Series> = series
+                .into_iter()
+                .enumerate()
+                .map(|(i, s)| s.color(palette[(i / per) % 4]))
+                .collect();
+            let path = dir.join(format!("{prefix}bearing{}_{what}.svg", m + 1));
+            let node = id.bearing_nodes.get(m).map(|n| n + 1).unwrap_or(m + 1);
+            let title = format!("Bearing {} (node {node}): identified {what}", m + 1);
+            // Keep the axis on the physical range: early transients of an
+            // RLS run can be orders of magnitude off.
+            let mut opts = PlotOptions::default();
+            if let Some(r) = reference.and_then(|r| r.bearings.get(m)) {
+                let mut lo = f64::INFINITY;
+                let mut hi = f64::NEG_INFINITY;
+                for h in &id.history {
+                    let c = r.law.at(h.omega);
+                    for v in if pick == 0 { c.k } else { c.c } {
+                        lo = lo.min(v);
+                        hi = hi.max(v);
+                    }
+                }
+                let span = (hi - lo).max(hi.abs().max(lo.abs()) * 0.1).max(1e-12);
+                opts.y_range = Some((lo - 0.5 * span, hi + 0.5 * span));
+            }
+            line_plot_with(&path, &title, "speed (rpm)", unit, &series, &opts)?;
+            files.push(path);
+        }
+    }
+    // Unbalance.
+    for (what, unit) in [("me", "kg m"), ("phase", "deg")] {
+        let mut series = Vec::new();
+        for (k, _) in id.last.unbalance.iter().enumerate() {
+            let node = id.plane_nodes.get(k).copied().unwrap_or(k);
+            let y: Vec<f64> = id
+                .history
+                .iter()
+                .map(|h| {
+                    let u = &h.estimate.unbalance[k];
+                    if what == "me" {
+                        u.me
+                    } else {
+                        u.phase_deg()
+                    }
+                })
+                .collect();
+            series.push(Series::line(format!("node {}", node + 1), rpm.clone(), y));
+            if let Some(t) = reference.and_then(|r| r.unbalance.iter().find(|t| t.node == node)) {
+                let v = if what == "me" {
+                    t.me
+                } else {
+                    t.phase.to_degrees()
+                };
+                series.push(
+                    Series::line(
+                        format!("node {} model", node + 1),
+                        rpm.clone(),
+                        vec![v; rpm.len()],
+                    )
+                    .dashed(),
+                );
+            }
+        }
+        let path = dir.join(format!("{prefix}unbalance_{what}.svg"));
+        let mut opts = PlotOptions::default();
+        if what == "me" {
+            let top = reference
+                .map(|r| r.unbalance.iter().map(|u| u.me).fold(0.0, f64::max))
+                .unwrap_or(0.0);
+            if top > 0.0 {
+                opts.y_range = Some((0.0, 2.0 * top));
+            }
+        } else {
+            opts.y_range = Some((-180.0, 180.0));
+        }
+        line_plot_with(
+            &path,
+            &format!("Identified unbalance: {what}"),
+            "speed (rpm)",
+            unit,
+            &series,
+            &opts,
+        )?;
+        files.push(path);
+    }
+    // Campbell diagram of the identified rotor (Fig. 6).
+    let ident = id.identified_model(model);
+    let speeds: Vec<f64> = (0..=30)
+        .map(|i| crate::units::rpm_to_rad_s(rpm_max * i as f64 / 30.0))
+        .collect();
+    let copts = crate::campbell::CampbellOptions {
+        max_frequency: Some(2.0 * crate::units::rpm_to_rad_s(rpm_max)),
+        max_modes: 8,
+    };
+    let diagram = |m: &RotorModel| {
+        let fe =
+            crate::assembly::FeModel::new(m).map_err(|e| ReportError::Campbell(e.to_string()))?;
+        crate::campbell::campbell_with(&fe, &speeds, &copts)
+            .map_err(|e| ReportError::Campbell(e.to_string()))
+    };
+    let di = diagram(&ident)?;
+    let mut series = Vec::new();
+    let n_modes = di.points.iter().map(|p| p.modes.len()).max().unwrap_or(0);
+    let hz = |w: f64| w / (2.0 * core::f64::consts::PI);
+    for j in 0..n_modes {
+        let (x, y): (Vec<f64>, Vec<f64>) = di
+            .points
+            .iter()
+            .filter_map(|p| {
+                p.modes
+                    .get(j)
+                    .map(|md| (rad_s_to_rpm(p.omega), hz(md.frequency)))
+            })
+            .unzip();
+        series.push(Series::line(format!("identified mode {}", j + 1), x, y).color((31, 119, 180)));
+    }
+    if let Some(r) = reference {
+        let dr = diagram(r)?;
+        let (x, y): (Vec<f64>, Vec<f64>) = dr
+            .points
+            .iter()
+            .flat_map(|p| {
+                p.modes
+                    .iter()
+                    .map(move |md| (rad_s_to_rpm(p.omega), hz(md.frequency)))
+            })
+            .unzip();
+        series.push(Series::points("model", x, y, Marker::Circle).color((214, 39, 40)));
+    }
+    series.push(
+        Series::line("1X", vec![0.0, rpm_max], vec![0.0, rpm_max / 60.0])
+            .dashed()
+            .color((0, 0, 0)),
+    );
+    let path = dir.join(format!("{prefix}campbell_identified.svg"));
+    line_plot(
+        &path,
+        "Campbell diagram of the identified rotor",
+        "speed (rpm)",
+        "frequency (Hz)",
+        &series,
+    )?;
+    files.push(path);
+    Ok(files)
 }

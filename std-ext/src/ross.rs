@@ -1,7 +1,8 @@
 //! Reading (and writing) rotors in the TOML format of ROSS, the Python
 //! rotordynamics package (`Rotor.save`, format 2.x: a top-level
 //! `ross_version` key and one table per element named `"<Class>_<tag>"`,
-//! holding the arguments of the element's constructor).
+//! holding the arguments of the element's constructor; older files without
+//! `ross_version` are recognised by their `ShaftElement_*` tables).
 //!
 //! # Mapping
 //!
@@ -356,9 +357,10 @@ fn material(name: &str, m: &RossMaterial) -> Result<Material, RossError> {
 pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
     let table: toml::Table = toml::from_str(text)
         .map_err(|e| RossError::Format(format!("not valid TOML: {}", e.message().trim())))?;
-    if !table.contains_key("ross_version") {
+    if !table.contains_key("ross_version") && !table.keys().any(|k| k.starts_with("ShaftElement_"))
+    {
         return Err(RossError::Format(
-            "no `ross_version` key: not a ROSS rotor file".into(),
+            "neither a `ross_version` key nor a ShaftElement table: not a ROSS rotor file".into(),
         ));
     }
     let mut shafts: Vec<(String, RossShaft)> = Vec::new();

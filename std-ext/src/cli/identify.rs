@@ -47,8 +47,85 @@ pub struct IdentifyArgs {
     pub plot: Option<std::path::PathBuf>,
 }
 
-/// Runs `rotorid identify`.
+/// Runs `rotorid identify`: loads the model and the measurements, reduces
+/// the model at every measured speed, runs the identification (progress bar
+/// on stderr when it is a terminal and the sweep is long), prints the table
+/// of identified values next to the model's with relative errors, and
+/// optionally writes the JSON of SPEC section 5 and SVG plots.
 pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
-    let _ = args;
-    Err(CliError::new("identify: not yet available in this build"))
+    use crate::core::regressor::{Structure, MAX_ORDER};
+    use crate::identify::{identify, report_table, write_plots, Options, Precision};
+    use std::io::IsTerminal;
+
+    if !(1..=MAX_ORDER).contains(&args.order) {
+        return Err(CliError::new(format!(
+            "--order must be in 1..={MAX_ORDER}, got {}",
+            args.order
+        )));
+    }
+    if !(args.lambda > 0.0 && args.lambda <= 1.0) {
+        return Err(CliError::new(format!(
+            "--lambda must be in (0, 1], got {}",
+            args.lambda
+        )));
+    }
+    if !(args.delta > 0.0 && args.delta.is_finite()) {
+        return Err(CliError::new(format!(
+            "--delta must be finite and > 0, got {}",
+            args.delta
+        )));
+    }
+    let model = super::load_model(&args.model)?.model;
+    let meas = crate::measurement::read_csv(&args.measurements)
+        .map_err(|e| CliError::new(format!("{}: {e}", args.measurements.display())))?;
+    let structure = match args.formulation {
+        Formulation::Physical => Structure::physical(args.order),
+        Formulation::Paper => Structure::paper(args.order),
+    };
+    let mut opts = Options::new(structure);
+    opts.lambda = args.lambda;
+    opts.delta = args.delta;
+    opts.precision = if args.f32 {
+        Precision::F32
+    } else {
+        Precision::F64
+    };
+    opts.record_history = args.plot.is_some();
+
+    let n = meas.samples.len();
+    let bar = if std::io::stderr().is_terminal() && n >= 100 {
+        let pb = indicatif::ProgressBar::new(n as u64);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template("identify {bar:40} {pos}/{len} speeds {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        Some(pb)
+    } else {
+        None
+    };
+    let tick = |done: usize| {
+        if let Some(pb) = &bar {
+            pb.set_position(done as u64);
+        }
+    };
+    let result = identify(&model, &meas, &opts, Some(&tick));
+    if let Some(pb) = &bar {
+        pb.finish_and_clear();
+    }
+    let id = result?;
+
+    print!("{}", report_table(&id, Some(&model)));
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&id.to_json())?;
+        std::fs::write(path, text + "\n")
+            .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
+    }
+    if let Some(dir) = &args.plot {
+        let rpm_max = crate::units::rad_s_to_rpm(crate::identify::max_speed(&meas.samples));
+        let files = write_plots(dir, "", &id, &model, Some(&model), rpm_max.max(1.0))?;
+        for f in files {
+            eprintln!("wrote {}", f.display());
+        }
+    }
+    Ok(())
 }

@@ -227,7 +227,11 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         )));
     }
     let flags = args.effects(file.model.n_nodes(), file.model.bearings.len())?;
-    let effects = file.effects.clone().merged_with(&flags);
+    let mut effects = file.effects.clone().merged_with(&flags);
+    if let Some(f) = args.e_scale {
+        // An explicit flag wins, also when it is 1 (merging treats 1 as unset).
+        effects.e_scale = f;
+    }
     let opts = SimOptions {
         speeds_rpm,
         noise: args.noise,
