@@ -75,6 +75,8 @@ fn comments_blank_lines_spaces_and_crlf_are_accepted() {
     let r = parse_csv(text).unwrap();
     assert_eq!(r.comments, vec!["a".to_string(), "mid".to_string()]);
     assert_eq!(r.samples.len(), 2);
+    // A byte-order mark before the header is skipped.
+    assert_eq!(parse_csv(&format!("\u{feff}{text}")).unwrap(), r);
     // A run-down (decreasing speed) is valid.
     assert!(r.samples[1].omega < r.samples[0].omega);
 }

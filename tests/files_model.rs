@@ -229,3 +229,25 @@ fn disk_from_inertia_and_simulate_section() {
     let bad = text.replace("e_scale = 1.02", "e_scale = 1.02\ncolour = 1");
     assert!(err(&bad).starts_with("simulate.colour: unknown field"));
 }
+
+#[test]
+fn shipped_variants_load() {
+    let m = load_model(example("paper_pedestal.toml")).unwrap();
+    let mut p = RotorModel::paper();
+    for b in &mut p.bearings {
+        b.pedestal = Some(rotorid::model::Pedestal {
+            mass: 40.0,
+            k: [1e8, 1.5e8],
+            c: [2e3, 2e3],
+        });
+    }
+    p.name = "paper-pedestal".into();
+    assert_eq!(m, p);
+    let f = rotorid::model_file::load_model_file(example("paper_effects.toml")).unwrap();
+    let mut p = RotorModel::paper();
+    p.name = "paper-effects".into();
+    assert_eq!(f.model, p);
+    assert_eq!(f.effects.e_scale, 1.04);
+    assert_eq!(f.effects.runout.len(), 1);
+    assert_eq!(f.effects.extra_unbalance[0].node, 13);
+}

@@ -192,3 +192,13 @@ fn ross_detection_by_key() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn older_ross_files_without_version_key_are_detected() {
+    let old = paper_ross().replace("ross_version = \"2.0.0\"\n", "");
+    assert!(rotorid::model_file::is_ross(&old));
+    assert_eq!(parse_ross(&old).unwrap().shaft, RotorModel::paper().shaft);
+    assert!(!rotorid::model_file::is_ross(
+        "name = \"x\"\n[[shaft]]\nlength = 1.0\n"
+    ));
+}

@@ -92,6 +92,17 @@ pub(crate) fn safe_range<T: Real>() -> (T, T) {
     }
 }
 
+/// Smallest positive normal number of the precision (`2^-126` in `f32`,
+/// `2^-1022` in `f64`).
+#[inline(always)]
+pub(crate) fn min_normal<T: Real>() -> T {
+    if T::EPS.to_f64() > 1e-10 {
+        T::lit(pow2(-126))
+    } else {
+        T::lit(pow2(-1022))
+    }
+}
+
 /// `2^k` for `-1022 <= k <= 1023`, exactly.
 const fn pow2(k: i32) -> f64 {
     f64::from_bits(((1023 + k) as u64) << 52)
@@ -111,8 +122,10 @@ where
     T: Real,
 {
     let a = a.abs();
-    let bm = b.real().abs().max(b.imaginary().abs());
-    let m = a.max(bm);
+    // Plain comparisons (not the NaN-aware `max`): the inputs are finite.
+    let (br, bi) = (b.real().abs(), b.imaginary().abs());
+    let bm = if br > bi { br } else { bi };
+    let m = if a > bm { a } else { bm };
     if m == T::zero() {
         return (Rotation::identity(), T::zero());
     }

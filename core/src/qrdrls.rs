@@ -57,6 +57,16 @@
 //! QR. The rotation of the augmented column `[0; 1]` is never stored: its
 //! bottom entry is the product `g_j = c_1 c_2 ... c_M` of the cosines.
 //!
+//! Implementation detail: up to 4 rows are folded together column by
+//! column (rotation `i` of a row only touches row `i` of `[R p]` and the
+//! row's own working copy, so every entry meets the same rotations in the
+//! same order as row after row, and the result is bit-identical; a unit
+//! test checks it). Their working copies live in a stack buffer of 128
+//! entries of `F` (1 KiB for `Complex<f32>`, 2 KiB for `Complex<f64>`);
+//! blocks of 4 rows are used for `M <= 33`, of 2 for `M <= 65`, and beyond
+//! that rows are folded one at a time with the strictly lower triangle of
+//! `r` as the working row.
+//!
 //! # What an update returns
 //!
 //! Rows are folded sequentially, so row `j` sees the state `R^(j-1), p^(j-1)`
@@ -66,7 +76,10 @@
 //!
 //! * a-priori error `alpha_j = d_j - u_j w^(j-1)`,
 //! * **conversion factor** `gamma_j = 1 - u_j P^(j) u_j^H
-//!   = 1 / (1 + u_j (Phi^(j-1))^-1 u_j^H)`, in `(0, 1]` (returned, `T`),
+//!   = 1 / (1 + u_j (Phi^(j-1))^-1 u_j^H)`, in `(0, 1]` (returned, `T`;
+//!   it underflows to `0` only if `u_j (Phi^(j-1))^-1 u_j^H` exceeds the
+//!   inverse of the smallest normal number, e.g. a first row of size 1e25
+//!   against `delta = 1` in `f32`),
 //! * **a-posteriori error** `xi_j = d_j - u_j w^(j) = gamma_j alpha_j`
 //!   (returned, `F`),
 //! * the rotations deliver the angle-normalised error
@@ -92,10 +105,43 @@
 //!   `p` are untouched (apart from the step's `lambda` scaling),
 //!   `gamma_j = 1` and `xi_j = d_j`. A zero entry of a row is likewise
 //!   skipped (its rotation is the identity), which makes sparse rows cheap.
-//! * The strictly lower triangle of the `r` buffer is used as workspace for
-//!   the working row during an update and is zero again on return.
+//! * For `M > 65` the strictly lower triangle of the `r` buffer is used as
+//!   workspace for the working row during an update; it is zero again on
+//!   return in every case.
 
-use crate::givens::rotation_real_pivot;
+//!
+//! # Example
+//!
+//! ```
+//! use rotorid_core::qrdrls::{self, VectorQrdRls};
+//! use rotorid_core::Complex;
+//!
+//! // Owning, fixed-size: 2 complex unknowns, 2 rows per step.
+//! let w = [Complex::new(1.0, -2.0), Complex::new(0.5, 3.0)];
+//! let mut f = VectorQrdRls::<Complex<f64>, 2, 2>::new(0.99, 1e-9)?;
+//! let u = [
+//!     [Complex::new(1.0, 0.0), Complex::new(0.0, 1.0)],
+//!     [Complex::new(2.0, 1.0), Complex::new(-1.0, 0.5)],
+//! ];
+//! let d = [u[0][0] * w[0] + u[0][1] * w[1], u[1][0] * w[0] + u[1][1] * w[1]];
+//! let info = f.update(&u, &d)?;
+//! assert!(info.gamma.iter().all(|g| *g > 0.0 && *g <= 1.0));
+//! let est = f.weights()?;
+//! assert!((est[0] - w[0]).norm() < 1e-6 && (est[1] - w[1]).norm() < 1e-6);
+//!
+//! // The same with runtime sizes on caller buffers (real field here).
+//! let m = 2;
+//! let (mut r, mut p) = (vec![0.0f64; m * m], vec![0.0f64; m]);
+//! qrdrls::init(&mut r, &mut p, 1e-9, None)?;
+//! let (mut xi, mut gamma) = ([0.0; 2], [0.0; 2]);
+//! qrdrls::update_rows(&mut r, &mut p, &[1.0, 2.0, 3.0, -1.0], &[5.0, 1.0], 1.0, &mut xi, &mut gamma)?;
+//! let mut w = [0.0; 2];
+//! qrdrls::solve_weights(&r, &p, &mut w)?;
+//! assert!((w[0] - 1.0).abs() < 1e-6 && (w[1] - 2.0).abs() < 1e-6);
+//! # Ok::<(), qrdrls::FilterError>(())
+//! ```
+
+use crate::givens::{min_normal, rotation_real_pivot, Rotation};
 use crate::Real;
 use core::fmt;
 use nalgebra::ComplexField;
@@ -229,6 +275,32 @@ where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
+    update_rows_impl(r, p, u, d, lambda, errors_out, gamma_out, true)
+}
+
+/// Capacity (entries of `F`) of the stack buffer holding the working rows
+/// of a block: 128 entries, i.e. 1 KiB for `Complex<f32>`, 2 KiB for
+/// `Complex<f64>`.
+const BLOCK_WORK: usize = 128;
+
+/// [`update_rows`], with the row blocking switchable (`blocked = false`
+/// folds strictly one row after the other; both give bit-identical results,
+/// which a unit test checks).
+#[allow(clippy::too_many_arguments)]
+fn update_rows_impl<F, T>(
+    r: &mut [F],
+    p: &mut [F],
+    u: &[F],
+    d: &[F],
+    lambda: T,
+    errors_out: &mut [F],
+    gamma_out: &mut [T],
+    blocked: bool,
+) -> Result<(), FilterError>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
     let m = dim_of(r.len(), p)?;
     let n = d.len();
     if n.checked_mul(m) != Some(u.len()) || errors_out.len() != n || gamma_out.len() != n {
@@ -251,60 +323,185 @@ where
     }
 
     // Rows 0..M-1 of R, and the last row whose first M-1 (strictly lower)
-    // entries serve as the working copy of u_j(1..M).
+    // entries serve as the working copy of u_j(1..M) for one-row folding.
     let (top, last) = r.split_at_mut((m - 1) * m);
-    let (work, last_diag) = last.split_at_mut(m - 1);
+    let (tri_work, last_diag) = last.split_at_mut(m - 1);
+    let last_diag = last_diag.first_mut().ok_or(FilterError::Dimension)?;
 
-    for (((row, &dj), xi), gam) in u
-        .chunks_exact(m)
-        .zip(d)
-        .zip(errors_out.iter_mut())
-        .zip(gamma_out.iter_mut())
-    {
-        work.copy_from_slice(&row[1..]);
-        let mut e = dj; // rotated right-hand side: ends as sqrt(gamma) alpha
-        let mut g = T::one(); // rotated augmented column: ends as sqrt(gamma)
+    // Block size: as many rows (up to 4) as the stack buffer holds.
+    let block = if !blocked {
+        1
+    } else if 4 * (m - 1) <= BLOCK_WORK {
+        4
+    } else if 2 * (m - 1) <= BLOCK_WORK {
+        2
+    } else {
+        1
+    };
+    if block == 1 {
+        for (((row, &dj), xi), gam) in u
+            .chunks_exact(m)
+            .zip(d)
+            .zip(errors_out.iter_mut())
+            .zip(gamma_out.iter_mut())
+        {
+            fold_block::<F, T, 1>(
+                top,
+                last_diag,
+                p,
+                m,
+                row,
+                core::slice::from_ref(&dj),
+                tri_work,
+                core::slice::from_mut(xi),
+                core::slice::from_mut(gam),
+            );
+        }
+    } else {
+        let mut work = [F::zero(); BLOCK_WORK];
+        let mut j0 = 0;
+        while j0 < n {
+            let nb = block.min(n - j0);
+            let rows = &u[j0 * m..(j0 + nb) * m];
+            let dj = &d[j0..j0 + nb];
+            let xi = &mut errors_out[j0..j0 + nb];
+            let gam = &mut gamma_out[j0..j0 + nb];
+            match nb {
+                4 => fold_block::<F, T, 4>(top, last_diag, p, m, rows, dj, &mut work, xi, gam),
+                3 => fold_block::<F, T, 3>(top, last_diag, p, m, rows, dj, &mut work, xi, gam),
+                2 => fold_block::<F, T, 2>(top, last_diag, p, m, rows, dj, &mut work, xi, gam),
+                _ => fold_block::<F, T, 1>(top, last_diag, p, m, rows, dj, &mut work, xi, gam),
+            }
+            j0 += nb;
+        }
+    }
+    tri_work.iter_mut().for_each(|x| *x = F::zero());
+    Ok(())
+}
 
-        for i in 0..m {
-            let b = if i == 0 { row[0] } else { work[i - 1] };
+/// Folds the `B` rows `rows` (`B x M` row-major, right-hand sides `d`) into
+/// `[R p]`, column by column: at column `i`, the rotations of rows
+/// `0..B` are computed one after the other against the diagonal `R_ii`
+/// (each seeing `R_ii` after the previous one), then all of them are
+/// applied, in row order, to the rest of row `i` of `[R p]` and to the
+/// working rows. Every entry meets exactly the same rotations in the same
+/// order as when the rows are folded one after the other (a rotation of
+/// column `i` only touches row `i` of `R` and its own working row), so the
+/// result is bit-identical; row `i` of `R` is just loaded once per column
+/// instead of once per row.
+///
+/// `top` = rows `0..M-1` of `R`, `last_diag` = `R[M-1][M-1]`, `work` holds
+/// at least `B (M - 1)` entries (working row `j` at `work[j (M-1)..]`,
+/// entries `1..M` of the row).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn fold_block<F, T, const B: usize>(
+    top: &mut [F],
+    last_diag: &mut F,
+    p: &mut [F],
+    m: usize,
+    rows: &[F],
+    d: &[F],
+    work: &mut [F],
+    xi: &mut [F],
+    gam: &mut [T],
+) where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let mut e = [F::zero(); B]; // rotated right-hand sides: end as sqrt(gamma) alpha
+    let mut g = [T::one(); B]; // rotated augmented column: ends as sqrt(gamma)
+    let mut first = [F::zero(); B];
+    for (j, row) in rows.chunks_exact(m).take(B).enumerate() {
+        e[j] = d[j];
+        first[j] = row[0];
+        work[j * (m - 1)..(j + 1) * (m - 1)].copy_from_slice(&row[1..]);
+    }
+    let work = &mut work[..B * (m - 1)];
+    // Real fields (F = T): apply each row's rotation along the whole row
+    // (contiguous, vectorisable); complex fields: keep each R_ik in a
+    // register through the B rotations. Same operations in the same order
+    // per entry either way.
+    let real_field = core::mem::size_of::<F>() == core::mem::size_of::<T>();
+
+    for i in 0..m {
+        let (diag, rest): (&mut F, &mut [F]) = if i + 1 < m {
+            let r_row = &mut top[i * m + i..(i + 1) * m];
+            match r_row.split_first_mut() {
+                Some(x) => x,
+                None => return,
+            }
+        } else {
+            (&mut *last_diag, &mut [])
+        };
+        let mut rots = [Rotation::<F>::identity(); B];
+        let mut active = [false; B];
+        for j in 0..B {
+            let b = if i == 0 {
+                first[j]
+            } else {
+                work[j * (m - 1) + i - 1]
+            };
             if b.real() == T::zero() && b.imaginary() == T::zero() {
                 continue; // identity rotation
             }
-            if i + 1 < m {
-                let r_row = &mut top[i * m + i..(i + 1) * m];
-                let (diag, rest) = r_row.split_first_mut().ok_or(FilterError::Dimension)?;
-                let (rot, rho) = rotation_real_pivot(diag.real(), b);
-                *diag = F::from_real(rho);
-                for (x, y) in rest.iter_mut().zip(work[i..].iter_mut()) {
-                    let (nx, ny) = rot.apply(*x, *y);
-                    *x = nx;
-                    *y = ny;
+            let (rot, rho) = rotation_real_pivot(diag.real(), b);
+            *diag = F::from_real(rho);
+            rots[j] = rot;
+            active[j] = true;
+            g[j] *= rot.c;
+        }
+        if !active.iter().any(|a| *a) {
+            continue;
+        }
+        let skip = m - 1 - rest.len(); // working-row index of column i + 1
+        if rest.is_empty() {
+            // Last column (or M = 1): only p is left.
+        } else if real_field || !active.iter().all(|a| *a) {
+            // Row after row over the trailing entries.
+            for ((rot, act), wj) in rots.iter().zip(&active).zip(work.chunks_exact_mut(m - 1)) {
+                if *act {
+                    for (x, y) in rest.iter_mut().zip(&mut wj[skip..]) {
+                        let (nx, ny) = rot.apply(*x, *y);
+                        *x = nx;
+                        *y = ny;
+                    }
                 }
-                let (np, ne) = rot.apply(p[i], e);
-                p[i] = np;
-                e = ne;
-                g *= rot.c;
-            } else {
-                let diag = &mut last_diag[0];
-                let (rot, rho) = rotation_real_pivot(diag.real(), b);
-                *diag = F::from_real(rho);
-                let (np, ne) = rot.apply(p[i], e);
-                p[i] = np;
-                e = ne;
-                g *= rot.c;
+            }
+        } else {
+            // Entry after entry, the B rotations on one R_ik kept in a register.
+            for (k, x) in (skip..).zip(rest.iter_mut()) {
+                let mut xv = *x;
+                for (rot, wj) in rots.iter().zip(work.chunks_exact_mut(m - 1)) {
+                    let (nx, ny) = rot.apply(xv, wj[k]);
+                    xv = nx;
+                    wj[k] = ny;
+                }
+                *x = xv;
             }
         }
-        *xi = e.scale(g);
-        *gam = g * g;
+        let mut xv = p[i];
+        for ((rot, ej), act) in rots.iter().zip(e.iter_mut()).zip(&active) {
+            if *act {
+                let (nx, ne) = rot.apply(xv, *ej);
+                xv = nx;
+                *ej = ne;
+            }
+        }
+        p[i] = xv;
     }
-    work.iter_mut().for_each(|x| *x = F::zero());
-    Ok(())
+    for j in 0..B {
+        xi[j] = e[j].scale(g[j]);
+        gam[j] = g[j] * g[j];
+    }
 }
 
 /// Back-substitution `R w = p` for the weights (`w_out` has `M` entries).
 ///
-/// Errors: `Dimension`; `Singular` if a diagonal entry of `R` is zero or a
-/// weight overflows (then `w_out` holds no meaningful values).
+/// Errors: `Dimension`; `Singular` if a diagonal entry of `R` is zero,
+/// subnormal (below the smallest normal number of `T`: its relative
+/// precision is lost) or not finite, or a weight overflows (then `w_out` holds no
+/// meaningful values).
 pub fn solve_weights<F, T>(r: &[F], p: &[F], w_out: &mut [F]) -> Result<(), FilterError>
 where
     F: ComplexField<RealField = T> + Copy,
@@ -321,7 +518,8 @@ where
             acc -= *rik * *wk;
         }
         let rii = row[i];
-        if rii.real() == T::zero() && rii.imaginary() == T::zero() {
+        let mag = rii.real().abs().max(rii.imaginary().abs());
+        if !rii.is_finite() || mag < min_normal::<T>() {
             return Err(FilterError::Singular);
         }
         let wi = acc / rii;
@@ -548,8 +746,10 @@ where
 
     /// Current weights by back-substitution of `R w = p` (`O(M^2)`).
     ///
-    /// Errors: `Singular` if a diagonal entry of `R` has underflowed to zero
-    /// (only after extremely long runs of zero rows with `lambda < 1`).
+    /// Errors: `Singular` if a diagonal entry of `R` has decayed below the
+    /// smallest normal number (only after extremely long runs without
+    /// excitation in some direction with `lambda < 1`, e.g. 2045 steps of
+    /// zero rows with `lambda = 0.5` in `f64`).
     pub fn weights(&self) -> Result<[F; M], FilterError> {
         let mut w = [F::zero(); M];
         solve_weights(self.r.as_flattened(), &self.p, &mut w)?;
@@ -701,5 +901,106 @@ mod tests {
             FilterError::Dimension
         );
         assert_eq!(r_diag_ratio(&r).unwrap(), 1.0);
+    }
+}
+
+#[cfg(test)]
+mod blocking_tests {
+    use super::*;
+    use num_complex::Complex;
+
+    /// Tiny xorshift for data.
+    fn rng(state: &mut u64) -> f64 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        (*state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+
+    fn run<F, T>(
+        m: usize,
+        n: usize,
+        steps: usize,
+        zeros: bool,
+        blocked: bool,
+        mk: &dyn Fn(f64, f64) -> F,
+    ) -> ([F; 4096], [F; 64], [F; 64], [T; 64])
+    where
+        F: ComplexField<RealField = T> + Copy,
+        T: Real,
+    {
+        let mut st = 0x1234_5678_9abc_def0u64;
+        let mut r = [F::zero(); 4096];
+        let mut p = [F::zero(); 64];
+        init(&mut r[..m * m], &mut p[..m], T::lit(0.1), None).unwrap();
+        let (mut xi, mut ga) = ([F::zero(); 64], [T::zero(); 64]);
+        let mut u = [F::zero(); 4096];
+        let mut d = [F::zero(); 64];
+        for _ in 0..steps {
+            for x in u[..n * m].iter_mut() {
+                let (a, b) = (rng(&mut st), rng(&mut st));
+                *x = if zeros && a.abs() < 0.3 {
+                    F::zero()
+                } else {
+                    mk(a, b)
+                };
+            }
+            for x in d[..n].iter_mut() {
+                *x = mk(rng(&mut st), rng(&mut st));
+            }
+            update_rows_impl(
+                &mut r[..m * m],
+                &mut p[..m],
+                &u[..n * m],
+                &d[..n],
+                T::lit(0.97),
+                &mut xi[..n],
+                &mut ga[..n],
+                blocked,
+            )
+            .unwrap();
+        }
+        (r, p, xi, ga)
+    }
+
+    #[test]
+    fn blocked_folding_is_bit_identical_to_row_by_row() {
+        let c64 = |a: f64, b: f64| Complex::new(a, b);
+        let c32 = |a: f64, b: f64| Complex::new(a as f32, b as f32);
+        let r32 = |a: f64, _b: f64| a as f32;
+        // (M, N): block 4 with remainders, block 2 (M = 40), block 1 (M = 64).
+        for &(m, n) in &[(1, 3), (2, 5), (19, 4), (22, 8), (7, 7), (40, 8), (64, 3)] {
+            for zeros in [false, true] {
+                let a = run::<Complex<f64>, f64>(m, n, 5, zeros, true, &c64);
+                let b = run::<Complex<f64>, f64>(m, n, 5, zeros, false, &c64);
+                assert!(
+                    a.0.iter()
+                        .zip(&b.0)
+                        .all(|(x, y)| x.re.to_bits() == y.re.to_bits()
+                            && x.im.to_bits() == y.im.to_bits()),
+                    "M={m} N={n}"
+                );
+                assert!(a.1 == b.1 && a.2 == b.2 && a.3 == b.3, "M={m} N={n}");
+                let a = run::<Complex<f32>, f32>(m, n, 5, zeros, true, &c32);
+                let b = run::<Complex<f32>, f32>(m, n, 5, zeros, false, &c32);
+                assert!(
+                    a.0.iter()
+                        .zip(&b.0)
+                        .all(|(x, y)| x.re.to_bits() == y.re.to_bits()
+                            && x.im.to_bits() == y.im.to_bits()),
+                    "M={m} N={n}"
+                );
+                assert!(a.1 == b.1 && a.2 == b.2 && a.3 == b.3, "M={m} N={n}");
+                let a = run::<f32, f32>(m, n, 5, zeros, true, &r32);
+                let b = run::<f32, f32>(m, n, 5, zeros, false, &r32);
+                assert!(
+                    a.0.iter()
+                        .zip(&b.0)
+                        .all(|(x, y)| x.to_bits() == y.to_bits()),
+                    "M={m} N={n}"
+                );
+                assert!(a.1 == b.1 && a.2 == b.2 && a.3 == b.3, "M={m} N={n}");
+            }
+        }
     }
 }

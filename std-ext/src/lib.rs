@@ -40,3 +40,6 @@ pub mod plot;
 pub mod ross;
 pub mod simulate;
 pub mod units;
+
+/// The command line (`rotorid`): argument parsing, model loading, errors.
+pub mod cli;

@@ -1,5 +1,5 @@
-//! The `rotorid` command line (see the README for the commands).
+//! The `rotorid` command line (see the README and `rotorid --help`).
 
 fn main() {
-    std::process::exit(0);
+    std::process::exit(rotorid::cli::main_from_env());
 }

@@ -183,6 +183,8 @@ pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
     let mut comments = Vec::new();
     let mut header: Option<(usize, CsvLayout, Vec<String>)> = None;
     let mut samples = Vec::new();
+    // A byte-order mark (spreadsheet exports) is not part of the header.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let line = raw.trim();
@@ -232,10 +234,15 @@ pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
             })
             .collect::<Vec<_>>();
         debug_assert_eq!(q.len(), 2 * n_b);
-        samples.push(Sample {
-            omega: rpm_to_rad_s(values[0]),
-            q,
-        });
+        let omega = rpm_to_rad_s(values[0]);
+        if !omega.is_finite() {
+            return Err(MeasurementError::Field {
+                line: line_no,
+                column: "speed_rpm".into(),
+                reason: format!("too large: {}", fields[0]),
+            });
+        }
+        samples.push(Sample { omega, q });
     }
     let Some((n_bearings, _, _)) = header else {
         return Err(MeasurementError::MissingHeader);

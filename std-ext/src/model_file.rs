@@ -181,6 +181,9 @@ struct RawSection {
     material: String,
 }
 
+/// Upper bound on the total number of shaft elements of a model file.
+pub const MAX_ELEMENTS: usize = 100_000;
+
 fn one() -> usize {
     1
 }
@@ -482,6 +485,12 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
                 format!("must be in 1..=100000, got {}", s.elements),
             ));
         }
+        if shaft.len() + s.elements > MAX_ELEMENTS {
+            return Err(ModelFileError::field(
+                f("elements"),
+                format!("more than {MAX_ELEMENTS} shaft elements in all"),
+            ));
+        }
         let mat = material(f("material"), &s.material)?;
         for _ in 0..s.elements {
             shaft.push(ShaftElement {
@@ -760,10 +769,12 @@ fn unbalance_entry(
     })
 }
 
-/// True if the TOML text has a top-level `ross_version` key (a ROSS rotor).
+/// True if the TOML text is a ROSS rotor: a top-level `ross_version` key,
+/// or (older ROSS files, saved without it) a top-level `ShaftElement_*`
+/// table.
 pub fn is_ross(text: &str) -> bool {
     match toml::from_str::<toml::Table>(text) {
-        Ok(t) => t.contains_key("ross_version"),
+        Ok(t) => t.contains_key("ross_version") || t.keys().any(|k| k.starts_with("ShaftElement_")),
         Err(_) => false,
     }
 }

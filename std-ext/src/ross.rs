@@ -1,7 +1,8 @@
 //! Reading (and writing) rotors in the TOML format of ROSS, the Python
 //! rotordynamics package (`Rotor.save`, format 2.x: a top-level
 //! `ross_version` key and one table per element named `"<Class>_<tag>"`,
-//! holding the arguments of the element's constructor).
+//! holding the arguments of the element's constructor; older files without
+//! `ross_version` are recognised by their `ShaftElement_*` tables).
 //!
 //! # Mapping
 //!
@@ -356,9 +357,10 @@ fn material(name: &str, m: &RossMaterial) -> Result<Material, RossError> {
 pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
     let table: toml::Table = toml::from_str(text)
         .map_err(|e| RossError::Format(format!("not valid TOML: {}", e.message().trim())))?;
-    if !table.contains_key("ross_version") {
+    if !table.contains_key("ross_version") && !table.keys().any(|k| k.starts_with("ShaftElement_"))
+    {
         return Err(RossError::Format(
-            "no `ross_version` key: not a ROSS rotor file".into(),
+            "neither a `ross_version` key nor a ShaftElement table: not a ROSS rotor file".into(),
         ));
     }
     let mut shafts: Vec<(String, RossShaft)> = Vec::new();
@@ -721,13 +723,13 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
         }
         let names_k = ["kxx", "kxy", "kyx", "kyy"];
         let names_c = ["cxx", "cxy", "cyx", "cyy"];
-        for j in 0..4 {
+        for (j, name) in names_k.iter().enumerate() {
             let v: Vec<f64> = co.iter().map(|c| c.k[j]).collect();
-            let _ = writeln!(s, "{} = {}", names_k[j], arr(&v));
+            let _ = writeln!(s, "{name} = {}", arr(&v));
         }
-        for j in 0..4 {
+        for (j, name) in names_c.iter().enumerate() {
             let v: Vec<f64> = co.iter().map(|c| c.c[j]).collect();
-            let _ = writeln!(s, "{} = {}", names_c[j], arr(&v));
+            let _ = writeln!(s, "{name} = {}", arr(&v));
         }
         // Axial and mass coefficients, zero (as ROSS 2.x writes them).
         let zeros = vec![0.0; co.len()];

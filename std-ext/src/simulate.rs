@@ -24,8 +24,10 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use thiserror::Error;
 
+use crate::assembly::FeModel;
 use crate::measurement::{Measurements, Sample};
 use crate::model::{BearingLaw, BowPoint, ModelError, Pedestal, RotorModel, ShaftBow, Unbalance};
+use crate::response::{unbalance_response, Forcing};
 use crate::units::rpm_to_rad_s;
 
 /// Error of the simulator.
@@ -467,6 +469,31 @@ pub fn simulate_with(
     add_runout(&mut out, &opts.effects.runout)?;
     add_noise(&mut out, opts.noise, opts.seed)?;
     Ok(out)
+}
+
+/// Simulates `model` with `opts`: the FE unbalance/bow response at the
+/// bearing nodes (`response::unbalance_response`), then runout and noise.
+pub fn simulate(model: &RotorModel, opts: &SimOptions) -> Result<Measurements, SimulateError> {
+    simulate_with(model, opts, &fe_bearing_response)
+}
+
+/// The finite-element response at the bearing probes: the shaft's absolute
+/// displacement at each bearing node (`Response::bearings`), one banded LU
+/// per speed.
+fn fe_bearing_response(
+    model: &RotorModel,
+    unbalance: &[Unbalance],
+    bow: Option<&ShaftBow>,
+    omegas: &[f64],
+) -> Result<Vec<Vec<Complex64>>, SimulateError> {
+    let fe = FeModel::new(model).map_err(|e| SimulateError::Solver(e.to_string()))?;
+    let forcing = Forcing {
+        unbalance: unbalance.to_vec(),
+        bow: bow.cloned(),
+    };
+    let responses = unbalance_response(&fe, &forcing, omegas)
+        .map_err(|e| SimulateError::Solver(e.to_string()))?;
+    Ok(responses.into_iter().map(|r| r.bearings).collect())
 }
 
 #[cfg(test)]

@@ -29,7 +29,7 @@ mod tests {
 
     #[test]
     fn rpm_round_trip() {
-        assert!((rpm_to_rad_s(15000.0) - 1570.796_326_794_896_6).abs() < 1e-9);
+        assert!((rpm_to_rad_s(15000.0) - 1_570.796_326_794_896_6).abs() < 1e-9);
         assert!((rad_s_to_rpm(rpm_to_rad_s(6111.0)) - 6111.0).abs() < 1e-9);
     }
 }

@@ -1,0 +1,64 @@
+//! Per speed step (8 real rows, 22 real unknowns, f32): rotorid-core's
+//! Givens QRD/RLS against flight-solver's inverse QR-RLS (`InverseQrRls<22, 1>`,
+//! one output, called once per row). flight-solver applies its forgetting
+//! per row, so it gets `lambda^(1/8)` per row (the same memory per step);
+//! it also updates the weights at every row (it has no deferred
+//! back-substitution), so the Givens filter is measured both without and
+//! with a back-substitution of the weights per step.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use flight_solver::rls::InverseQrRls;
+use nalgebra::SVector;
+use rotorid_bench_flight_solver::{stream, Step, DELTA, LAMBDA, M, N};
+use rotorid_core::qrdrls::VectorQrdRls;
+use std::hint::black_box;
+
+const STEPS: usize = 256;
+
+fn benches(c: &mut Criterion) {
+    let data: Vec<Step> = stream(STEPS, 0x5EED).collect();
+    let mut group = c.benchmark_group("real_f32_M22_N8");
+
+    let mut f = VectorQrdRls::<f32, M, N>::new(LAMBDA, DELTA).expect("valid parameters");
+    let mut i = 0usize;
+    group.bench_function("rotorid_givens", |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            black_box(f.update(black_box(u), black_box(d)).expect("finite data"))
+        })
+    });
+
+    let mut f = VectorQrdRls::<f32, M, N>::new(LAMBDA, DELTA).expect("valid parameters");
+    let mut i = 0usize;
+    group.bench_function("rotorid_givens_plus_weights", |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            f.update(black_box(u), black_box(d)).expect("finite data");
+            black_box(f.weights().expect("regular"))
+        })
+    });
+
+    let rows: Vec<[(SVector<f32, M>, SVector<f32, 1>); N]> = data
+        .iter()
+        .map(|(u, d)| {
+            core::array::from_fn(|j| (SVector::from_row_slice(&u[j]), SVector::from_element(d[j])))
+        })
+        .collect();
+    let mut fs = InverseQrRls::<M, 1>::new(1.0 / DELTA, LAMBDA.powf(1.0 / N as f32));
+    let mut i = 0usize;
+    group.bench_function("flight_solver_inverse_qr", |b| {
+        b.iter(|| {
+            for (a, y) in &rows[i % STEPS] {
+                black_box(fs.update(black_box(a), black_box(y)));
+            }
+            i += 1;
+            black_box(fs.params());
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(flight, benches);
+criterion_main!(flight);

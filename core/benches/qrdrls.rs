@@ -1,0 +1,142 @@
+//! Per-update time of the Givens vector QRD/RLS against the conventional
+//! RLS (Eqs. 10-13) and the paper's stack-and-QR method, on the same
+//! random data stream, at the paper's size (M = 19 complex unknowns, N = 4
+//! rows), at M = 40, N = 8 (complex), in f32 and f64, and for the real
+//! formulation in f32 (M = 22, N = 8).
+//!
+//! `cargo bench -p rotorid-core --features baseline --bench qrdrls`
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use nalgebra::ComplexField;
+use num_complex::Complex;
+use rotorid_core::baseline::{ConventionalRls, StackQrRls};
+use rotorid_core::qrdrls::VectorQrdRls;
+use rotorid_core::Real;
+use std::hint::black_box;
+
+/// Number of distinct steps cycled through (keeps data in cache, avoids
+/// measuring the generator).
+const STEPS: usize = 256;
+const LAMBDA: f64 = 0.999;
+const DELTA: f64 = 1e-3;
+
+struct SplitMix64(u64);
+impl SplitMix64 {
+    fn sym(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        2.0 * ((z >> 11) as f64 / (1u64 << 53) as f64) - 1.0
+    }
+}
+
+trait BenchField: ComplexField<RealField = Self::R> + Copy {
+    type R: Real;
+    fn gen(rng: &mut SplitMix64) -> Self;
+}
+impl BenchField for f32 {
+    type R = f32;
+    fn gen(rng: &mut SplitMix64) -> Self {
+        rng.sym() as f32
+    }
+}
+impl BenchField for f64 {
+    type R = f64;
+    fn gen(rng: &mut SplitMix64) -> Self {
+        rng.sym()
+    }
+}
+impl BenchField for Complex<f32> {
+    type R = f32;
+    fn gen(rng: &mut SplitMix64) -> Self {
+        Complex::new(rng.sym() as f32, rng.sym() as f32)
+    }
+}
+impl BenchField for Complex<f64> {
+    type R = f64;
+    fn gen(rng: &mut SplitMix64) -> Self {
+        Complex::new(rng.sym(), rng.sym())
+    }
+}
+
+#[allow(clippy::type_complexity)]
+fn stream<F: BenchField, const M: usize, const N: usize>() -> Vec<([[F; M]; N], [F; N])> {
+    let mut rng = SplitMix64(0x5EED);
+    let w: [F; M] = core::array::from_fn(|_| F::gen(&mut rng));
+    (0..STEPS)
+        .map(|_| {
+            let u: [[F; M]; N] =
+                core::array::from_fn(|_| core::array::from_fn(|_| F::gen(&mut rng)));
+            let d: [F; N] = core::array::from_fn(|j| {
+                let mut acc = F::gen(&mut rng).scale(F::R::lit(1e-3));
+                for k in 0..M {
+                    acc += u[j][k] * w[k];
+                }
+                acc
+            });
+            (u, d)
+        })
+        .collect()
+}
+
+fn bench_case<F: BenchField, const M: usize, const N: usize>(c: &mut Criterion, label: &str) {
+    let data = stream::<F, M, N>();
+    let lambda = F::R::lit(LAMBDA);
+    let delta = F::R::lit(DELTA);
+    let mut group = c.benchmark_group(format!("qrdrls_update/{label}"));
+
+    let mut f = VectorQrdRls::<F, M, N>::new(lambda, delta).expect("valid parameters");
+    let mut i = 0usize;
+    group.bench_function(BenchmarkId::from_parameter("givens"), |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            black_box(f.update(black_box(u), black_box(d)).expect("finite data"))
+        })
+    });
+
+    let mut conv = ConventionalRls::<F>::new(M, delta, None).expect("valid parameters");
+    let (mut xi, mut gamma) = ([F::zero(); N], [F::R::lit(0.0); N]);
+    let mut i = 0usize;
+    group.bench_function(BenchmarkId::from_parameter("conventional_rls"), |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            conv.update(
+                black_box(u.as_flattened()),
+                black_box(d),
+                lambda,
+                &mut xi,
+                &mut gamma,
+            )
+            .expect("finite data");
+            black_box(&xi);
+        })
+    });
+
+    let mut stack = StackQrRls::<F>::new(M, delta, None).expect("valid parameters");
+    let mut i = 0usize;
+    group.bench_function(BenchmarkId::from_parameter("stack_and_qr"), |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            stack
+                .update(black_box(u.as_flattened()), black_box(d), lambda)
+                .expect("finite data");
+        })
+    });
+    group.finish();
+}
+
+fn benches(c: &mut Criterion) {
+    bench_case::<Complex<f64>, 19, 4>(c, "M19_N4_complex_f64");
+    bench_case::<Complex<f32>, 19, 4>(c, "M19_N4_complex_f32");
+    bench_case::<Complex<f64>, 40, 8>(c, "M40_N8_complex_f64");
+    bench_case::<Complex<f32>, 40, 8>(c, "M40_N8_complex_f32");
+    bench_case::<f32, 22, 8>(c, "M22_N8_real_f32");
+}
+
+criterion_group!(qrdrls, benches);
+criterion_main!(qrdrls);

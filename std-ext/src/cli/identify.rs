@@ -1,0 +1,131 @@
+//! `rotorid identify`: bearing coefficients and unbalance from a
+//! measurement CSV.
+
+use clap::{Args, ValueEnum};
+
+use super::CliError;
+
+/// Model structure of the identification.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Formulation {
+    /// Real K and C per bearing and complex unbalance (physics enforced).
+    Physical,
+    /// The paper's complex Z0, Z1 per bearing (Eqs. 43, 47, 48).
+    Paper,
+}
+
+/// Arguments of `rotorid identify`.
+#[derive(Debug, Clone, PartialEq, Args)]
+pub struct IdentifyArgs {
+    /// Model: `paper` or a model file (rotorid or ROSS TOML).
+    #[arg(long, value_name = "MODEL")]
+    pub model: String,
+    /// Measurement CSV (SPEC section 4).
+    #[arg(long, value_name = "FILE.csv")]
+    pub measurements: std::path::PathBuf,
+    /// Model structure.
+    #[arg(long, value_enum, default_value_t = Formulation::Physical)]
+    pub formulation: Formulation,
+    /// Polynomial order P of the bearing dynamic stiffness in Omega
+    /// (1 = Z0 + Omega Z1).
+    #[arg(long, default_value_t = 1, value_name = "P")]
+    pub order: usize,
+    /// Forgetting factor lambda in (0, 1].
+    #[arg(long, default_value_t = 0.999, allow_negative_numbers = true)]
+    pub lambda: f64,
+    /// Regularisation delta > 0 (R(0) = sqrt(delta) I).
+    #[arg(long, default_value_t = 1e-7, allow_negative_numbers = true)]
+    pub delta: f64,
+    /// Run the identification in single precision.
+    #[arg(long = "f32")]
+    pub f32: bool,
+    /// Write the estimates as JSON (SPEC section 5).
+    #[arg(long, value_name = "OUT.json")]
+    pub json: Option<std::path::PathBuf>,
+    /// Write plots (SVG) into this folder.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<std::path::PathBuf>,
+}
+
+/// Runs `rotorid identify`: loads the model and the measurements, reduces
+/// the model at every measured speed, runs the identification (progress bar
+/// on stderr when it is a terminal and the sweep is long), prints the table
+/// of identified values next to the model's with relative errors, and
+/// optionally writes the JSON of SPEC section 5 and SVG plots.
+pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
+    use crate::core::regressor::{Structure, MAX_ORDER};
+    use crate::identify::{identify, report_table, write_plots, Options, Precision};
+    use std::io::IsTerminal;
+
+    if !(1..=MAX_ORDER).contains(&args.order) {
+        return Err(CliError::new(format!(
+            "--order must be in 1..={MAX_ORDER}, got {}",
+            args.order
+        )));
+    }
+    if !(args.lambda > 0.0 && args.lambda <= 1.0) {
+        return Err(CliError::new(format!(
+            "--lambda must be in (0, 1], got {}",
+            args.lambda
+        )));
+    }
+    if !(args.delta > 0.0 && args.delta.is_finite()) {
+        return Err(CliError::new(format!(
+            "--delta must be finite and > 0, got {}",
+            args.delta
+        )));
+    }
+    let model = super::load_model(&args.model)?.model;
+    let meas = crate::measurement::read_csv(&args.measurements)
+        .map_err(|e| CliError::new(format!("{}: {e}", args.measurements.display())))?;
+    let structure = match args.formulation {
+        Formulation::Physical => Structure::physical(args.order),
+        Formulation::Paper => Structure::paper(args.order),
+    };
+    let mut opts = Options::new(structure);
+    opts.lambda = args.lambda;
+    opts.delta = args.delta;
+    opts.precision = if args.f32 {
+        Precision::F32
+    } else {
+        Precision::F64
+    };
+    opts.record_history = args.plot.is_some();
+
+    let n = meas.samples.len();
+    let bar = if std::io::stderr().is_terminal() && n >= 100 {
+        let pb = indicatif::ProgressBar::new(n as u64);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template("identify {bar:40} {pos}/{len} speeds {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        Some(pb)
+    } else {
+        None
+    };
+    let tick = |done: usize| {
+        if let Some(pb) = &bar {
+            pb.set_position(done as u64);
+        }
+    };
+    let result = identify(&model, &meas, &opts, Some(&tick));
+    if let Some(pb) = &bar {
+        pb.finish_and_clear();
+    }
+    let id = result?;
+
+    print!("{}", report_table(&id, Some(&model)));
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&id.to_json())?;
+        std::fs::write(path, text + "\n")
+            .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
+    }
+    if let Some(dir) = &args.plot {
+        let rpm_max = crate::units::rad_s_to_rpm(crate::identify::max_speed(&meas.samples));
+        let files = write_plots(dir, "", &id, &model, Some(&model), rpm_max.max(1.0))?;
+        for f in files {
+            eprintln!("wrote {}", f.display());
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,254 @@
+//! `rotorid simulate`: a measurement CSV from a model (see the README,
+//! "Simulator").
+
+use clap::{Args, ValueEnum};
+
+use super::{load_model, CliError, RpmGridArgs};
+use crate::measurement::{write_csv, CsvLayout};
+use crate::model::{BowPoint, Pedestal, Unbalance};
+use crate::simulate::{Channel, Effects, Runout, SimOptions, SpeedLaw, SpeedScaling};
+
+/// Column layout of the written CSV.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LayoutArg {
+    /// `bK_y_re, bK_y_im, ...`.
+    Complex,
+    /// `bK_y_amp, bK_y_phase_deg, ...`.
+    AmpPhase,
+}
+
+/// Stiffness-versus-speed law of `--bearing-speed-law`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SpeedLawArg {
+    /// `K (rpm / rpm_ref)^2` (the paper's Eq. 49 with rpm_ref = 15000).
+    Quadratic,
+    /// `K rpm / rpm_ref`.
+    Linear,
+}
+
+/// Three numbers `A:B:C` of an effect flag.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Triple<T> {
+    /// First field.
+    pub first: T,
+    /// Second field.
+    pub amplitude: f64,
+    /// Third field (deg).
+    pub phase_deg: f64,
+}
+
+fn parse_triple<T: std::str::FromStr>(s: &str, what: &str) -> Result<Triple<T>, String> {
+    let parts: Vec<&str> = s.split(':').collect();
+    let bad = || format!("expected {what}, got `{s}`");
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let first = parts[0].trim().parse::<T>().map_err(|_| bad())?;
+    let amplitude: f64 = parts[1].trim().parse().map_err(|_| bad())?;
+    let phase_deg: f64 = parts[2].trim().parse().map_err(|_| bad())?;
+    if !(amplitude.is_finite() && amplitude >= 0.0 && phase_deg.is_finite()) {
+        return Err(format!(
+            "{}: amplitude must be finite and >= 0, phase finite",
+            bad()
+        ));
+    }
+    Ok(Triple {
+        first,
+        amplitude,
+        phase_deg,
+    })
+}
+
+fn parse_node_triple(s: &str) -> Result<Triple<usize>, String> {
+    parse_triple::<usize>(s, "NODE:AMOUNT:PHASE_DEG (node from 1)")
+}
+
+fn parse_channel_triple(s: &str) -> Result<Triple<String>, String> {
+    parse_triple::<String>(s, "CHANNEL:AMPLITUDE_M:PHASE_DEG (e.g. b1_y:2e-6:30)")
+}
+
+/// Arguments of `rotorid simulate`. The effect flags add to (or, for the
+/// single-valued ones, override) the model file's `[simulate]` section.
+#[derive(Debug, Clone, PartialEq, Args)]
+pub struct SimulateArgs {
+    /// Model: `paper` or a model file (rotorid or ROSS TOML).
+    #[arg(long, value_name = "MODEL")]
+    pub model: String,
+    /// Output CSV.
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: std::path::PathBuf,
+    /// Speed grid.
+    #[command(flatten)]
+    pub grid: RpmGridArgs,
+    /// Relative noise level s: each complex sample gets s |q| eps, eps
+    /// standard complex Gaussian (0 = noise-free).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub noise: f64,
+    /// Seed of the noise generator (ChaCha8).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Column layout of the CSV.
+    #[arg(long, value_enum, default_value_t = LayoutArg::Complex)]
+    pub layout: LayoutArg,
+    /// Shaft modulus scale: E and G of every element times this factor.
+    #[arg(long, value_name = "FACTOR", allow_negative_numbers = true)]
+    pub e_scale: Option<f64>,
+    /// Speed-dependent bearing stiffness: every bearing's stiffness times
+    /// (rpm/rpm_ref)^2 (quadratic) or rpm/rpm_ref (linear).
+    #[arg(long, value_enum)]
+    pub bearing_speed_law: Option<SpeedLawArg>,
+    /// Reference speed of --bearing-speed-law (rpm).
+    #[arg(
+        long,
+        default_value_t = 15000.0,
+        value_name = "RPM",
+        allow_negative_numbers = true
+    )]
+    pub rpm_ref: f64,
+    /// Pedestal mass (kg) under every bearing without one (needs
+    /// --pedestal-k and --pedestal-c).
+    #[arg(long, value_name = "KG", requires_all = ["pedestal_k", "pedestal_c"], allow_negative_numbers = true)]
+    pub pedestal_mass: Option<f64>,
+    /// Pedestal stiffness to ground, y and z (N/m).
+    #[arg(
+        long,
+        value_name = "N/M",
+        requires = "pedestal_mass",
+        allow_negative_numbers = true
+    )]
+    pub pedestal_k: Option<f64>,
+    /// Pedestal damping to ground, y and z (N s/m).
+    #[arg(
+        long,
+        value_name = "NS/M",
+        requires = "pedestal_mass",
+        allow_negative_numbers = true
+    )]
+    pub pedestal_c: Option<f64>,
+    /// Shaft bow point NODE:AMPLITUDE_M:PHASE_DEG (repeatable).
+    #[arg(long, value_name = "NODE:AMP:PHASE", value_parser = parse_node_triple)]
+    pub bow: Vec<Triple<usize>>,
+    /// Probe runout CHANNEL:AMPLITUDE_M:PHASE_DEG, e.g. b1_y:2e-6:30 (repeatable).
+    #[arg(long, value_name = "CH:AMP:PHASE", value_parser = parse_channel_triple)]
+    pub runout: Vec<Triple<String>>,
+    /// Extra unbalance NODE:ME_KGM:PHASE_DEG (repeatable).
+    #[arg(long, value_name = "NODE:ME:PHASE", value_parser = parse_node_triple)]
+    pub extra_unbalance: Vec<Triple<usize>>,
+}
+
+fn node0(node: usize, n_nodes: usize, flag: &str) -> Result<usize, CliError> {
+    if node == 0 || node > n_nodes {
+        Err(CliError(format!(
+            "{flag}: node {node} is not on the shaft (nodes 1..={n_nodes})"
+        )))
+    } else {
+        Ok(node - 1)
+    }
+}
+
+impl SimulateArgs {
+    /// The effects asked for on the command line, for a model with
+    /// `n_nodes` nodes and `n_bearings` bearings.
+    pub fn effects(&self, n_nodes: usize, n_bearings: usize) -> Result<Effects, CliError> {
+        let mut e = Effects::default();
+        if let Some(f) = self.e_scale {
+            if !(f.is_finite() && f > 0.0) {
+                return Err(CliError(format!(
+                    "--e-scale must be finite and > 0, got {f}"
+                )));
+            }
+            e.e_scale = f;
+        }
+        if let Some(law) = self.bearing_speed_law {
+            if !(self.rpm_ref.is_finite() && self.rpm_ref > 0.0) {
+                return Err(CliError(format!(
+                    "--rpm-ref must be finite and > 0, got {}",
+                    self.rpm_ref
+                )));
+            }
+            e.bearing_speed_law = Some(SpeedScaling {
+                rpm_ref: self.rpm_ref,
+                law: match law {
+                    SpeedLawArg::Quadratic => SpeedLaw::Quadratic,
+                    SpeedLawArg::Linear => SpeedLaw::Linear,
+                },
+            });
+        }
+        if let (Some(m), Some(k), Some(c)) = (self.pedestal_mass, self.pedestal_k, self.pedestal_c)
+        {
+            if !(m.is_finite() && m > 0.0 && k.is_finite() && k > 0.0 && c.is_finite() && c >= 0.0)
+            {
+                return Err(CliError(
+                    "--pedestal-mass and --pedestal-k must be finite and > 0, --pedestal-c finite and >= 0"
+                        .into(),
+                ));
+            }
+            e.pedestal = Some(Pedestal {
+                mass: m,
+                k: [k, k],
+                c: [c, c],
+            });
+        }
+        for b in &self.bow {
+            e.bow.push(BowPoint {
+                node: node0(b.first, n_nodes, "--bow")?,
+                amplitude: b.amplitude,
+                phase: b.phase_deg.to_radians(),
+            });
+        }
+        for r in &self.runout {
+            let channel = Channel::parse(&r.first, n_bearings)
+                .map_err(|m| CliError(format!("--runout: {m}")))?;
+            e.runout.push(Runout {
+                channel,
+                amplitude: r.amplitude,
+                phase: r.phase_deg.to_radians(),
+            });
+        }
+        for u in &self.extra_unbalance {
+            e.extra_unbalance.push(Unbalance {
+                node: node0(u.first, n_nodes, "--extra-unbalance")?,
+                me: u.amplitude,
+                phase: u.phase_deg.to_radians(),
+            });
+        }
+        Ok(e)
+    }
+}
+
+/// Runs `rotorid simulate`.
+pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
+    let file = load_model(&args.model)?;
+    let speeds_rpm = args.grid.speeds_rpm()?;
+    if !(args.noise.is_finite() && args.noise >= 0.0) {
+        return Err(CliError(format!(
+            "--noise must be finite and >= 0, got {}",
+            args.noise
+        )));
+    }
+    let flags = args.effects(file.model.n_nodes(), file.model.bearings.len())?;
+    let mut effects = file.effects.clone().merged_with(&flags);
+    if let Some(f) = args.e_scale {
+        // An explicit flag wins, also when it is 1 (merging treats 1 as unset).
+        effects.e_scale = f;
+    }
+    let opts = SimOptions {
+        speeds_rpm,
+        noise: args.noise,
+        seed: args.seed,
+        effects,
+    };
+    let m = crate::simulate::simulate(&file.model, &opts)?;
+    let layout = match args.layout {
+        LayoutArg::Complex => CsvLayout::Complex,
+        LayoutArg::AmpPhase => CsvLayout::AmplitudePhase,
+    };
+    write_csv(&m, &args.out, layout)?;
+    eprintln!(
+        "wrote {} speeds x {} channels to {}",
+        m.samples.len(),
+        2 * m.n_bearings,
+        args.out.display()
+    );
+    Ok(())
+}

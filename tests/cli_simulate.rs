@@ -1,0 +1,223 @@
+//! `rotorid simulate` and `rotorid campbell` on the built-in paper rotor.
+
+use std::process::Command;
+
+use rotorid::measurement::read_csv;
+use rotorid::model::RotorModel;
+use rotorid::simulate::{simulate, uniform_rpm_grid, Effects, SimOptions};
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("rotorid-clisim-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn rotorid(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_rotorid"))
+        .args(args)
+        .output()
+        .expect("run rotorid");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn simulate_paper_writes_a_valid_csv() {
+    let p = tmp("paper.csv");
+    let (code, _, err) = rotorid(&["simulate", "--model", "paper", "--out", p.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let m = read_csv(&p).unwrap();
+    assert_eq!(m.n_bearings, 2);
+    // Default grid: 50, 100, ..., 15000 rpm.
+    assert_eq!(m.samples.len(), 300);
+    let lib = simulate(
+        &RotorModel::paper(),
+        &SimOptions {
+            speeds_rpm: uniform_rpm_grid(50.0, 15000.0, 50.0).unwrap(),
+            noise: 0.0,
+            seed: 1,
+            effects: Effects::default(),
+        },
+    )
+    .unwrap();
+    for (a, b) in m.samples.iter().zip(&lib.samples) {
+        assert_eq!(a.q, b.q);
+        assert!((a.omega - b.omega).abs() <= 1e-12 * b.omega);
+    }
+    let text = std::fs::read_to_string(&p).unwrap();
+    assert!(
+        text.contains("speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,b2_y_re,b2_y_im,b2_z_re,b2_z_im")
+    );
+}
+
+#[test]
+fn simulate_with_flags_noise_and_layout() {
+    let a = tmp("a.csv");
+    let b = tmp("b.csv");
+    let args = |out: &std::path::Path| {
+        vec![
+            "simulate".to_string(),
+            "--model".into(),
+            "paper".into(),
+            "--out".into(),
+            out.to_str().unwrap().into(),
+            "--rpm-min".into(),
+            "100".into(),
+            "--rpm-max".into(),
+            "1000".into(),
+            "--rpm-step".into(),
+            "300".into(),
+            "--noise".into(),
+            "0.01".into(),
+            "--seed".into(),
+            "3".into(),
+            "--runout".into(),
+            "b1_y:1e-6:45".into(),
+            "--e-scale".into(),
+            "1.02".into(),
+            "--extra-unbalance".into(),
+            "14:0.001:90".into(),
+            "--pedestal-mass".into(),
+            "50".into(),
+            "--pedestal-k".into(),
+            "1e8".into(),
+            "--pedestal-c".into(),
+            "1e3".into(),
+            "--bearing-speed-law".into(),
+            "linear".into(),
+            "--bow".into(),
+            "14:1e-5:0".into(),
+        ]
+    };
+    let run = |out: &std::path::Path| {
+        let o = Command::new(env!("CARGO_BIN_EXE_rotorid"))
+            .args(args(out))
+            .output()
+            .unwrap();
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    run(&a);
+    run(&b);
+    // Same seed, same file; 100, 400, 700, 1000 rpm.
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    let m = read_csv(&a).unwrap();
+    assert_eq!(m.samples.len(), 4);
+    let text = std::fs::read_to_string(&a).unwrap();
+    for needle in [
+        "runout on b1_y",
+        "E and G scaled by 1.02",
+        "extra unbalance at node 14",
+        "pedestal",
+        "bow at node 14",
+        "(rpm/15000)^1",
+        "seed 3",
+    ] {
+        assert!(text.contains(needle), "{needle}: {text}");
+    }
+    let c = tmp("c.csv");
+    let (code, _, err) = rotorid(&[
+        "simulate",
+        "--model",
+        "paper",
+        "--out",
+        c.to_str().unwrap(),
+        "--rpm-max",
+        "500",
+        "--layout",
+        "amp-phase",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(std::fs::read_to_string(&c)
+        .unwrap()
+        .contains("b1_y_amp,b1_y_phase_deg"));
+    assert_eq!(read_csv(&c).unwrap().samples.len(), 10);
+}
+
+#[test]
+fn simulate_from_model_files_own_and_ross() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let a = tmp("own.csv");
+    let b = tmp("ross.csv");
+    for (model, out) in [
+        ("examples/paper.toml", &a),
+        ("examples/paper_ross.toml", &b),
+    ] {
+        let (code, _, err) = rotorid(&[
+            "simulate",
+            "--model",
+            root.join(model).to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--rpm-max",
+            "1000",
+        ]);
+        assert_eq!(code, 0, "{model}: {err}");
+    }
+    let own = read_csv(&a).unwrap();
+    assert!(own
+        .samples
+        .iter()
+        .all(|s| s.q.iter().any(|z| z.norm() > 0.0)));
+    // The ROSS file carries no unbalance: zero response.
+    let ross = read_csv(&b).unwrap();
+    assert!(ross
+        .samples
+        .iter()
+        .all(|s| s.q.iter().all(|z| z.norm() == 0.0)));
+}
+
+#[test]
+fn campbell_prints_table_and_critical_speeds_and_writes_svg() {
+    let p = tmp("campbell.svg");
+    let (code, out, err) = rotorid(&[
+        "campbell",
+        "--model",
+        "paper",
+        "--plot",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("speed_rpm"));
+    assert!(out.contains(" F "), "{out}");
+    assert!(out.contains(" B "), "{out}");
+    // Critical speeds section with the paper rotor's first forward
+    // critical speed near 6111 rpm (SPEC section 3).
+    let crit: Vec<f64> = out
+        .split("critical speeds (forward modes crossing 1X):")
+        .nth(1)
+        .unwrap()
+        .lines()
+        .take_while(|l| !l.starts_with("backward"))
+        .filter_map(|l| l.split_whitespace().next()?.parse().ok())
+        .collect();
+    assert!(
+        crit.iter().any(|c| (c - 6111.0).abs() < 60.0),
+        "{crit:?}\n{out}"
+    );
+    let svg = std::fs::read_to_string(&p).unwrap();
+    assert!(svg.starts_with("<svg"));
+    assert!(svg.contains("Campbell diagram"));
+    assert!(svg.contains("1X"));
+    assert!(svg.contains("forward"));
+    assert!(svg.contains("backward"));
+    // Unwritable plot path: exit 2, one line.
+    let (code, _, err) = rotorid(&[
+        "campbell",
+        "--model",
+        "paper",
+        "--rpm-max",
+        "1000",
+        "--plot",
+        "/no/such/dir/x.svg",
+    ]);
+    assert_eq!(code, 2);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+}

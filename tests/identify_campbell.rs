@@ -1,0 +1,106 @@
+//! Natural frequencies of the identified rotor against the true rotor's
+//! (the paper's Fig. 6): the identified bearing laws put back into the FE
+//! model, Campbell diagram at speeds up to 15000 rpm.
+
+mod identify_common;
+use identify_common::*;
+use rotorid::assembly::FeModel;
+use rotorid::campbell::{campbell_with, CampbellOptions};
+use rotorid::core::regressor::Structure;
+use rotorid::identify::{auto_scaling, identify_with, Identification, Options};
+use rotorid::model::RotorModel;
+use rotorid::units::rpm_to_rad_s;
+
+fn identify(model: &RotorModel, structure: Structure, lambda: f64, noise: f64) -> Identification {
+    let mut meas = simulate(model, &sweep(50.0, 15000.0, 50.0));
+    if noise > 0.0 {
+        add_noise(&mut meas, noise, 3);
+    }
+    let red = DenseReduction::new(model);
+    let mut opts = Options::new(structure);
+    opts.lambda = lambda;
+    opts.scaling = Some(auto_scaling(model, rpm_to_rad_s(15000.0)));
+    let mut src = red.source();
+    identify_with(
+        &model.bearing_nodes(),
+        &model.planes,
+        &meas,
+        &opts,
+        &mut src,
+        None,
+    )
+    .unwrap()
+}
+
+/// Worst relative difference of the damped natural frequencies below
+/// `f_max` (rad/s) at speeds 0..15000 rpm (step 3000), modes matched by
+/// rank; `None` if the two rotors do not have the same number of modes
+/// there.
+fn worst_frequency_error(
+    truth: &RotorModel,
+    ident: &RotorModel,
+    f_max: f64,
+) -> Option<(f64, usize)> {
+    let speeds: Vec<f64> = (0..=5).map(|i| rpm_to_rad_s(3000.0 * i as f64)).collect();
+    let opts = CampbellOptions {
+        max_frequency: Some(f_max),
+        max_modes: 12,
+    };
+    let a = campbell_with(&FeModel::new(truth).unwrap(), &speeds, &opts).unwrap();
+    let b = campbell_with(&FeModel::new(ident).unwrap(), &speeds, &opts).unwrap();
+    let mut worst = 0.0f64;
+    let mut count = 0;
+    for (pa, pb) in a.points.iter().zip(&b.points) {
+        if pa.modes.len() != pb.modes.len() {
+            return None;
+        }
+        for (ma, mb) in pa.modes.iter().zip(&pb.modes) {
+            worst = worst.max((ma.frequency - mb.frequency).abs() / ma.frequency);
+            count += 1;
+        }
+    }
+    Some((worst, count))
+}
+
+#[test]
+fn identified_rotor_natural_frequencies_within_half_a_percent() {
+    // Modes up to twice the top speed (the paper's Fig. 6 range and more).
+    let f_max = 2.0 * rpm_to_rad_s(15000.0);
+    let m1 = RotorModel::paper();
+    let m2 = RotorModel::paper_speed_dependent();
+    for (name, model, structure, lambda) in [
+        ("4.1 paper order 1", &m1, Structure::paper(1), 0.999),
+        ("4.1 physical order 1", &m1, Structure::physical(1), 0.999),
+        ("4.2 paper order 2", &m2, Structure::paper(2), 0.99),
+        ("4.2 physical order 3", &m2, Structure::physical(3), 0.99),
+    ] {
+        let id = identify(model, structure, lambda, 0.0);
+        let (worst, n) =
+            worst_frequency_error(model, &id.identified_model(model), f_max).expect("same modes");
+        println!("{name}: worst natural-frequency error {worst:.2e} over {n} modes");
+        assert!(n > 20, "{n}");
+        assert!(worst < 5e-3, "{name}: {worst}");
+    }
+    // The paper's own model on the speed-dependent case: frequencies off.
+    let id = identify(&m2, Structure::paper(1), 0.99, 0.0);
+    let r = worst_frequency_error(&m2, &id.identified_model(&m2), f_max);
+    println!(
+        "4.2 paper order 1: worst natural-frequency error {r:?} (None: not even the same modes)"
+    );
+}
+
+#[test]
+fn identified_rotor_natural_frequencies_with_noise() {
+    let f_max = 2.0 * rpm_to_rad_s(15000.0);
+    let m1 = RotorModel::paper();
+    for noise in [0.001, 0.01] {
+        for structure in [Structure::paper(1), Structure::physical(1)] {
+            let id = identify(&m1, structure, 0.999, noise);
+            let (worst, _) =
+                worst_frequency_error(&m1, &id.identified_model(&m1), f_max).expect("same modes");
+            println!("4.1 {structure:?} noise {noise}: worst natural-frequency error {worst:.2e}");
+            // Loose sanity bound; the measured values are in the README.
+            assert!(worst < 0.5, "{worst}");
+        }
+    }
+}

@@ -1,0 +1,134 @@
+//! `rotorid identify` end to end: SPEC flags, the JSON contract, one-line
+//! errors with exit status 2.
+
+mod identify_common;
+use identify_common::*;
+use rotorid::model::RotorModel;
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_rotorid"))
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("rotorid-identify-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+#[test]
+fn identify_writes_the_spec_json() {
+    let model = RotorModel::paper();
+    let meas = simulate(&model, &sweep(50.0, 15000.0, 50.0));
+    let csv = tmp("sweep.csv");
+    rotorid::measurement::write_csv(&meas, &csv, Default::default()).unwrap();
+    for (formulation, order) in [("physical", "1"), ("paper", "1"), ("paper", "2")] {
+        let json = tmp(&format!("out-{formulation}-{order}.json"));
+        let out = bin()
+            .args(["identify", "--model", "paper", "--measurements"])
+            .arg(&csv)
+            .args(["--formulation", formulation, "--order", order])
+            .args(["--lambda", "0.999", "--delta", "1e-7", "--json"])
+            .arg(&json)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let table = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            table.contains("b1@1 kyy") && table.contains("n21 phase_deg"),
+            "{table}"
+        );
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let b = v["bearings"].as_array().unwrap();
+        assert_eq!(b.len(), 2);
+        assert_eq!(b[0]["node"], 1);
+        assert_eq!(b[1]["node"], 27);
+        let truth = [
+            ([5e7, 0.5e7, 1e7, 7e7], [500.0, 50.0, 100.0, 700.0]),
+            ([5e7, 1e7, 0.5e7, 7e7], [500.0, 100.0, 50.0, 700.0]),
+        ];
+        for (m, (k, c)) in truth.iter().enumerate() {
+            for (j, key) in ["yy", "yz", "zy", "zz"].iter().enumerate() {
+                let kk = b[m]["k"][key].as_f64().unwrap();
+                let cc = b[m]["c"][key].as_f64().unwrap();
+                assert!(
+                    (kk - k[j]).abs() < 1e-6 * k[j],
+                    "{formulation} {order} k{key} {kk}"
+                );
+                assert!(
+                    (cc - c[j]).abs() < 1e-5 * c[j],
+                    "{formulation} {order} c{key} {cc}"
+                );
+            }
+            assert_eq!(b[m].get("check").is_some(), formulation == "paper");
+        }
+        let u = v["unbalance"].as_array().unwrap();
+        let nodes: Vec<i64> = u.iter().map(|x| x["node"].as_i64().unwrap()).collect();
+        assert_eq!(nodes, [5, 11, 21]);
+        for (x, (me, ph)) in u
+            .iter()
+            .zip([(0.0042, 0.0), (0.0030, 18.0), (0.0073, 23.0)])
+        {
+            assert!((x["me"].as_f64().unwrap() - me).abs() < 1e-6 * me);
+            assert!((x["phase_deg"].as_f64().unwrap() - ph).abs() < 1e-4);
+        }
+        assert_eq!(v["order"].as_u64().unwrap().to_string(), order);
+    }
+}
+
+#[test]
+fn identify_bad_input_exits_2_with_one_line() {
+    let model = RotorModel::paper();
+    let meas = simulate(&model, &sweep(1000.0, 3000.0, 500.0));
+    let csv = tmp("short.csv");
+    rotorid::measurement::write_csv(&meas, &csv, Default::default()).unwrap();
+    let cases: Vec<Vec<String>> = vec![
+        vec!["--measurements".into(), "/nonexistent/x.csv".into()],
+        vec![
+            "--measurements".into(),
+            csv.display().to_string(),
+            "--lambda".into(),
+            "1.5".into(),
+        ],
+        vec![
+            "--measurements".into(),
+            csv.display().to_string(),
+            "--delta".into(),
+            "-1".into(),
+        ],
+        vec![
+            "--measurements".into(),
+            csv.display().to_string(),
+            "--order".into(),
+            "0".into(),
+        ],
+        vec![
+            "--measurements".into(),
+            csv.display().to_string(),
+            "--formulation".into(),
+            "magic".into(),
+        ],
+    ];
+    for extra in cases {
+        let out = bin()
+            .args(["identify", "--model", "paper"])
+            .args(&extra)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{extra:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{extra:?}: {err}");
+    }
+    // An unknown model name.
+    let out = bin()
+        .args(["identify", "--model", "no-such-model", "--measurements"])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}

@@ -1,0 +1,134 @@
+//! Shared helpers of the identification tests: simulation, an independent
+//! dense reduction, noise, error measures.
+#![allow(dead_code)]
+
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use rotorid::assembly::FeModel;
+use rotorid::identify::{EstimateSet, IdentifyError, TermsAt};
+use rotorid::measurement::{Measurements, Sample};
+use rotorid::model::RotorModel;
+use rotorid::response::{unbalance_response, Forcing};
+use rotorid::units::rpm_to_rad_s;
+
+/// Speeds `rpm_min, rpm_min + step, ..., <= rpm_max` (rad/s).
+pub fn sweep(rpm_min: f64, rpm_max: f64, step: f64) -> Vec<f64> {
+    let n = ((rpm_max - rpm_min) / step + 1e-9).floor() as usize;
+    (0..=n)
+        .map(|i| rpm_to_rad_s(rpm_min + step * i as f64))
+        .collect()
+}
+
+/// Noise-free bearing responses of `model` (its true unbalance) at `speeds`.
+pub fn simulate(model: &RotorModel, speeds: &[f64]) -> Measurements {
+    let fe = FeModel::new(model).unwrap();
+    let resp = unbalance_response(&fe, &Forcing::from_model(model), speeds).unwrap();
+    Measurements {
+        comments: vec![],
+        n_bearings: model.bearings.len(),
+        samples: resp
+            .into_iter()
+            .map(|r| Sample {
+                omega: r.omega,
+                q: r.bearings,
+            })
+            .collect(),
+    }
+}
+
+/// The SPEC noise model: each complex sample gets `s |q| eps`, `eps`
+/// standard complex Gaussian (`E|eps|^2 = 1`), seeded.
+pub fn add_noise(meas: &mut Measurements, s: f64, seed: u64) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    for smp in &mut meas.samples {
+        for q in &mut smp.q {
+            let re: f64 = StandardNormal.sample(&mut rng);
+            let im: f64 = StandardNormal.sample(&mut rng);
+            *q += q.norm() * s * Complex64::new(re * h, im * h);
+        }
+    }
+}
+
+/// Independent dense reduction (no table code): with `Z_R` the shaft and
+/// disk dynamic stiffness, `B` the bearing DOFs and `i` the others,
+/// `Y = Z_Bi Z_ii^-1`, `A = Z_BB - Y Z_iB`, `B = Omega^2 (T_B - Y T_i)`.
+pub struct DenseReduction {
+    fe: FeModel,
+    planes: Vec<usize>,
+}
+
+impl DenseReduction {
+    pub fn new(model: &RotorModel) -> Self {
+        DenseReduction {
+            fe: FeModel::new(model).unwrap(),
+            planes: model.planes.clone(),
+        }
+    }
+
+    pub fn terms(&self, omega: f64) -> TermsAt {
+        let z = self.fe.rotor_dynamic_stiffness(omega).to_dense();
+        let t = self.fe.unbalance_distribution(&self.planes).unwrap();
+        let bd = self.fe.bearing_dofs();
+        let id: Vec<usize> = (0..z.nrows()).filter(|i| !bd.contains(i)).collect();
+        let sub = |m: &DMatrix<Complex64>, r: &[usize], c: &[usize]| {
+            DMatrix::from_fn(r.len(), c.len(), |i, j| m[(r[i], c[j])])
+        };
+        let all_p: Vec<usize> = (0..t.ncols()).collect();
+        let zii = sub(&z, &id, &id);
+        let zib = sub(&z, &id, &bd);
+        let zbi = sub(&z, &bd, &id);
+        let zbb = sub(&z, &bd, &bd);
+        let ti = sub(&t, &id, &all_p);
+        let tb = sub(&t, &bd, &all_p);
+        let lu = zii.lu();
+        // Y X = Z_Bi Z_ii^-1 X = Z_Bi (Z_ii^-1 X).
+        let a = &zbb - &zbi * lu.solve(&zib).unwrap();
+        let b = (&tb - &zbi * lu.solve(&ti).unwrap()) * Complex64::new(omega * omega, 0.0);
+        (a, b)
+    }
+
+    pub fn source(&self) -> impl FnMut(f64) -> Result<TermsAt, IdentifyError> + '_ {
+        move |w| Ok(self.terms(w))
+    }
+}
+
+/// True bearing coefficients of `model` at `omega`: `(k, c)` per bearing.
+pub fn true_bearings(model: &RotorModel, omega: f64) -> Vec<([f64; 4], [f64; 4])> {
+    model
+        .bearings
+        .iter()
+        .map(|b| {
+            let c = b.law.at(omega);
+            (c.k, c.c)
+        })
+        .collect()
+}
+
+/// Worst relative errors `(k, c, me)` and worst phase error (deg) of an
+/// estimate against `model`'s truth at the estimate's speed.
+pub fn errors(model: &RotorModel, e: &EstimateSet) -> (f64, f64, f64, f64) {
+    let truth = true_bearings(model, e.omega);
+    let (mut ek, mut ec, mut em, mut ep) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for (b, (k, c)) in e.bearings.iter().zip(&truth) {
+        for j in 0..4 {
+            ek = ek.max((b.k[j] - k[j]).abs() / k[j].abs());
+            ec = ec.max((b.c[j] - c[j]).abs() / c[j].abs());
+        }
+    }
+    for (u, t) in e.unbalance.iter().zip(&model.unbalance) {
+        em = em.max((u.me - t.me).abs() / t.me);
+        let mut d = (u.phase - t.phase).to_degrees();
+        while d > 180.0 {
+            d -= 360.0;
+        }
+        while d < -180.0 {
+            d += 360.0;
+        }
+        ep = ep.max(d.abs());
+    }
+    (ek, ec, em, ep)
+}

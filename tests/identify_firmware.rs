@@ -1,0 +1,116 @@
+//! The firmware path (core only: f32 table blob, const-generic identifier)
+//! against the desktop path (runtime sizes, f32) on the same sweep: the same
+//! estimates within f32 tolerance.
+
+mod identify_common;
+use identify_common::*;
+use num_complex::Complex;
+use rotorid::core::identify::{
+    Config, IdField, Identifier, PaperIdentifier, PhysicalIdentifier, SteadyPolicy,
+};
+use rotorid::core::regressor::Structure;
+use rotorid::core::scaling::ColumnScaling;
+use rotorid::core::table::TableView;
+use rotorid::identify::{auto_scaling, identify_with, EstimateSet, Options, Precision};
+use rotorid::model::RotorModel;
+use rotorid::reduction::ReducedTerms;
+use rotorid::tables::{ModelTable, Scalar};
+use rotorid::units::rpm_to_rad_s;
+
+const NQ: usize = 4;
+const NP: usize = 3;
+
+fn firmware_run<F: IdField<f32>, const M: usize, const N: usize>(
+    blob: &[u8],
+    config: Config<f32>,
+    meas: &rotorid::measurement::Measurements,
+) -> rotorid::core::identify::Estimates<f32, NQ, NP> {
+    let view = TableView::<f32>::parse(blob).unwrap();
+    let mut id = Identifier::<f32, F, NQ, NP, M, N>::new(config).unwrap();
+    let mut last = 0.0f32;
+    for s in &meas.samples {
+        let q: [Complex<f32>; NQ] =
+            core::array::from_fn(|j| Complex::new(s.q[j].re as f32, s.q[j].im as f32));
+        last = s.omega as f32;
+        id.update(&view, last, &q).unwrap();
+    }
+    id.estimates(last).unwrap()
+}
+
+fn max_rel_diff(fw: &rotorid::core::identify::Estimates<f32, NQ, NP>, desk: &EstimateSet) -> f64 {
+    let mut worst = 0.0f64;
+    for (a, b) in fw.bearings.iter().zip(&desk.bearings) {
+        for j in 0..4 {
+            worst = worst.max((a.k[j] as f64 - b.k[j]).abs() / b.k[j].abs());
+            worst = worst.max((a.c[j] as f64 - b.c[j]).abs() / b.c[j].abs());
+        }
+    }
+    for (a, b) in fw.unbalance.iter().zip(&desk.unbalance) {
+        let za = Complex::new(a.a.re as f64, a.a.im as f64);
+        worst = worst.max((za - b.a).norm() / b.a.norm());
+    }
+    worst
+}
+
+#[test]
+fn firmware_and_desktop_paths_agree_in_f32() {
+    let model = RotorModel::paper();
+    let speeds = sweep(50.0, 15000.0, 50.0);
+    let mut meas = simulate(&model, &speeds);
+    add_noise(&mut meas, 0.001, 5);
+    // The table on the measurement grid, from the dense reduction.
+    let red = DenseReduction::new(&model);
+    let table = ModelTable {
+        model_name: model.name.clone(),
+        n_nodes: model.n_nodes(),
+        bearing_nodes: model.bearing_nodes(),
+        plane_nodes: model.planes.clone(),
+        poles: vec![],
+        terms: speeds
+            .iter()
+            .map(|&w| {
+                let (a, b) = red.terms(w);
+                ReducedTerms { omega: w, a, b }
+            })
+            .collect(),
+    };
+    let blob = table.to_blob(Scalar::F32).unwrap();
+    let scaling = auto_scaling(&model, rpm_to_rad_s(15000.0));
+    let scaling32 =
+        ColumnScaling::<f32>::new(scaling.stiffness, scaling.omega_ref, scaling.unbalance).unwrap();
+    for structure in [Structure::physical(1), Structure::paper(1)] {
+        let config = Config {
+            structure,
+            lambda: 0.999f32,
+            delta: 1e-7f32,
+            scaling: scaling32,
+            normalise_rows: false,
+            steady: SteadyPolicy::default_guard(),
+        };
+        let fw = if structure == Structure::physical(1) {
+            firmware_run::<f32, 22, 8>(&blob, config, &meas)
+        } else {
+            firmware_run::<Complex<f32>, 19, 4>(&blob, config, &meas)
+        };
+        let mut opts = Options::new(structure);
+        opts.precision = Precision::F32;
+        opts.scaling = Some(scaling);
+        let mut src = red.source();
+        let desk = identify_with(
+            &model.bearing_nodes(),
+            &model.planes,
+            &meas,
+            &opts,
+            &mut src,
+            None,
+        )
+        .unwrap();
+        let diff = max_rel_diff(&fw, &desk.last);
+        let e_desk = errors(&model, &desk.last);
+        println!("{structure:?}: firmware vs desktop (f32) worst relative difference {diff:.2e}; desktop errors {e_desk:?}");
+        assert!(diff < 1e-4, "{diff}");
+    }
+    // Type aliases are the same identifiers.
+    let _ = PaperIdentifier::<f32, NQ, NP, 19, 4>::new;
+    let _ = PhysicalIdentifier::<f32, NQ, NP, 22, 8>::new;
+}
