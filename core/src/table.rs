@@ -282,7 +282,8 @@ pub trait BearingTable<T, const NQ: usize, const NP: usize> {
     /// `A` and `B` at `omega` (rad/s): exact at grid speeds, interpolated
     /// (pole-factored linear, see the module docs) between them.
     ///
-    /// Errors: [`TableError::NonFinite`] for a non-finite speed,
+    /// Errors: [`TableError::NonFinite`] for a non-finite speed (or a result
+    /// that overflows),
     /// [`TableError::OutOfRange`] outside the grid, [`TableError::Dimension`]
     /// if `NQ`/`NP` are not the table's, [`TableError::Pole`] on a pole.
     fn terms(&self, omega: T) -> Result<Terms<T, NQ, NP>, TableError>;
@@ -444,7 +445,8 @@ fn lookup<T: Real, const NQ: usize, const NP: usize>(
                 .chain(out.b.iter().flatten())
                 .all(|z| z.re.is_finite() && z.im.is_finite());
             if !finite {
-                return Err(TableError::Pole);
+                // Overflow of huge stored values times the weights.
+                return Err(TableError::NonFinite);
             }
         }
     }
