@@ -311,3 +311,41 @@ fn bad_bearing_layout_is_an_error() {
     let r = Reducer::new(&fe, &m2).unwrap();
     assert!(r.reduce(f64::NAN).is_err());
 }
+
+/// Workloads of the benchmark (`std-ext/benches/tables.rs`), for instruction
+/// counts under `valgrind --tool=callgrind` on a busy machine:
+/// `valgrind --tool=callgrind target/debug/deps/tables_reduction-* --ignored --exact workload_1000_speeds_banded`.
+fn workload(dense: bool) {
+    let model = RotorModel::paper();
+    let fe = FeModel::new(&model).unwrap();
+    let speeds = rotorid::grid::linspace(
+        rotorid::units::rpm_to_rad_s(15.0),
+        rotorid::units::rpm_to_rad_s(15000.0),
+        1000,
+    );
+    let mut acc = 0.0;
+    if dense {
+        let r = DenseReducer::new(&fe, &model).unwrap();
+        for &w in &speeds {
+            acc += r.reduce(w).unwrap().a.norm();
+        }
+    } else {
+        let r = Reducer::new(&fe, &model).unwrap();
+        for &w in &speeds {
+            acc += r.reduce(w).unwrap().a.norm();
+        }
+    }
+    assert!(acc.is_finite());
+}
+
+#[test]
+#[ignore = "benchmark workload, see workload()"]
+fn workload_1000_speeds_banded() {
+    workload(false);
+}
+
+#[test]
+#[ignore = "benchmark workload, see workload()"]
+fn workload_1000_speeds_dense() {
+    workload(true);
+}
