@@ -3,7 +3,7 @@
 //! below the tolerance asked, and a uniform grid needs more points.
 //!
 //! The full count of the uniform grid reaching each tolerance (the README's
-//! table) is `#[ignore]`d (about a minute):
+//! table) is `#[ignore]`d (a few minutes):
 //! `cargo test --release --test tables_grid -- --ignored --nocapture`.
 
 use rotorid::assembly::FeModel;
@@ -84,7 +84,7 @@ fn without_the_pole_factor_no_reasonable_grid_works() {
 }
 
 #[test]
-#[ignore = "about a minute: cargo test --release --test tables_grid -- --ignored --nocapture"]
+#[ignore = "a few minutes: cargo test --release --test tables_grid -- --ignored --nocapture"]
 fn uniform_points_needed_for_each_tolerance() {
     let model = RotorModel::paper();
     let fe = FeModel::new(&model).unwrap();
