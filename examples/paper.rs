@@ -277,7 +277,7 @@ fn main() -> Res<()> {
         n_nodes: m1.n_nodes(),
         bearing_nodes: m1.bearing_nodes(),
         plane_nodes: m1.planes.clone(),
-        poles: vec![],
+        poles: Default::default(),
         terms: reducer_terms,
     };
     let blob = table.to_blob(rotorid::tables::Scalar::F32)?;

@@ -65,7 +65,7 @@ fn firmware_and_desktop_paths_agree_in_f32() {
         n_nodes: model.n_nodes(),
         bearing_nodes: model.bearing_nodes(),
         plane_nodes: model.planes.clone(),
-        poles: vec![],
+        poles: Default::default(),
         terms: speeds
             .iter()
             .map(|&w| {

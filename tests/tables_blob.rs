@@ -6,6 +6,7 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use rotorid::core::table::{BearingTable, Table, TableError, TableView, Terms};
+use rotorid::grid::PoleSets;
 use rotorid::reduction::ReducedTerms;
 use rotorid::tables::{ModelTable, Scalar};
 
@@ -42,7 +43,10 @@ fn synthetic(n_s: usize) -> ModelTable {
         n_nodes: 27,
         bearing_nodes: vec![0, 26],
         plane_nodes: vec![4, 10, 20],
-        poles: vec![719.4],
+        poles: PoleSets {
+            a: vec![719.4],
+            b: vec![],
+        },
         terms,
     }
 }
@@ -261,8 +265,8 @@ fn value_checks_behind_a_valid_crc() {
         b[off..off + 2].copy_from_slice(&val.to_le_bytes());
         assert_eq!(parse(&reseal(b)), Err(TableError::BadNode), "{off} {val}");
     }
-    // Zero bearings, too many poles, zero speeds.
-    for (off, val) in [(14usize, 0u16), (18, 17)] {
+    // Zero bearings, too many poles of A, of B, zero speeds.
+    for (off, val) in [(14usize, 0u16), (18, 17), (18, 17 << 8)] {
         let mut b = blob.clone();
         b[off..off + 2].copy_from_slice(&val.to_le_bytes());
         assert_eq!(parse(&reseal(b)), Err(TableError::BadSize));
@@ -312,23 +316,25 @@ fn value_checks_behind_a_valid_crc() {
 fn owned_table_lookup_never_panics_on_bad_contents() {
     let z = Complex64::new(0.0, 0.0);
     let mut t = Table::<f64, 2, 1, 3> {
-        poles: [0.0; 16],
-        n_poles: 99,
+        poles_a: [0.0; 16],
+        n_poles_a: 99,
+        poles_b: [0.0; 16],
+        n_poles_b: 0,
         speeds: [1.0, 3.0, 2.0],
         a: [[[z; 2]; 2]; 3],
         b: [[[z; 1]; 2]; 3],
     };
     assert_eq!(t.terms(1.5).map(|_| ()), Err(TableError::Corrupt));
     assert!(t.validate().is_err());
-    t.n_poles = 0;
+    t.n_poles_a = 0;
     assert_eq!(t.validate(), Err(TableError::SpeedsNotIncreasing));
     // Unsorted speeds give some answer or an error, never a panic.
     for w in [0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, f64::NAN] {
         let _ = t.terms(w);
     }
     t.speeds = [1.0, 2.0, 3.0];
-    t.n_poles = 1;
-    t.poles[0] = 1.5;
+    t.n_poles_b = 1;
+    t.poles_b[0] = 1.5;
     t.validate().unwrap();
     assert_eq!(t.terms(1.5).map(|_| ()), Err(TableError::Pole));
     assert!(t.terms(1.7).is_ok());

@@ -21,35 +21,53 @@
 //! `-j` at its `z` DOF). The identifier's desired response is `d = A q_B`
 //! (Eq. 45) and `B` are the unbalance columns of its data matrix (Eq. 46).
 //!
-//! # Interpolation between grid speeds (pole-factored linear)
+//! # Interpolation between grid speeds (pole-factored, linear in `X / Omega^2`)
 //!
 //! `Y` has poles at the speeds `Omega_k` where the shaft with its bearing
-//! points held fixed resonates (`det Z_R,ii(Omega_k) = 0`); every entry of
-//! `A` and of `B / Omega^2` shares them. A table stores those poles (at most
-//! [`MAX_POLES`], those inside or near the grid) and interpolates linearly
+//! points held fixed resonates (`det Z_R,ii(Omega_k) = 0`). `A` has all of
+//! them; `B` only those whose mode the unbalance excites (for an
+//! axisymmetric shaft the backward-whirl crossings drop out of `B`: a
+//! forward-rotating force does no work on a backward mode), and factoring
+//! out a pole a matrix does not have would create an error `~h^2 / delta`
+//! near it. So a table stores a pole list for `A` and one for `B` (at most
+//! [`MAX_POLES`] each, those inside or near the grid) and interpolates linearly
 //! in `Omega`, between the grid speeds `w0 < Omega < w1` around the measured
-//! speed, the pole-free products
+//! speed, the pole-free, slowly varying products
 //!
 //! ```text
-//! p(Omega) A(Omega)   and   p(Omega) B(Omega) / Omega^2,
-//! p(Omega) = prod_k (Omega_k^2 - Omega^2)
+//! p_X(Omega) X(Omega) / Omega^2   for X = A and X = B,
+//! p_X(Omega) = prod_k (Omega_k^2 - Omega^2)   over the poles of X
 //! ```
 //!
-//! then divides by `p(Omega)` exactly. With `t = (Omega - w0) / (w1 - w0)`:
+//! then multiplies by `Omega^2 / p_X(Omega)` exactly. With
+//! `t = (Omega - w0) / (w1 - w0)`:
 //!
 //! ```text
-//! A(Omega) = a0 A(w0) + a1 A(w1),  a0 = (1 - t) p(w0) / p(Omega),  a1 = t p(w1) / p(Omega)
-//! B(Omega) = b0 B(w0) + b1 B(w1),  b0 = a0 Omega^2 / w0^2,         b1 = a1 Omega^2 / w1^2
+//! X(Omega) = c0 X(w0) + c1 X(w1)
+//! c0 = (1 - t) (p_X(w0) / p_X(Omega)) (Omega / w0)^2
+//! c1 = t (p_X(w1) / p_X(Omega)) (Omega / w1)^2
 //! ```
 //!
 //! (see [`weights`]; the ratios `p(w) / p(Omega)` are formed factor by
-//! factor, so nothing overflows). Plain linear interpolation of a function
-//! with a simple pole has an `O(1)` relative error in the interval that
-//! contains the pole however fine the grid; the pole-factored scheme has an
-//! `O(h^2)` error everywhere, because `p A` is smooth. Dividing `B` by
-//! `Omega^2` removes its growth with speed. At a grid speed the stored
-//! matrices are returned exactly; a speed outside the grid is
-//! [`TableError::OutOfRange`]; a speed exactly on a pole is
+//! factor, so nothing overflows). Why these choices:
+//!
+//! * Plain linear interpolation of a function with a simple pole has an
+//!   `O(1)` relative error in the interval that contains the pole however
+//!   fine the grid; `p_X X` is smooth, so the error is `O(h^2)` everywhere,
+//!   across the poles too.
+//! * `B = Omega^2 (T_B - Y T_i)` grows like `Omega^2`, and so does `A` for
+//!   a shaft on two bearings (`A(0) = 0`: any bearing displacement is a
+//!   rigid-body motion of the free shaft, `A ~ -Omega^2 M_red` at low
+//!   speed). Linear interpolation of `Omega^2` has the relative error
+//!   `(h / 2 Omega)^2`, which would force a fine grid at low speed; of
+//!   `X / Omega^2`, which is nearly constant there, almost none. (With
+//!   three or more bearings `A(0) != 0` and `A / Omega^2 ~ A(0) / Omega^2`
+//!   at low speed: the error is then `~(h / Omega)^2`, the same order as
+//!   interpolating `A` itself.)
+//!
+//! At a grid speed the stored matrices are returned exactly; a speed
+//! outside the grid is [`TableError::OutOfRange`]; a speed between grid
+//! speeds and within [`POLE_GUARD`] (relative) of a pole is
 //! [`TableError::Pole`].
 //!
 //! # Binary blob (format version 1), little-endian, byte by byte
@@ -65,12 +83,14 @@
 //! | 12 | 2 | number of shaft nodes of the model, u16 (>= 2) |
 //! | 14 | 2 | N_b, number of bearings, u16 (1..=[`MAX_BEARINGS`]) |
 //! | 16 | 2 | N_p, number of unbalance planes, u16 (0..=[`MAX_PLANES`]) |
-//! | 18 | 2 | N_k, number of poles, u16 (0..=[`MAX_POLES`]) |
+//! | 18 | 1 | N_ka, number of poles of `A`, u8 (0..=[`MAX_POLES`]) |
+//! | 19 | 1 | N_kb, number of poles of `B`, u8 (0..=[`MAX_POLES`]) |
 //! | 20 | 4 | N_s, number of speeds, u32 (>= 1) |
 //! | 24 | 2 N_p | plane nodes, u16 each, 1-based, distinct |
 //! | 24 + 2 N_p | 2 N_b | bearing nodes, u16 each, 1-based, strictly increasing |
-//! | P = 24 + 2 (N_p + N_b) | w N_k | poles Omega_k (rad/s), finite, > 0, strictly increasing |
-//! | S = P + w N_k | w N_s | speeds (rad/s), finite, > 0, strictly increasing |
+//! | P = 24 + 2 (N_p + N_b) | w N_ka | poles of `A` (rad/s), finite, > 0, strictly increasing |
+//! | P + w N_ka | w N_kb | poles of `B` (rad/s), finite, > 0, strictly increasing |
+//! | S = P + w (N_ka + N_kb) | w N_s | speeds (rad/s), finite, > 0, strictly increasing |
 //! | D = S + w N_s | N_s R | per speed: `A` row-major (NQ x NQ), then `B` row-major (NQ x N_p), each entry `re` then `im`; `R = 2 w (NQ^2 + NQ N_p)` |
 //! | D + N_s R | 4 | CRC-32 (IEEE, [`crate::crc32`]) of every byte before it, u32 |
 //!
@@ -97,6 +117,12 @@ pub const FORMAT_VERSION: u16 = 1;
 pub const HEADER_LEN: usize = 24;
 /// Largest number of poles a table may carry.
 pub const MAX_POLES: usize = 16;
+/// Relative half-width of the band around each pole where a lookup returns
+/// [`TableError::Pole`]: `|Omega - Omega_k| <= POLE_GUARD Omega_k`. Inside
+/// it `A ~ 1 / (Omega - Omega_k)` is so large that a pole position known to
+/// `~1e-12` relative (the round-off of the reduction) already changes it
+/// by more than `1e-6`; for the paper rotor the band is +-0.007 rpm.
+pub const POLE_GUARD: f64 = 1e-6;
 /// Largest number of bearings a blob may declare.
 pub const MAX_BEARINGS: usize = 64;
 /// Largest number of unbalance planes a blob may declare.
@@ -314,27 +340,25 @@ pub fn locate<T: Real>(
 }
 
 /// Interpolation weights between grid speeds `w0 < omega < w1`:
-/// `A = a0 A(w0) + a1 A(w1)`, `B = b0 B(w0) + b1 B(w1)`.
+/// `X(omega) = c0 X(w0) + c1 X(w1)` for `X = A` and `X = B`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Weights<T> {
-    /// Weight of `A(w0)`: `(1 - t) p(w0) / p(omega)`.
-    pub a0: T,
-    /// Weight of `A(w1)`: `t p(w1) / p(omega)`.
-    pub a1: T,
-    /// Weight of `B(w0)`: `a0 omega^2 / w0^2`.
-    pub b0: T,
-    /// Weight of `B(w1)`: `a1 omega^2 / w1^2`.
-    pub b1: T,
+    /// Weight of `X(w0)`: `(1 - t) (p(w0) / p(omega)) (omega / w0)^2`.
+    pub c0: T,
+    /// Weight of `X(w1)`: `t (p(w1) / p(omega)) (omega / w1)^2`.
+    pub c1: T,
 }
 
-/// The pole-factored linear interpolation weights of the module docs, with
-/// `p(Omega) = prod_k (Omega_k^2 - Omega^2)` over `poles` (rad/s).
-/// `t = (omega - w0) / (w1 - w0)`; each ratio `p(w) / p(omega)` is formed
-/// factor by factor as `(Omega_k - w)(Omega_k + w) / ((Omega_k - omega)(Omega_k + omega))`.
+/// The interpolation weights of the module docs (pole-factored, linear in
+/// `X / Omega^2`), with `p(Omega) = prod_k (Omega_k^2 - Omega^2)` over
+/// `poles` (rad/s). `t = (omega - w0) / (w1 - w0)`; each ratio
+/// `p(w) / p(omega)` is formed factor by factor as
+/// `(Omega_k - w)(Omega_k + w) / ((Omega_k - omega)(Omega_k + omega))`.
 ///
 /// Errors: [`TableError::NonFinite`] if an input is not finite,
-/// [`TableError::Corrupt`] unless `0 < w0 < w1`, [`TableError::Pole`] if a
-/// weight is not finite (the speed is on a pole).
+/// [`TableError::Corrupt`] unless `0 < w0 < w1`, [`TableError::Pole`] if
+/// `omega` is within [`POLE_GUARD`] (relative) of a pole or a weight is not
+/// finite.
 pub fn weights<T: Real>(omega: T, w0: T, w1: T, poles: &[T]) -> Result<Weights<T>, TableError> {
     if !(omega.is_finite() && w0.is_finite() && w1.is_finite()) {
         return Err(TableError::NonFinite);
@@ -346,22 +370,22 @@ pub fn weights<T: Real>(omega: T, w0: T, w1: T, poles: &[T]) -> Result<Weights<T
     let t = (omega - w0) / (w1 - w0);
     let mut r0 = T::one();
     let mut r1 = T::one();
+    let guard = T::lit(POLE_GUARD);
     for &p in poles {
+        if (omega - p).abs() <= guard * p {
+            return Err(TableError::Pole);
+        }
         let den = (p - omega) * (p + omega);
         r0 *= (p - w0) * (p + w0) / den;
         r1 *= (p - w1) * (p + w1) / den;
     }
-    let a0 = (T::one() - t) * r0;
-    let a1 = t * r1;
     let s0 = omega / w0;
     let s1 = omega / w1;
     let w = Weights {
-        a0,
-        a1,
-        b0: a0 * s0 * s0,
-        b1: a1 * s1 * s1,
+        c0: (T::one() - t) * r0 * s0 * s0,
+        c1: t * r1 * s1 * s1,
     };
-    if w.a0.is_finite() && w.a1.is_finite() && w.b0.is_finite() && w.b1.is_finite() {
+    if w.c0.is_finite() && w.c1.is_finite() {
         Ok(w)
     } else {
         Err(TableError::Pole)
@@ -372,7 +396,8 @@ pub fn weights<T: Real>(omega: T, w0: T, w1: T, poles: &[T]) -> Result<Weights<T
 fn lookup<T: Real, const NQ: usize, const NP: usize>(
     n_s: usize,
     speed: impl Fn(usize) -> Option<T>,
-    poles: &[T],
+    poles_a: &[T],
+    poles_b: &[T],
     a_at: impl Fn(usize, usize, usize) -> Option<Complex<T>>,
     b_at: impl Fn(usize, usize, usize) -> Option<Complex<T>>,
     omega: T,
@@ -395,19 +420,21 @@ fn lookup<T: Real, const NQ: usize, const NP: usize>(
             let j = i + 1;
             let w0 = speed(i).ok_or(TableError::Corrupt)?;
             let w1 = speed(j).ok_or(TableError::Corrupt)?;
-            let w = weights(omega, w0, w1, poles)?;
+            let w = weights(omega, w0, w1, poles_a)?;
+            let wb = weights(omega, w0, w1, poles_b)?;
             for (r, row) in out.a.iter_mut().enumerate() {
                 for (c, x) in row.iter_mut().enumerate() {
                     let x0 = a_at(i, r, c).ok_or(TableError::Corrupt)?;
                     let x1 = a_at(j, r, c).ok_or(TableError::Corrupt)?;
-                    *x = x0 * w.a0 + x1 * w.a1;
+                    *x = x0 * w.c0 + x1 * w.c1;
                 }
             }
+            let w = wb;
             for (r, row) in out.b.iter_mut().enumerate() {
                 for (c, x) in row.iter_mut().enumerate() {
                     let x0 = b_at(i, r, c).ok_or(TableError::Corrupt)?;
                     let x1 = b_at(j, r, c).ok_or(TableError::Corrupt)?;
-                    *x = x0 * w.b0 + x1 * w.b1;
+                    *x = x0 * w.c0 + x1 * w.c1;
                 }
             }
             let finite = out
@@ -460,11 +487,13 @@ pub struct TableView<'a, T> {
     n_nodes: u16,
     n_b: usize,
     n_p: usize,
-    n_k: usize,
+    n_ka: usize,
+    n_kb: usize,
     n_s: usize,
     off_planes: usize,
     off_bearings: usize,
-    off_poles: usize,
+    off_poles_a: usize,
+    off_poles_b: usize,
     off_speeds: usize,
     off_data: usize,
     per_speed: usize,
@@ -478,8 +507,10 @@ pub struct Layout {
     pub planes: usize,
     /// Offset of the bearing nodes.
     pub bearings: usize,
-    /// Offset of the poles.
-    pub poles: usize,
+    /// Offset of the poles of `A`.
+    pub poles_a: usize,
+    /// Offset of the poles of `B`.
+    pub poles_b: usize,
     /// Offset of the speeds.
     pub speeds: usize,
     /// Offset of the per-speed data.
@@ -493,14 +524,22 @@ pub struct Layout {
 }
 
 impl Layout {
-    /// Offsets for scalar width `w`, `n_b` bearings, `n_p` planes, `n_k`
-    /// poles and `n_s` speeds; `None` on arithmetic overflow.
-    pub fn new(w: usize, n_b: usize, n_p: usize, n_k: usize, n_s: usize) -> Option<Layout> {
+    /// Offsets for scalar width `w`, `n_b` bearings, `n_p` planes, `n_ka`
+    /// and `n_kb` poles and `n_s` speeds; `None` on arithmetic overflow.
+    pub fn new(
+        w: usize,
+        n_b: usize,
+        n_p: usize,
+        n_ka: usize,
+        n_kb: usize,
+        n_s: usize,
+    ) -> Option<Layout> {
         let nq = n_b.checked_mul(2)?;
         let planes = HEADER_LEN;
         let bearings = planes.checked_add(n_p.checked_mul(2)?)?;
-        let poles = bearings.checked_add(n_b.checked_mul(2)?)?;
-        let speeds = poles.checked_add(n_k.checked_mul(w)?)?;
+        let poles_a = bearings.checked_add(n_b.checked_mul(2)?)?;
+        let poles_b = poles_a.checked_add(n_ka.checked_mul(w)?)?;
+        let speeds = poles_b.checked_add(n_kb.checked_mul(w)?)?;
         let data = speeds.checked_add(n_s.checked_mul(w)?)?;
         let entries = nq.checked_mul(nq)?.checked_add(nq.checked_mul(n_p)?)?;
         let per_speed = entries.checked_mul(2)?.checked_mul(w)?;
@@ -509,7 +548,8 @@ impl Layout {
         Some(Layout {
             planes,
             bearings,
-            poles,
+            poles_a,
+            poles_b,
             speeds,
             data,
             per_speed,
@@ -556,7 +596,8 @@ impl<'a, T: TableScalar> TableView<'a, T> {
         let n_nodes = read_u16(bytes, 12).ok_or(hdr)?;
         let n_b = read_u16(bytes, 14).ok_or(hdr)? as usize;
         let n_p = read_u16(bytes, 16).ok_or(hdr)? as usize;
-        let n_k = read_u16(bytes, 18).ok_or(hdr)? as usize;
+        let n_ka = *bytes.get(18).ok_or(hdr)? as usize;
+        let n_kb = *bytes.get(19).ok_or(hdr)? as usize;
         let n_s =
             usize::try_from(read_u32(bytes, 20).ok_or(hdr)?).map_err(|_| TableError::BadSize)?;
         if n_nodes < 2
@@ -564,12 +605,13 @@ impl<'a, T: TableScalar> TableView<'a, T> {
             || n_b > MAX_BEARINGS
             || n_b > n_nodes as usize
             || n_p > MAX_PLANES
-            || n_k > MAX_POLES
+            || n_ka > MAX_POLES
+            || n_kb > MAX_POLES
             || n_s == 0
         {
             return Err(TableError::BadSize);
         }
-        let lay = Layout::new(T::WIDTH, n_b, n_p, n_k, n_s).ok_or(TableError::BadSize)?;
+        let lay = Layout::new(T::WIDTH, n_b, n_p, n_ka, n_kb, n_s).ok_or(TableError::BadSize)?;
         if bytes.len() != lay.total {
             return Err(TableError::Length {
                 expected: lay.total,
@@ -586,11 +628,13 @@ impl<'a, T: TableScalar> TableView<'a, T> {
             n_nodes,
             n_b,
             n_p,
-            n_k,
+            n_ka,
+            n_kb,
             n_s,
             off_planes: lay.planes,
             off_bearings: lay.bearings,
-            off_poles: lay.poles,
+            off_poles_a: lay.poles_a,
+            off_poles_b: lay.poles_b,
             off_speeds: lay.speeds,
             off_data: lay.data,
             per_speed: lay.per_speed,
@@ -622,7 +666,9 @@ impl<'a, T: TableScalar> TableView<'a, T> {
                 }
             }
         }
-        if !increasing_positive(self.n_k, |i| self.pole(i)).ok_or(c)? {
+        if !increasing_positive(self.n_ka, |i| self.pole_a(i)).ok_or(c)?
+            || !increasing_positive(self.n_kb, |i| self.pole_b(i)).ok_or(c)?
+        {
             return Err(TableError::BadPole);
         }
         if !increasing_positive(self.n_s, |i| self.speed(i)).ok_or(c)? {
@@ -665,9 +711,13 @@ impl<'a, T: TableScalar> TableView<'a, T> {
     pub fn n_speeds(&self) -> usize {
         self.n_s
     }
-    /// Number of poles carried.
-    pub fn n_poles(&self) -> usize {
-        self.n_k
+    /// Number of poles of `A`.
+    pub fn n_poles_a(&self) -> usize {
+        self.n_ka
+    }
+    /// Number of poles of `B`.
+    pub fn n_poles_b(&self) -> usize {
+        self.n_kb
     }
     /// Number of shaft nodes of the model the table came from.
     pub fn n_nodes(&self) -> u16 {
@@ -690,14 +740,24 @@ impl<'a, T: TableScalar> TableView<'a, T> {
         }
         read_u16(self.bytes, self.off_planes.checked_add(i.checked_mul(2)?)?)
     }
-    /// Pole `i` (rad/s).
-    pub fn pole(&self, i: usize) -> Option<T> {
-        if i >= self.n_k {
+    /// Pole `i` of `A` (rad/s).
+    pub fn pole_a(&self, i: usize) -> Option<T> {
+        if i >= self.n_ka {
             return None;
         }
         read_t(
             self.bytes,
-            self.off_poles.checked_add(i.checked_mul(T::WIDTH)?)?,
+            self.off_poles_a.checked_add(i.checked_mul(T::WIDTH)?)?,
+        )
+    }
+    /// Pole `i` of `B` (rad/s).
+    pub fn pole_b(&self, i: usize) -> Option<T> {
+        if i >= self.n_kb {
+            return None;
+        }
+        read_t(
+            self.bytes,
+            self.off_poles_b.checked_add(i.checked_mul(T::WIDTH)?)?,
         )
     }
     /// Grid speed `i` (rad/s).
@@ -735,11 +795,21 @@ impl<'a, T: TableScalar> TableView<'a, T> {
         }
         self.entry(s, nq * nq + r * self.n_p + c)
     }
-    /// The poles, copied into a fixed array (first [`Self::n_poles`] used).
-    pub fn poles(&self) -> [T; MAX_POLES] {
+    /// The poles of `A`, copied into a fixed array (first
+    /// [`Self::n_poles_a`] used, the rest zero).
+    pub fn poles_a(&self) -> [T; MAX_POLES] {
         let mut p = [T::zero(); MAX_POLES];
-        for (i, x) in p.iter_mut().enumerate().take(self.n_k) {
-            *x = self.pole(i).unwrap_or_else(T::zero);
+        for (i, x) in p.iter_mut().enumerate().take(self.n_ka) {
+            *x = self.pole_a(i).unwrap_or_else(T::zero);
+        }
+        p
+    }
+    /// The poles of `B`, copied into a fixed array (first
+    /// [`Self::n_poles_b`] used, the rest zero).
+    pub fn poles_b(&self) -> [T; MAX_POLES] {
+        let mut p = [T::zero(); MAX_POLES];
+        for (i, x) in p.iter_mut().enumerate().take(self.n_kb) {
+            *x = self.pole_b(i).unwrap_or_else(T::zero);
         }
         p
     }
@@ -752,12 +822,13 @@ impl<T: TableScalar, const NQ: usize, const NP: usize> BearingTable<T, NQ, NP>
         if NQ != 2 * self.n_b || NP != self.n_p {
             return Err(TableError::Dimension);
         }
-        let poles = self.poles();
-        let poles = poles.get(..self.n_k).ok_or(TableError::Corrupt)?;
+        let pa = self.poles_a();
+        let pb = self.poles_b();
         lookup(
             self.n_s,
             |i| self.speed(i),
-            poles,
+            pa.get(..self.n_ka).ok_or(TableError::Corrupt)?,
+            pb.get(..self.n_kb).ok_or(TableError::Corrupt)?,
             |s, r, c| self.a_entry(s, r, c),
             |s, r, c| self.b_entry(s, r, c),
             omega,
@@ -780,10 +851,14 @@ impl<T: TableScalar, const NQ: usize, const NP: usize> BearingTable<T, NQ, NP>
 /// large ones as `static`s, not on a small stack.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table<T, const NQ: usize, const NP: usize, const NS: usize> {
-    /// Poles (rad/s); the first `n_poles` are used, the rest are zero.
-    pub poles: [T; MAX_POLES],
-    /// Number of poles in use.
-    pub n_poles: usize,
+    /// Poles of `A` (rad/s); the first `n_poles_a` are used, the rest are zero.
+    pub poles_a: [T; MAX_POLES],
+    /// Number of poles of `A` in use.
+    pub n_poles_a: usize,
+    /// Poles of `B` (rad/s); the first `n_poles_b` are used, the rest are zero.
+    pub poles_b: [T; MAX_POLES],
+    /// Number of poles of `B` in use.
+    pub n_poles_b: usize,
     /// Grid speeds (rad/s), > 0, strictly increasing.
     pub speeds: [T; NS],
     /// `A` per speed, `a[s][row][col]` (N/m).
@@ -800,9 +875,14 @@ impl<T: Real, const NQ: usize, const NP: usize, const NS: usize> Table<T, NQ, NP
         if NQ == 0 || NQ % 2 != 0 || NS == 0 {
             return Err(TableError::Dimension);
         }
-        let poles = self.poles.get(..self.n_poles).ok_or(TableError::BadPole)?;
-        if !increasing_positive(poles.len(), |i| poles.get(i).copied()).unwrap_or(false) {
-            return Err(TableError::BadPole);
+        for (poles, n) in [
+            (&self.poles_a, self.n_poles_a),
+            (&self.poles_b, self.n_poles_b),
+        ] {
+            let poles = poles.get(..n).ok_or(TableError::BadPole)?;
+            if !increasing_positive(poles.len(), |i| poles.get(i).copied()).unwrap_or(false) {
+                return Err(TableError::BadPole);
+            }
         }
         if self.speeds.iter().any(|s| !s.is_finite()) {
             return Err(TableError::NonFinite);
@@ -835,8 +915,10 @@ impl<T: Real, const NQ: usize, const NP: usize, const NS: usize> Table<T, NQ, NP
         }
         let z = Complex::new(T::zero(), T::zero());
         let mut t = Table {
-            poles: view.poles(),
-            n_poles: view.n_poles(),
+            poles_a: view.poles_a(),
+            n_poles_a: view.n_poles_a(),
+            poles_b: view.poles_b(),
+            n_poles_b: view.n_poles_b(),
             speeds: [T::zero(); NS],
             a: [[[z; NQ]; NQ]; NS],
             b: [[[z; NP]; NQ]; NS],
@@ -866,11 +948,15 @@ impl<T: Real, const NQ: usize, const NP: usize, const NS: usize> BearingTable<T,
     for Table<T, NQ, NP, NS>
 {
     fn terms(&self, omega: T) -> Result<Terms<T, NQ, NP>, TableError> {
-        let poles = self.poles.get(..self.n_poles).ok_or(TableError::Corrupt)?;
         lookup(
             NS,
             |i| self.speeds.get(i).copied(),
-            poles,
+            self.poles_a
+                .get(..self.n_poles_a)
+                .ok_or(TableError::Corrupt)?,
+            self.poles_b
+                .get(..self.n_poles_b)
+                .ok_or(TableError::Corrupt)?,
             |s, r, c| self.a.get(s)?.get(r)?.get(c).copied(),
             |s, r, c| self.b.get(s)?.get(r)?.get(c).copied(),
             omega,
@@ -904,23 +990,23 @@ mod tests {
         assert_eq!(locate(1, f, 1.5), Err(TableError::OutOfRange));
     }
 
-    /// The scheme reproduces `c / (Omega_k^2 - Omega^2)` (and `B`'s
-    /// `Omega^2 c / (Omega_k^2 - Omega^2)`) exactly, even across the pole.
+    /// The scheme reproduces `Omega^2 c / (Omega_k^2 - Omega^2)` (the shape
+    /// of a pole in `A` or `B`) exactly, even across the pole, and
+    /// `Omega^2` (`A` of a shaft on two bearings at low speed) exactly.
     #[test]
     fn pole_factored_weights_are_exact_for_a_simple_pole() {
         let pk = 10.0f64;
-        let f = |w: f64| 3.0 / (pk * pk - w * w);
+        let f = |w: f64| 3.0 * w * w / (pk * pk - w * w);
         let (w0, w1) = (9.0, 11.5);
         for &om in &[9.3, 9.99, 10.001, 11.2] {
             let w = weights(om, w0, w1, &[pk]).unwrap();
-            let a = w.a0 * f(w0) + w.a1 * f(w1);
+            let a = w.c0 * f(w0) + w.c1 * f(w1);
             assert!((a - f(om)).abs() < 1e-12 * f(om).abs(), "{om}");
-            let b = w.b0 * w0 * w0 * f(w0) + w.b1 * w1 * w1 * f(w1);
-            assert!((b - om * om * f(om)).abs() < 1e-12 * (om * om * f(om)).abs());
         }
+        let w = weights(2.5f64, 2.0, 3.0, &[]).unwrap();
+        assert!((w.c0 * 4.0 + w.c1 * 9.0 - 6.25).abs() < 1e-14);
         assert_eq!(weights(10.0, w0, w1, &[pk]), Err(TableError::Pole));
-        // Without poles it is plain linear interpolation.
-        let w = weights(2.5, 2.0, 3.0, &[]).unwrap();
-        assert_eq!((w.a0, w.a1), (0.5, 0.5));
+        assert_eq!(weights(10.0 + 9e-6, w0, w1, &[pk]), Err(TableError::Pole));
+        assert!(weights(10.0 + 2e-5, w0, w1, &[pk]).is_ok());
     }
 }

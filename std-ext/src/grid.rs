@@ -3,8 +3,8 @@
 //! direct computation by more than a tolerance).
 //!
 //! The interpolation is the one of the firmware lookup,
-//! [`rotorid_core::table::weights`] (pole-factored linear: `p A` and
-//! `p B / Omega^2` linear in `Omega` between grid speeds, with
+//! [`rotorid_core::table::weights`] (pole-factored linear: `p A / Omega^2`
+//! and `p B / Omega^2` linear in `Omega` between grid speeds, with
 //! `p(Omega) = prod_k (Omega_k^2 - Omega^2)` over the poles of the reduced
 //! model), applied here to dynamic-size matrices by [`interpolate`]: the
 //! grid is judged by exactly what the firmware will compute.
@@ -14,7 +14,7 @@
 //! (Frobenius norms, `_i` interpolated, plain the direct computation).
 
 use num_complex::Complex64;
-use rotorid_core::table::{locate, weights, Position, TableError};
+use rotorid_core::table::{locate, weights, Position, TableError, POLE_GUARD};
 use thiserror::Error;
 
 use crate::reduction::ReducedTerms;
@@ -42,6 +42,24 @@ pub enum GridError<E: std::error::Error + 'static> {
         /// Cause.
         source: TableError,
     },
+}
+
+/// The poles of the reduced model (rad/s, increasing), per matrix: `A`
+/// has every pole of `Y`, `B` only those the unbalance excites (see
+/// [`rotorid_core::table`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PoleSets {
+    /// Poles of `A`.
+    pub a: Vec<f64>,
+    /// Poles of `B`.
+    pub b: Vec<f64>,
+}
+
+impl PoleSets {
+    /// No poles: plain linear interpolation of `X / Omega^2`.
+    pub fn none() -> Self {
+        PoleSets::default()
+    }
 }
 
 /// The SPEC's uniform grid (rpm): from `rpm_min` in steps of `rpm_step` up
@@ -104,7 +122,7 @@ pub fn linspace(omega_min: f64, omega_max: f64, n: usize) -> Vec<f64> {
 /// speeds, pole-factored linear between them, an error outside.
 pub fn interpolate(
     terms: &[ReducedTerms],
-    poles: &[f64],
+    poles: &PoleSets,
     omega: f64,
 ) -> Result<ReducedTerms, TableError> {
     match locate(terms.len(), |i| terms.get(i).map(|t| t.omega), omega)? {
@@ -114,11 +132,12 @@ pub fn interpolate(
                 terms.get(i).ok_or(TableError::Corrupt)?,
                 terms.get(i + 1).ok_or(TableError::Corrupt)?,
             );
-            let w = weights(omega, t0.omega, t1.omega, poles)?;
+            let wa = weights(omega, t0.omega, t1.omega, &poles.a)?;
+            let wb = weights(omega, t0.omega, t1.omega, &poles.b)?;
             Ok(ReducedTerms {
                 omega,
-                a: &t0.a * Complex64::from(w.a0) + &t1.a * Complex64::from(w.a1),
-                b: &t0.b * Complex64::from(w.b0) + &t1.b * Complex64::from(w.b1),
+                a: &t0.a * Complex64::from(wa.c0) + &t1.a * Complex64::from(wa.c1),
+                b: &t0.b * Complex64::from(wb.c0) + &t1.b * Complex64::from(wb.c1),
             })
         }
     }
@@ -138,6 +157,31 @@ pub fn relative_error(exact: &ReducedTerms, approx: &ReducedTerms) -> f64 {
     ea.max(eb)
 }
 
+/// The pole whose guard band ([`POLE_GUARD`]) contains `omega`, if any.
+fn guarding_pole(omega: f64, poles: &PoleSets) -> Option<f64> {
+    poles
+        .a
+        .iter()
+        .chain(&poles.b)
+        .copied()
+        .find(|&p| (omega - p).abs() <= POLE_GUARD * p)
+}
+
+/// Where to test and split `(w0, w1)`: the midpoint, or, if it lies in a
+/// pole's guard band, the nearer of `p (1 -+ 2 POLE_GUARD)` inside the
+/// interval; `None` if there is no such point.
+fn split_point(w0: f64, w1: f64, poles: &PoleSets) -> Option<f64> {
+    let mid = 0.5 * (w0 + w1);
+    let Some(p) = guarding_pole(mid, poles) else {
+        return Some(mid);
+    };
+    let g = 2.0 * POLE_GUARD * p;
+    [p - g, p + g]
+        .into_iter()
+        .filter(|&s| s > w0 && s < w1 && guarding_pole(s, poles).is_none())
+        .min_by(|a, b| (a - mid).abs().total_cmp(&(b - mid).abs()))
+}
+
 /// Result of checking a grid on a finer one.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CheckReport {
@@ -147,17 +191,21 @@ pub struct CheckReport {
     pub at_omega: f64,
     /// Number of check speeds (not counting the grid speeds).
     pub n_checked: usize,
+    /// Check speeds skipped because they fall in a pole's guard band
+    /// ([`POLE_GUARD`]), where the lookup answers `Err(Pole)` by design.
+    pub n_skipped: usize,
 }
 
 /// Worst interpolation error of the grid `terms` on a `factor` times finer
 /// check grid: each interval is cut into `factor` equal parts and the
 /// `factor - 1` interior speeds are computed directly (`eval`) and compared
-/// with [`interpolate`]. Stops early once an error exceeds `stop_above`
-/// (pass `f64::INFINITY` for the full check).
+/// with [`interpolate`]; speeds in a pole's guard band are skipped (counted
+/// in [`CheckReport::n_skipped`]). Stops early once an error exceeds
+/// `stop_above` (pass `f64::INFINITY` for the full check).
 pub fn check_grid<E: std::error::Error + 'static>(
     eval: &mut impl FnMut(f64) -> Result<ReducedTerms, E>,
     terms: &[ReducedTerms],
-    poles: &[f64],
+    poles: &PoleSets,
     factor: usize,
     stop_above: f64,
 ) -> Result<CheckReport, GridError<E>> {
@@ -165,12 +213,17 @@ pub fn check_grid<E: std::error::Error + 'static>(
         worst_error: 0.0,
         at_omega: terms.first().map_or(0.0, |t| t.omega),
         n_checked: 0,
+        n_skipped: 0,
     };
     for pair in terms.windows(2) {
         let (w0, w1) = (pair[0].omega, pair[1].omega);
         for k in 1..factor {
             let omega = w0 + (w1 - w0) * k as f64 / factor as f64;
             if !(omega > w0 && omega < w1) {
+                continue;
+            }
+            if guarding_pole(omega, poles).is_some() {
+                rep.n_skipped += 1;
                 continue;
             }
             let exact = eval(omega).map_err(|source| GridError::Eval { omega, source })?;
@@ -238,7 +291,7 @@ pub struct AdaptiveGrid {
 
 struct Refiner<'a, E, F: FnMut(f64) -> Result<ReducedTerms, E>> {
     eval: &'a mut F,
-    poles: &'a [f64],
+    poles: &'a PoleSets,
     target: f64,
     min_width: f64,
     max_points: usize,
@@ -261,11 +314,13 @@ impl<E: std::error::Error + 'static, F: FnMut(f64) -> Result<ReducedTerms, E>> R
         depth: usize,
     ) -> Result<(), GridError<E>> {
         let width = right.omega - left.omega;
-        let mid = 0.5 * (left.omega + right.omega);
-        if depth > 60 || width <= self.min_width || out.len() >= self.max_points {
+        let split = split_point(left.omega, right.omega, self.poles);
+        let Some(mid) =
+            split.filter(|_| depth <= 60 && width > self.min_width && out.len() < self.max_points)
+        else {
             out.push(right);
             return Ok(());
-        }
+        };
         let exact = self.eval(mid)?;
         let pair = [left.clone(), right];
         let e = match interpolate(&pair, self.poles, mid) {
@@ -292,7 +347,7 @@ impl<E: std::error::Error + 'static, F: FnMut(f64) -> Result<ReducedTerms, E>> R
 /// final full check.
 pub fn adaptive<E: std::error::Error + 'static>(
     mut eval: impl FnMut(f64) -> Result<ReducedTerms, E>,
-    poles: &[f64],
+    poles: &PoleSets,
     omega_min: f64,
     omega_max: f64,
     opts: AdaptiveOptions,
@@ -336,6 +391,7 @@ pub fn adaptive<E: std::error::Error + 'static>(
         worst_error: f64::INFINITY,
         at_omega: omega_min,
         n_checked: 0,
+        n_skipped: 0,
     };
     for _round in 0..8 {
         check = check_grid(r.eval, &terms, poles, opts.check_factor, f64::INFINITY)?;
@@ -350,7 +406,7 @@ pub fn adaptive<E: std::error::Error + 'static>(
             let mut worst: f64 = 0.0;
             for k in 1..opts.check_factor {
                 let omega = w0 + (w1 - w0) * k as f64 / opts.check_factor as f64;
-                if !(omega > w0 && omega < w1) {
+                if !(omega > w0 && omega < w1) || guarding_pole(omega, poles).is_some() {
                     continue;
                 }
                 let exact = r.eval(omega)?;
@@ -359,8 +415,9 @@ pub fn adaptive<E: std::error::Error + 'static>(
                     .unwrap_or(f64::INFINITY);
                 worst = worst.max(e);
             }
-            if worst > opts.tol && w1 - w0 > opts.min_width {
-                let mid = r.eval(0.5 * (w0 + w1))?;
+            let split = split_point(w0, w1, poles).filter(|_| w1 - w0 > opts.min_width);
+            if let (true, Some(s)) = (worst > opts.tol, split) {
+                let mid = r.eval(s)?;
                 r.refine(&pair[0], mid.clone(), &mut next, 0)?;
                 r.refine(&mid, pair[1].clone(), &mut next, 0)?;
             } else {
@@ -383,7 +440,7 @@ pub fn adaptive<E: std::error::Error + 'static>(
 /// `max_points` does not reach it. Returns the count and its check report.
 pub fn uniform_points_needed<E: std::error::Error + 'static>(
     mut eval: impl FnMut(f64) -> Result<ReducedTerms, E>,
-    poles: &[f64],
+    poles: &PoleSets,
     omega_min: f64,
     omega_max: f64,
     tol: f64,
@@ -474,14 +531,18 @@ mod tests {
     #[test]
     fn adaptive_grid_meets_tolerance_across_a_pole() {
         for tol in [1e-4, 1e-6] {
-            let g = adaptive(synthetic, &[100.0], 10.0, 200.0, AdaptiveOptions::new(tol)).unwrap();
+            let poles = PoleSets {
+                a: vec![100.0],
+                b: vec![100.0],
+            };
+            let g = adaptive(synthetic, &poles, 10.0, 200.0, AdaptiveOptions::new(tol)).unwrap();
             assert!(g.met_tolerance, "{tol}: {:?}", g.check);
             assert!(g.check.worst_error <= tol);
             for p in g.terms.windows(2) {
                 assert!(p[1].omega > p[0].omega);
             }
             // An independent check grid, denser still.
-            let check = check_grid(&mut synthetic, &g.terms, &[100.0], 37, f64::INFINITY).unwrap();
+            let check = check_grid(&mut synthetic, &g.terms, &poles, 37, f64::INFINITY).unwrap();
             assert!(check.worst_error <= 1.5 * tol, "{tol}: {check:?}");
         }
     }
@@ -489,7 +550,14 @@ mod tests {
     #[test]
     fn plain_linear_interpolation_fails_near_the_pole() {
         // Without the pole factor, the interval holding the pole is O(1) wrong.
-        let g = adaptive(synthetic, &[], 10.0, 200.0, AdaptiveOptions::new(1e-4)).unwrap();
+        let g = adaptive(
+            synthetic,
+            &PoleSets::none(),
+            10.0,
+            200.0,
+            AdaptiveOptions::new(1e-4),
+        )
+        .unwrap();
         assert!(!g.met_tolerance || g.terms.len() > 10_000);
     }
 }

@@ -23,8 +23,10 @@ use rotorid_core::table::{
 };
 use thiserror::Error;
 
-use crate::grid;
-use crate::reduction::ReducedTerms;
+use crate::assembly::FeModel;
+use crate::grid::{self, AdaptiveOptions, CheckReport, PoleSets};
+use crate::model::RotorModel;
+use crate::reduction::{ReducedTerms, Reducer, ReductionError};
 
 /// Error writing or reading a table.
 #[derive(Debug, Error)]
@@ -35,6 +37,92 @@ pub enum TablesError {
     /// A blob was rejected by the firmware parser.
     #[error("table blob rejected: {0}")]
     Blob(#[from] TableError),
+    /// The FE model or the reduction failed.
+    #[error(transparent)]
+    Reduction(#[from] ReductionError),
+    /// Bad grid parameters, or the adaptive grid failed.
+    #[error("speed grid: {0}")]
+    Grid(String),
+}
+
+/// Poles are kept up to this multiple of the highest grid speed.
+pub const POLE_RANGE_FACTOR: f64 = 2.0;
+
+fn model_table(model: &RotorModel, poles: PoleSets, terms: Vec<ReducedTerms>) -> ModelTable {
+    ModelTable {
+        model_name: model.name.clone(),
+        n_nodes: model.n_nodes(),
+        bearing_nodes: model.bearing_nodes(),
+        plane_nodes: model.planes.clone(),
+        poles,
+        terms,
+    }
+}
+
+/// The table of `model` on the given speeds (rad/s, > 0, strictly
+/// increasing): one banded reduction per speed ([`Reducer`]), plus the poles
+/// up to [`POLE_RANGE_FACTOR`] times the highest speed (at most
+/// [`MAX_POLES`]).
+pub fn build(model: &RotorModel, speeds: &[f64]) -> Result<ModelTable, TablesError> {
+    let fe = FeModel::new(model).map_err(ReductionError::from)?;
+    let reducer = Reducer::new(&fe, model)?;
+    let top = speeds.iter().copied().fold(0.0, f64::max);
+    let poles = reducer.pole_sets(POLE_RANGE_FACTOR * top, MAX_POLES);
+    let terms = speeds
+        .iter()
+        .map(|&w| reducer.reduce(w))
+        .collect::<Result<Vec<_>, _>>()?;
+    let table = model_table(model, poles, terms);
+    table.validate()?;
+    Ok(table)
+}
+
+/// What the adaptive grid achieved.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdaptiveSummary {
+    /// Tolerance asked.
+    pub tol: f64,
+    /// Worst error on the 10x finer check grid, and where.
+    pub check: CheckReport,
+    /// Direct reductions computed (grid, midpoints and checks).
+    pub evaluations: usize,
+    /// Whether the tolerance was met.
+    pub met_tolerance: bool,
+}
+
+/// The table of `model` on an adaptive grid over `[omega_min, omega_max]`
+/// (rad/s) meeting `opts.tol` on a 10x finer check grid (see
+/// [`grid::adaptive`]). An error if the tolerance cannot be met within
+/// `opts.max_points`.
+pub fn build_adaptive(
+    model: &RotorModel,
+    omega_min: f64,
+    omega_max: f64,
+    opts: AdaptiveOptions,
+) -> Result<(ModelTable, AdaptiveSummary), TablesError> {
+    let fe = FeModel::new(model).map_err(ReductionError::from)?;
+    let reducer = Reducer::new(&fe, model)?;
+    let poles = reducer.pole_sets(POLE_RANGE_FACTOR * omega_max, MAX_POLES);
+    let g = grid::adaptive(|w| reducer.reduce(w), &poles, omega_min, omega_max, opts)
+        .map_err(|e| TablesError::Grid(e.to_string()))?;
+    let summary = AdaptiveSummary {
+        tol: opts.tol,
+        check: g.check,
+        evaluations: g.evaluations,
+        met_tolerance: g.met_tolerance,
+    };
+    if !g.met_tolerance {
+        return Err(TablesError::Grid(format!(
+            "tolerance {} not met with {} speeds (worst check error {:.3e} at {:.3} rad/s)",
+            opts.tol,
+            g.terms.len(),
+            g.check.worst_error,
+            g.check.at_omega
+        )));
+    }
+    let table = model_table(model, poles, g.terms);
+    table.validate()?;
+    Ok((table, summary))
 }
 
 /// Scalar type of a written table.
@@ -68,9 +156,9 @@ pub struct ModelTable {
     pub bearing_nodes: Vec<usize>,
     /// Unbalance plane nodes (0-based): column `k` of `B` is plane `k`.
     pub plane_nodes: Vec<usize>,
-    /// Poles of the reduced model used by the interpolation (rad/s),
-    /// increasing, at most [`MAX_POLES`].
-    pub poles: Vec<f64>,
+    /// Poles of `A` and of `B` used by the interpolation (rad/s),
+    /// increasing, at most [`MAX_POLES`] each.
+    pub poles: PoleSets,
     /// Terms per grid speed, strictly increasing speed.
     pub terms: Vec<ReducedTerms>,
 }
@@ -101,8 +189,8 @@ impl ModelTable {
         if n_p > MAX_PLANES {
             return bad(format!("{n_p} planes (at most {MAX_PLANES})"));
         }
-        if self.poles.len() > MAX_POLES {
-            return bad(format!("{} poles (at most {MAX_POLES})", self.poles.len()));
+        if self.poles.a.len() > MAX_POLES || self.poles.b.len() > MAX_POLES {
+            return bad(format!("more than {MAX_POLES} poles"));
         }
         if self.terms.is_empty() || self.terms.len() > u32::MAX as usize {
             return bad(format!("{} speeds", self.terms.len()));
@@ -127,7 +215,7 @@ impl ModelTable {
             }
             true
         }
-        if !increasing(self.poles.iter().copied()) {
+        if !increasing(self.poles.a.iter().copied()) || !increasing(self.poles.b.iter().copied()) {
             return bad("poles must be finite, > 0 and increasing".into());
         }
         if !increasing(self.terms.iter().map(|t| t.omega)) {
@@ -154,17 +242,18 @@ impl ModelTable {
     /// is an error.
     pub fn to_blob(&self, scalar: Scalar) -> Result<Vec<u8>, TablesError> {
         self.validate()?;
-        let (n_b, n_p, n_k, n_s) = (
+        let (n_b, n_p, n_ka, n_kb, n_s) = (
             self.bearing_nodes.len(),
             self.plane_nodes.len(),
-            self.poles.len(),
+            self.poles.a.len(),
+            self.poles.b.len(),
             self.terms.len(),
         );
         let w = match scalar {
             Scalar::F32 => f32::WIDTH,
             Scalar::F64 => f64::WIDTH,
         };
-        let lay = Layout::new(w, n_b, n_p, n_k, n_s)
+        let lay = Layout::new(w, n_b, n_p, n_ka, n_kb, n_s)
             .ok_or_else(|| TablesError::Invalid("table too large".into()))?;
         let mut out = Vec::with_capacity(lay.total);
         out.extend_from_slice(&MAGIC);
@@ -175,9 +264,11 @@ impl ModelTable {
         });
         out.push(0);
         // Counts were range-checked by validate().
-        for v in [self.n_nodes, n_b, n_p, n_k] {
+        for v in [self.n_nodes, n_b, n_p] {
             out.extend_from_slice(&(v as u16).to_le_bytes());
         }
+        out.push(n_ka as u8);
+        out.push(n_kb as u8);
         out.extend_from_slice(&(n_s as u32).to_le_bytes());
         debug_assert_eq!(out.len(), HEADER_LEN);
         for &n in self.plane_nodes.iter().chain(&self.bearing_nodes) {
@@ -192,7 +283,7 @@ impl ModelTable {
             }
             Scalar::F64 => out.extend_from_slice(&x.to_le_bytes()),
         };
-        for &p in &self.poles {
+        for &p in self.poles.a.iter().chain(&self.poles.b) {
             put(&mut out, p);
         }
         for t in &self.terms {
@@ -254,10 +345,17 @@ impl ModelTable {
             let omega = v.speed(s).ok_or(TableError::Corrupt)?.to_f64();
             terms.push(ReducedTerms { omega, a, b });
         }
-        let poles = (0..v.n_poles())
-            .map(|i| v.pole(i).map(|p| p.to_f64()))
+        let poles_a = (0..v.n_poles_a())
+            .map(|i| v.pole_a(i).map(|p| p.to_f64()))
             .collect::<Option<Vec<_>>>()
-            .ok_or(c)?;
+            .ok_or(TablesError::Blob(TableError::Corrupt))?;
+        let poles = PoleSets {
+            a: poles_a,
+            b: (0..v.n_poles_b())
+                .map(|i| v.pole_b(i).map(|p| p.to_f64()))
+                .collect::<Option<Vec<_>>>()
+                .ok_or(c)?,
+        };
         Ok(ModelTable {
             model_name: String::new(),
             n_nodes: v.n_nodes() as usize,
@@ -358,12 +456,14 @@ impl ModelTable {
             w,
             "pub static TABLE: rotorid_core::table::Table<{ty}, {nq}, {n_p}, {n_s}> = rotorid_core::table::Table {{"
         );
-        let mut poles = Vec::with_capacity(MAX_POLES);
-        for i in 0..MAX_POLES {
-            poles.push(fmt(self.poles.get(i).copied().unwrap_or(0.0))?);
+        for (name, list) in [("a", &self.poles.a), ("b", &self.poles.b)] {
+            let mut poles = Vec::with_capacity(MAX_POLES);
+            for i in 0..MAX_POLES {
+                poles.push(fmt(list.get(i).copied().unwrap_or(0.0))?);
+            }
+            let _ = writeln!(w, "    poles_{name}: [{}],", poles.join(", "));
+            let _ = writeln!(w, "    n_poles_{name}: {},", list.len());
         }
-        let _ = writeln!(w, "    poles: [{}],", poles.join(", "));
-        let _ = writeln!(w, "    n_poles: {},", self.poles.len());
         let speeds = self
             .terms
             .iter()

@@ -1,10 +1,29 @@
 //! `rotorid tables`: precompute the bearing-level model tables (the
 //! reduction of the FE model to the bearing DOFs) on a speed grid and write
 //! them for firmware.
+//!
+//! ```text
+//! rotorid tables --model MODEL --out FILE [--rpm-min 50] [--rpm-max 15000] [--rpm-step 50] [--f32] [--adaptive TOL]
+//! ```
+//!
+//! * The output format follows the extension of `--out`: `.rs` writes Rust
+//!   source (`static TABLE: rotorid_core::table::Table<..>` and the node
+//!   lists, for `include!` in firmware); anything else writes the binary
+//!   blob (layout in `rotorid_core::table`).
+//! * `--f32` stores single precision (default f64).
+//! * `--adaptive TOL` replaces the uniform grid by an adaptive one on
+//!   `[rpm-min, rpm-max]` whose worst relative interpolation error of `A`
+//!   and `B`, on a 10x finer check grid, is at most `TOL` (`--rpm-step` is
+//!   then unused); the achieved error is printed.
+//!
+//! One summary line goes to stdout.
 
 use clap::Args;
 
-use super::{CliError, RpmGridArgs};
+use super::{load_model, CliError, RpmGridArgs};
+use crate::grid::AdaptiveOptions;
+use crate::tables::{build, build_adaptive, Scalar};
+use crate::units::{rad_s_to_rpm, rpm_to_rad_s};
 
 /// Arguments of `rotorid tables`.
 #[derive(Debug, Clone, PartialEq, Args)]
@@ -12,7 +31,7 @@ pub struct TablesArgs {
     /// Model: `paper` or a model file (rotorid or ROSS TOML).
     #[arg(long, value_name = "MODEL")]
     pub model: String,
-    /// Output file.
+    /// Output file: Rust source if it ends in `.rs`, binary blob otherwise.
     #[arg(long, value_name = "FILE")]
     pub out: std::path::PathBuf,
     /// Speed grid.
@@ -21,10 +40,81 @@ pub struct TablesArgs {
     /// Store the table in single precision.
     #[arg(long = "f32")]
     pub f32: bool,
+    /// Adaptive grid on [rpm-min, rpm-max] with this relative interpolation
+    /// tolerance (checked on a 10x finer grid) instead of the uniform grid.
+    #[arg(long, value_name = "TOL")]
+    pub adaptive: Option<f64>,
 }
 
 /// Runs `rotorid tables`.
 pub fn run(args: &TablesArgs) -> Result<(), CliError> {
-    let _ = args;
-    Err(CliError::new("tables: not yet available in this build"))
+    let model = load_model(&args.model)?.model;
+    let scalar = if args.f32 { Scalar::F32 } else { Scalar::F64 };
+    let (table, note) = match args.adaptive {
+        None => {
+            let speeds = args.grid.speeds_rad_s()?;
+            if speeds.first().is_some_and(|&w| w <= 0.0) {
+                return Err(CliError::new(
+                    "tables: --rpm-min must be > 0 (B / Omega^2 is undefined at rest)",
+                ));
+            }
+            (build(&model, &speeds)?, String::new())
+        }
+        Some(tol) => {
+            let g = &args.grid;
+            if !(g.rpm_min.is_finite() && g.rpm_max.is_finite() && g.rpm_min > 0.0) {
+                return Err(CliError::new("tables: --rpm-min must be finite and > 0"));
+            }
+            if !(tol.is_finite() && tol > 0.0) {
+                return Err(CliError::new(format!(
+                    "tables: --adaptive must be finite and > 0, got {tol}"
+                )));
+            }
+            let (t, s) = build_adaptive(
+                &model,
+                rpm_to_rad_s(g.rpm_min),
+                rpm_to_rad_s(g.rpm_max),
+                AdaptiveOptions::new(tol),
+            )?;
+            let note = format!(
+                ", adaptive: worst check error {:.3e} at {:.2} rpm (tolerance {tol:e})",
+                s.check.worst_error,
+                rad_s_to_rpm(s.check.at_omega)
+            );
+            (t, note)
+        }
+    };
+    let is_rust = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("rs"));
+    let bytes = if is_rust {
+        table.to_rust_source(scalar)?.into_bytes()
+    } else {
+        table.to_blob(scalar)?
+    };
+    std::fs::write(&args.out, &bytes)
+        .map_err(|e| CliError::new(format!("cannot write {}: {e}", args.out.display())))?;
+    println!(
+        "wrote {} ({} bytes, {}, {}): {} speeds {:.1}..{:.1} rpm, {} bearings, {} planes, poles of A at {:?} rpm, of B at {:?} rpm{note}",
+        args.out.display(),
+        bytes.len(),
+        if is_rust { "Rust source" } else { "blob" },
+        scalar.rust_name(),
+        table.terms.len(),
+        rad_s_to_rpm(table.terms.first().map_or(0.0, |t| t.omega)),
+        rad_s_to_rpm(table.terms.last().map_or(0.0, |t| t.omega)),
+        table.bearing_nodes.len(),
+        table.plane_nodes.len(),
+        rpm_list(&table.poles.a),
+        rpm_list(&table.poles.b),
+    );
+    Ok(())
+}
+
+/// Speeds in rad/s as rpm rounded to 0.01, for the summary line.
+fn rpm_list(w: &[f64]) -> Vec<f64> {
+    w.iter()
+        .map(|&p| (rad_s_to_rpm(p) * 100.0).round() / 100.0)
+        .collect()
 }
