@@ -94,13 +94,17 @@
 //!
 //! # Input safety
 //!
-//! * Any non-finite entry in `U` or `d` -> [`FilterError::NonFinite`]; a
-//!   `lambda` outside `(0, 1]` -> [`FilterError::InvalidLambda`]; wrong
-//!   lengths -> [`FilterError::Dimension`]. All checks run **before** the
-//!   state is touched, so an error leaves it bit for bit unchanged.
+//! * Any non-finite entry in `U` or `d` -> [`FilterError::NonFinite`]; an
+//!   entry beyond [`input_limit`] (`sqrt(T::MAX)`) ->
+//!   [`FilterError::OutOfRange`]; a `lambda` outside `(0, 1]` ->
+//!   [`FilterError::InvalidLambda`]; wrong lengths ->
+//!   [`FilterError::Dimension`]. All checks run **before** the state is
+//!   touched, so an error leaves it bit for bit unchanged.
 //! * The rotations are range-safe ([`crate::givens`]): finite data never
 //!   produce an infinity or NaN in `R`, `p` unless a true column norm of the
-//!   stacked data exceeds the type's maximum.
+//!   stacked data exceeds the type's maximum, which the input limit rules
+//!   out (see [`input_limit`]). Found by the `qrdrls_update` fuzz target:
+//!   rows of entries near `f32::MAX` used to overflow the factor.
 //! * A row of all zeros meets identity rotations (`c = 1`, `s = 0`): `R` and
 //!   `p` are untouched (apart from the step's `lambda` scaling),
 //!   `gamma_j = 1` and `xi_j = d_j`. A zero entry of a row is likewise
@@ -153,12 +157,16 @@ pub enum FilterError {
     NonFinite,
     /// The forgetting factor is not in `(0, 1]` (or is NaN).
     InvalidLambda,
-    /// The regularisation `delta` is not finite and positive.
+    /// The regularisation `delta` is not in `(0, sqrt(T::MAX)]`.
     InvalidDelta,
     /// Back-substitution met a zero diagonal entry of `R` (or overflowed).
     Singular,
     /// A buffer length does not match the dimensions (or `M = 0`).
     Dimension,
+    /// An entry of `U`, `d` or the initial weights is finite but larger in
+    /// magnitude (real or imaginary part) than [`input_limit`]
+    /// (`sqrt(T::MAX)`), beyond which the factor could overflow.
+    OutOfRange,
 }
 
 impl fmt::Display for FilterError {
@@ -166,9 +174,12 @@ impl fmt::Display for FilterError {
         f.write_str(match self {
             FilterError::NonFinite => "non-finite value in the filter input",
             FilterError::InvalidLambda => "forgetting factor lambda must lie in (0, 1]",
-            FilterError::InvalidDelta => "regularisation delta must be finite and > 0",
+            FilterError::InvalidDelta => {
+                "regularisation delta must be > 0 and at most sqrt of the largest float"
+            }
             FilterError::Singular => "triangular factor is singular",
             FilterError::Dimension => "buffer length does not match the filter dimensions",
+            FilterError::OutOfRange => "filter input too large (beyond sqrt of the largest float)",
         })
     }
 }
@@ -185,23 +196,52 @@ pub fn validate_lambda<T: Real>(lambda: T) -> Result<(), FilterError> {
     }
 }
 
-/// Checks `0 < delta < infinity` (NaN rejected).
+/// Checks `0 < delta <= input_limit()` (`sqrt(T::MAX)`; NaN rejected), so
+/// that `R(0) = sqrt(delta) I` and `p(0) = sqrt(delta) w0` stay far from
+/// overflow (see [`input_limit`]).
 #[inline]
 pub fn validate_delta<T: Real>(delta: T) -> Result<(), FilterError> {
-    if delta > T::zero() && delta.is_finite() {
+    if delta > T::zero() && delta <= input_limit::<T>() {
         Ok(())
     } else {
         Err(FilterError::InvalidDelta)
     }
 }
 
-/// `Err(NonFinite)` if any entry of `u` or `d` is NaN or infinite.
+/// The largest magnitude the filter accepts for the real or imaginary part
+/// of an input entry: `L = sqrt(T::MAX)` (1.8e19 in `f32`, 1.3e154 in `f64`).
+///
+/// Why this bound keeps the state finite: every entry of `[R p]` and of the
+/// working row is bounded by the Euclidean norm of its column of the stacked
+/// data `[sqrt(delta) I, sqrt(delta) w0; U(1), d(1); ...]` (the rotations are
+/// unitary and forgetting only shrinks). With all entries below `L` in
+/// magnitude and `delta <= L` ([`validate_delta`]), the prior block
+/// contributes at most `L^(3/2)` and, after `n` steps of `N` rows, that norm
+/// is at most `sqrt(2 n N) L + L^(3/2)`, which stays below `T::MAX = L^2`
+/// for any `n N < T::MAX / 8`, i.e. forever in practice.
 #[inline]
-pub fn check_finite<F: ComplexField>(u: &[F], d: &[F]) -> Result<(), FilterError> {
-    if u.iter().chain(d.iter()).all(|x| x.is_finite()) {
+pub fn input_limit<T: Real>() -> T {
+    T::max_value().unwrap_or_else(T::one).sqrt()
+}
+
+/// `Err(NonFinite)` if any entry of `u` or `d` is NaN or infinite, then
+/// `Err(OutOfRange)` if the real or imaginary part of any entry exceeds
+/// [`input_limit`] in magnitude.
+#[inline]
+pub fn check_finite<F>(u: &[F], d: &[F]) -> Result<(), FilterError>
+where
+    F: ComplexField,
+    F::RealField: Real,
+{
+    if !u.iter().chain(d.iter()).all(|x| x.is_finite()) {
+        return Err(FilterError::NonFinite);
+    }
+    let limit = input_limit::<F::RealField>();
+    let within = |x: &F| x.clone().real().abs() <= limit && x.clone().imaginary().abs() <= limit;
+    if u.iter().chain(d.iter()).all(within) {
         Ok(())
     } else {
-        Err(FilterError::NonFinite)
+        Err(FilterError::OutOfRange)
     }
 }
 
@@ -219,7 +259,8 @@ fn dim_of<F>(r_len: usize, p: &[F]) -> Result<usize, FilterError> {
 /// Initialises the state: `R = sqrt(delta) I`, `p = R w0` (`p = 0` without
 /// `w0`). `r` is `M x M` row-major (`M * M` entries), `p` has `M` entries.
 ///
-/// Errors (state untouched): `InvalidDelta`, `Dimension`, `NonFinite` (in `w0`).
+/// Errors (state untouched): `InvalidDelta`, `Dimension`, `NonFinite` or
+/// `OutOfRange` (in `w0`, see [`check_finite`]).
 pub fn init<F, T>(r: &mut [F], p: &mut [F], delta: T, w0: Option<&[F]>) -> Result<(), FilterError>
 where
     F: ComplexField<RealField = T> + Copy,

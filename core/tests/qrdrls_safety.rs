@@ -160,15 +160,22 @@ fn non_finite_input_leaves_state_unchanged_real_f32_and_slices() {
     assert_eq!(bits(&p), bits(&p0));
 }
 
-/// Rows of size 1e25 in f32: every square (1e50) overflows f32 (max 3.4e38),
-/// yet the range-safe rotations keep the state finite and the weights right.
+/// Rows of size 4e18 in f32 (right-hand sides up to 1.5e19), below the input limit sqrt(f32::MAX) =
+/// 1.8e19: the column sums of squares (600 rows of 1.6e37) overflow f32 (max 3.4e38), yet
+/// the range-safe rotations keep the state finite and the weights right.
 /// Likewise rows of size 1e-25, whose squares (1e-50) underflow to zero.
+/// Rows of size 1e25 are beyond the limit and refused (`OutOfRange`).
 #[test]
 fn huge_and_tiny_rows_in_f32() {
     const M: usize = 3;
     const N: usize = 2;
     let w_true = [0.5f32, -1.25, 2.0];
-    for &scale in &[1e25f32, 1e-25f32] {
+    let mut f = VectorQrdRls::<f32, M, N>::new(0.9, 1.0).unwrap();
+    assert_eq!(
+        f.update(&[[1e25; M]; N], &[0.0; N]),
+        Err(FilterError::OutOfRange)
+    );
+    for &scale in &[4e18f32, 1e-25f32] {
         let mut rng = SplitMix64::new(9);
         // delta^2 * 1e-25 would underflow: the prior is made negligible by
         // forgetting instead (0.9^600 = 2e-28).
@@ -238,4 +245,42 @@ fn zero_rows_decay_without_poisoning() {
     let n = singular_at.expect("R becomes subnormal");
     assert_eq!(n, 2044);
     assert!(f.r().as_flattened().iter().all(|x| x.is_finite()));
+}
+
+/// Entries beyond `sqrt(T::MAX)` are rejected before the state is touched
+/// (the fuzz target `qrdrls_update` found rows of entries near `f32::MAX`
+/// that overflowed the factor), entries at the limit are accepted and keep
+/// the state finite, and a `delta` beyond the limit is refused.
+#[test]
+fn out_of_range_input_is_rejected_and_state_kept() {
+    use num_complex::Complex;
+    use rotorid_core::qrdrls::{input_limit, VectorQrdRls};
+    let big = 3.39e38f32;
+    let mut f = VectorQrdRls::<Complex<f32>, 5, 2>::new(0.5, 1e-3).unwrap();
+    let u0 = [[Complex::new(0.25f32, -0.5); 5]; 2];
+    f.update(&u0, &[Complex::new(1.0, 0.0); 2]).unwrap();
+    let before = f.clone();
+    let mut u = [[Complex::new(big, big); 5]; 2];
+    assert_eq!(
+        f.update(&u, &[Complex::new(0.0, 0.0); 2]),
+        Err(FilterError::OutOfRange)
+    );
+    assert_eq!(f, before);
+    let lim = input_limit::<f32>();
+    assert!((lim - f32::MAX.sqrt()).abs() <= f32::EPSILON * lim);
+    u = [[Complex::new(lim, -lim); 5]; 2];
+    for _ in 0..1000 {
+        f.update_with_lambda(&u, &[Complex::new(lim, lim); 2], 1.0)
+            .unwrap();
+    }
+    assert!(f
+        .r()
+        .iter()
+        .flatten()
+        .chain(f.p().iter())
+        .all(|z| z.re.is_finite() && z.im.is_finite()));
+    assert_eq!(
+        VectorQrdRls::<Complex<f32>, 5, 2>::new(0.99, 1e20).unwrap_err(),
+        FilterError::InvalidDelta
+    );
 }

@@ -910,14 +910,24 @@ fn rel(x: f64, truth: f64) -> f64 {
     }
 }
 
-/// A plain-text table of the final estimates (SI units, 1-based nodes) and,
+/// A plain-text table of the final estimates (SI units, 1-based nodes),
+/// their standard deviations when known ([`Identification::std`]) and,
 /// when `reference` is given, the reference values (its bearing laws at the
-/// last speed, its unbalance at the plane nodes) with relative errors.
+/// last speed, its unbalance at the plane nodes) with relative errors
+/// (absolute error in degrees for phases).
 pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> String {
     use std::fmt::Write;
+    struct Row {
+        name: String,
+        value: f64,
+        std: Option<f64>,
+        model: Option<f64>,
+        phase: bool,
+    }
     let mut s = String::new();
     let omega = id.last.omega;
     let st = id.options.structure;
+    let std = id.std();
     let _ = writeln!(
         s,
         "structure {} order {}, {} speeds ({} with forgetting frozen), last speed {:.1} rpm",
@@ -930,74 +940,88 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         id.frozen,
         crate::units::rad_s_to_rpm(omega)
     );
-    let has_ref = reference.is_some();
-    let header = if has_ref {
-        format!(
-            "{:<12} {:>14} {:>14} {:>10}",
-            "quantity", "identified", "model", "rel.err"
-        )
-    } else {
-        format!("{:<12} {:>14}", "quantity", "identified")
-    };
-    let _ = writeln!(s, "{header}");
-    fn line(s: &mut String, name: String, v: f64, t: Option<f64>) {
-        use std::fmt::Write;
-        let _ = match t {
-            Some(t) => writeln!(s, "{name:<12} {v:>14.6e} {t:>14.6e} {:>10.2e}", rel(v, t)),
-            None => writeln!(s, "{name:<12} {v:>14.6e}"),
-        };
-    }
+    let mut rows = Vec::new();
     for (m, b) in id.last.bearings.iter().enumerate() {
         let node = id.bearing_nodes.get(m).map(|n| n + 1).unwrap_or(m + 1);
         let truth = reference
             .and_then(|r| r.bearings.get(m))
             .map(|rb| rb.law.at(omega));
+        let sd = std.as_ref().and_then(|x| x.bearings.get(m));
         for (e, name) in COEF.iter().enumerate() {
-            line(
-                &mut s,
-                format!("b{}@{node} k{name}", m + 1),
-                b.k[e],
-                truth.map(|t| t.k[e]),
-            );
+            rows.push(Row {
+                name: format!("b{}@{node} k{name}", m + 1),
+                value: b.k[e],
+                std: sd.map(|x| x.0[e]),
+                model: truth.map(|t| t.k[e]),
+                phase: false,
+            });
         }
         for (e, name) in COEF.iter().enumerate() {
-            line(
-                &mut s,
-                format!("b{}@{node} c{name}", m + 1),
-                b.c[e],
-                truth.map(|t| t.c[e]),
-            );
+            rows.push(Row {
+                name: format!("b{}@{node} c{name}", m + 1),
+                value: b.c[e],
+                std: sd.map(|x| x.1[e]),
+                model: truth.map(|t| t.c[e]),
+                phase: false,
+            });
         }
     }
     for (k, u) in id.last.unbalance.iter().enumerate() {
         let node = id.plane_nodes.get(k).copied().unwrap_or(k);
         let truth = reference.and_then(|r| r.unbalance.iter().find(|t| t.node == node));
-        line(
-            &mut s,
-            format!("n{} me", node + 1),
-            u.me,
-            truth.map(|t| t.me),
-        );
-        let _ = match truth {
+        let sd = std.as_ref().and_then(|x| x.unbalance.get(k));
+        rows.push(Row {
+            name: format!("n{} me", node + 1),
+            value: u.me,
+            std: sd.map(|x| x.0),
+            model: truth.map(|t| t.me),
+            phase: false,
+        });
+        rows.push(Row {
+            name: format!("n{} phase_deg", node + 1),
+            value: u.phase_deg(),
+            std: sd.map(|x| x.1),
+            model: truth.map(|t| t.phase.to_degrees()),
+            phase: true,
+        });
+    }
+    let _ = writeln!(
+        s,
+        "{:<14} {:>14} {:>10} {:>14} {:>10}",
+        "quantity", "identified", "std", "model", "error"
+    );
+    let num = |x: f64, phase: bool| {
+        if phase {
+            format!("{x:.6}")
+        } else {
+            format!("{x:.6e}")
+        }
+    };
+    for r in rows {
+        let sd = r
+            .std
+            .map(|x| format!("{x:.2e}"))
+            .unwrap_or_else(|| "-".into());
+        let (model, err) = match r.model {
             Some(t) => {
-                let mut d = u.phase_deg() - t.phase.to_degrees();
-                d = (d + 180.0).rem_euclid(360.0) - 180.0;
-                writeln!(
-                    s,
-                    "{:<12} {:>14.6} {:>14.6} {:>10.2e}",
-                    format!("n{} phase_deg", node + 1),
-                    u.phase_deg(),
-                    t.phase.to_degrees(),
-                    d.abs()
-                )
+                let e = if r.phase {
+                    ((r.value - t + 180.0).rem_euclid(360.0) - 180.0).abs()
+                } else {
+                    rel(r.value, t)
+                };
+                (num(t, r.phase), format!("{e:.2e}"))
             }
-            None => writeln!(
-                s,
-                "{:<12} {:>14.6}",
-                format!("n{} phase_deg", node + 1),
-                u.phase_deg()
-            ),
+            None => ("-".into(), "-".into()),
         };
+        let _ = writeln!(
+            s,
+            "{:<14} {:>14} {:>10} {:>14} {:>10}",
+            r.name,
+            num(r.value, r.phase),
+            sd,
+            model,
+            err
+        );
     }
     if st.formulation == Formulation::Paper {
         let _ = writeln!(
