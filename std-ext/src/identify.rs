@@ -2,7 +2,9 @@
 //! from a measurement sweep, with runtime sizes.
 //!
 //! The per-speed terms `A(Omega)`, `B(Omega)` come from the FE model,
-//! reduced exactly at each measured speed (no interpolation),
+//! reduced exactly at each measured speed by [`crate::reduction::Reducer`]
+//! (banded, no interpolation; a pedestal, if the model has one, is part of
+//! what is identified as "the bearing", see [`crate::reduction`]),
 //! and the identification itself runs the very same core kernels as the
 //! firmware ([`rotorid_core::identify::Kernel`]: regressor, scaling,
 //! excitation guard, Givens QRD/RLS slice kernel) on `Vec` buffers, in `f64`
@@ -220,11 +222,14 @@ pub fn identify(
 ) -> Result<Identification, IdentifyError> {
     let fe =
         crate::assembly::FeModel::new(model).map_err(|e| IdentifyError::Model(e.to_string()))?;
-    let t_planes = fe
-        .unbalance_distribution(&model.planes)
+    let reducer = crate::reduction::Reducer::new(&fe, model)
         .map_err(|e| IdentifyError::Model(e.to_string()))?;
-    let mut terms =
-        |omega: f64| -> Result<TermsAt, IdentifyError> { reduce_dense(&fe, &t_planes, omega) };
+    let mut terms = |omega: f64| -> Result<TermsAt, IdentifyError> {
+        let t = reducer
+            .reduce(omega)
+            .map_err(|e| IdentifyError::Model(e.to_string()))?;
+        Ok((t.a, t.b))
+    };
     let scaling = match options.scaling {
         Some(s) => s,
         None => auto_scaling(model, max_speed(&meas.samples)),
@@ -241,41 +246,17 @@ pub fn identify(
     )
 }
 
-/// Dense reduction of the shaft-and-disk model to the bearing channels at
-/// `omega`: `Y = Z_R,Bi Z_R,ii^-1`, `A = Z_R,BB - Y Z_R,iB`,
-/// `B = Omega^2 (T_B - Y T_i)` (`t` = the plane distribution `T`).
-fn reduce_dense(
-    fe: &crate::assembly::FeModel,
-    t: &DMatrix<Complex64>,
-    omega: f64,
-) -> Result<TermsAt, IdentifyError> {
-    let z = fe.rotor_dynamic_stiffness(omega).to_dense();
-    let bd = fe.bearing_dofs();
-    let id: Vec<usize> = (0..z.nrows()).filter(|i| !bd.contains(i)).collect();
-    let sub = |m: &DMatrix<Complex64>, r: &[usize], c: &[usize]| {
-        DMatrix::from_fn(r.len(), c.len(), |i, j| m[(r[i], c[j])])
-    };
-    let planes: Vec<usize> = (0..t.ncols()).collect();
-    let lu = sub(&z, &id, &id).lu();
-    let singular = || IdentifyError::Model(format!("shaft model singular at {omega} rad/s"));
-    let zbi = sub(&z, &bd, &id);
-    let a = sub(&z, &bd, &bd) - &zbi * lu.solve(&sub(&z, &id, &bd)).ok_or_else(singular)?;
-    let b = (sub(t, &bd, &planes) - &zbi * lu.solve(&sub(t, &id, &planes)).ok_or_else(singular)?)
-        * Complex64::new(omega * omega, 0.0);
-    Ok((a, b))
-}
-
 /// The reduced terms `A`, `B` of `model` (its planes) at `omega` (rad/s),
-/// as the identification uses them.
+/// as the identification uses them ([`crate::reduction::reduce`]). For many
+/// speeds build a [`crate::reduction::Reducer`] once instead.
 pub fn reduce_terms(
     fe: &crate::assembly::FeModel,
     model: &RotorModel,
     omega: f64,
 ) -> Result<TermsAt, IdentifyError> {
-    let t = fe
-        .unbalance_distribution(&model.planes)
+    let t = crate::reduction::reduce(fe, model, omega)
         .map_err(|e| IdentifyError::Model(e.to_string()))?;
-    reduce_dense(fe, &t, omega)
+    Ok((t.a, t.b))
 }
 
 /// Highest speed of a sweep (rad/s), 0 if empty.
