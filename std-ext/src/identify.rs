@@ -152,7 +152,9 @@ pub struct Identification {
     pub scaled_weights: Vec<Complex64>,
     /// Estimated covariance of the scaled weights: White's
     /// heteroscedasticity-consistent sandwich from the final residuals of
-    /// every row, with the forgetting weights (`None` with too few rows).
+    /// every row, with the forgetting weights (`None` with too few rows, or
+    /// when more than 100000 rows still carry weight: the rows are kept in
+    /// memory until the end).
     /// It describes the scatter due to noise, not the errors-in-variables
     /// bias of noisy `q_B` in `U`.
     pub covariance: Option<DMatrix<Complex64>>,
@@ -351,7 +353,13 @@ struct State<T, F> {
     rows: Vec<(Vec<Complex64>, Complex64, f64)>,
     /// `sum ln lambda_used` so far.
     log_w: f64,
+    /// Too many rows kept: no covariance for this run.
+    rows_overflow: bool,
 }
+
+/// Rows kept for the covariance estimate (memory bound of the desktop
+/// driver: 100000 rows of 22 complex values = 35 MB).
+const MAX_COV_ROWS: usize = 100_000;
 
 impl<T: Real, F: IdField<T> + Widen> State<T, F> {
     fn new(config: Config<T>, nb: usize, np: usize) -> Result<Self, CoreError> {
@@ -372,6 +380,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
             w: vec![F::zero(); m],
             rows: Vec::new(),
             log_w: 0.0,
+            rows_overflow: false,
         };
         s.kernel().init()?;
         Ok(s)
@@ -410,9 +419,25 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
             if lam > 0.0 {
                 self.log_w += lam.ln();
                 let m = self.p.len();
-                for (row, dj) in self.u.chunks_exact(m).zip(&self.d) {
-                    let row = row.iter().map(|x| x.widen()).collect();
-                    self.rows.push((row, dj.widen(), self.log_w));
+                if !self.rows_overflow {
+                    for (row, dj) in self.u.chunks_exact(m).zip(&self.d) {
+                        let row = row.iter().map(|x| x.widen()).collect();
+                        self.rows.push((row, dj.widen(), self.log_w));
+                    }
+                    if self.rows.len() > MAX_COV_ROWS {
+                        // Rows forgotten below 1e-8 of weight no longer
+                        // matter; if that is not enough (lambda = 1 on a
+                        // very long run), give the covariance up.
+                        let log_w = self.log_w;
+                        let cut = self
+                            .rows
+                            .partition_point(|(_, _, lw)| log_w - lw < (1e-8f64).ln());
+                        self.rows.drain(..cut);
+                        if self.rows.len() > MAX_COV_ROWS {
+                            self.rows = Vec::new();
+                            self.rows_overflow = true;
+                        }
+                    }
                 }
             }
         }
@@ -431,7 +456,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
     /// `None` with fewer rows than unknowns or a singular factor.
     fn covariance(&self) -> Option<DMatrix<Complex64>> {
         let m = self.p.len();
-        if self.rows.len() <= m {
+        if self.rows_overflow || self.rows.len() <= m {
             return None;
         }
         let r = DMatrix::from_fn(m, m, |i, j| {
