@@ -936,7 +936,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
     let std = id.std();
     let _ = writeln!(
         s,
-        "structure {} order {}, {} speeds ({} with forgetting frozen), last speed {:.1} rpm",
+        "structure {} order {}, {} speeds ({} held by the steady-running guard), last speed {:.1} rpm",
         match st.formulation {
             Formulation::Paper => "paper",
             Formulation::Physical => "physical",
