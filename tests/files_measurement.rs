@@ -177,3 +177,35 @@ fn writer_refuses_inconsistent_data() {
     m.samples[1].omega = -1.0;
     assert!(to_csv_string(&m, CsvLayout::Complex).is_err());
 }
+
+/// Grid speeds are written as the rpm a person typed (1000, not
+/// 999.9999999999999 from the rad/s round trip), and read back within 1e-12.
+#[test]
+fn grid_speeds_are_written_as_round_rpm() {
+    use num_complex::Complex64;
+    use rotorid::measurement::{parse_csv, to_csv_string, CsvLayout, Measurements, Sample};
+    use rotorid::units::rpm_to_rad_s;
+    let m = Measurements {
+        comments: vec![],
+        n_bearings: 1,
+        samples: [1000.0, 6111.0, 15000.0]
+            .iter()
+            .map(|&rpm| Sample {
+                omega: rpm_to_rad_s(rpm),
+                q: vec![Complex64::new(1e-6, -2e-6), Complex64::new(3e-7, 0.0)],
+            })
+            .collect(),
+    };
+    let text = to_csv_string(&m, CsvLayout::Complex).unwrap();
+    let speeds: Vec<&str> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert_eq!(speeds, ["1000", "6111", "15000"]);
+    let back = parse_csv(&text).unwrap();
+    for (a, b) in back.samples.iter().zip(&m.samples) {
+        assert!((a.omega - b.omega).abs() <= 1e-12 * b.omega);
+        assert_eq!(a.q, b.q);
+    }
+}

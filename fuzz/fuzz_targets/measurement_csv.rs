@@ -6,7 +6,9 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let Ok(text) = std::str::from_utf8(data) else { return };
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
     if let Ok(m) = rotorid::measurement::parse_csv(text) {
         for s in &m.samples {
             assert!(s.omega.is_finite() && s.omega >= 0.0);

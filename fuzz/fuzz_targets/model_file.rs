@@ -6,7 +6,9 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let Ok(text) = std::str::from_utf8(data) else { return };
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
     if rotorid::model_file::is_ross(text) {
         if let Ok(model) = rotorid::ross::parse_ross(text) {
             assert!(model.validate().is_ok());

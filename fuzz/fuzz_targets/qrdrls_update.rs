@@ -27,15 +27,21 @@ fn finite_state(f: &VectorQrdRls<Complex<f32>, M, N>) -> bool {
 
 fuzz_target!(|data: &[u8]| {
     let mut data = data;
-    let Some(lambda) = take_f32(&mut data) else { return };
-    let Some(delta) = take_f32(&mut data) else { return };
+    let Some(lambda) = take_f32(&mut data) else {
+        return;
+    };
+    let Some(delta) = take_f32(&mut data) else {
+        return;
+    };
     let Ok(mut filter) = VectorQrdRls::<Complex<f32>, M, N>::new(lambda, delta) else {
         return;
     };
     loop {
         let mut u = [[Complex::new(0.0f32, 0.0); M]; N];
         let mut d = [Complex::new(0.0f32, 0.0); N];
-        let Some(lam) = take_f32(&mut data) else { break };
+        let Some(lam) = take_f32(&mut data) else {
+            break;
+        };
         for row in u.iter_mut() {
             for z in row.iter_mut() {
                 let (Some(re), Some(im)) = (take_f32(&mut data), take_f32(&mut data)) else {
@@ -52,7 +58,10 @@ fuzz_target!(|data: &[u8]| {
         }
         let before = filter.clone();
         match filter.update_with_lambda(&u, &d, lam) {
-            Ok(_) => assert!(finite_state(&filter), "accepted update left a non-finite state"),
+            Ok(_) => assert!(
+                finite_state(&filter),
+                "accepted update left a non-finite state"
+            ),
             Err(_) => assert_eq!(before, filter, "rejected update changed the state"),
         }
         // Weights may fail (singular factor) but must not panic.
