@@ -145,11 +145,12 @@ fn main() -> Res<()> {
     {
         // The paper's setup needs many more speeds: the sweep repeated 80
         // times (24000 speeds), terms computed once.
-        let fe = FeModel::new(&m1)?;
-        let mut cache = std::collections::HashMap::new();
-        for &w in &speeds {
-            cache.insert(w.to_bits(), rotorid::identify::reduce_terms(&fe, &m1, w)?);
-        }
+        let table = rotorid::tables::build(&m1, &speeds)?;
+        let cache: std::collections::HashMap<u64, rotorid::identify::TermsAt> = table
+            .terms
+            .into_iter()
+            .map(|t| (t.omega.to_bits(), (t.a, t.b)))
+            .collect();
         let mut long = d1.clone();
         long.samples = (0..80).flat_map(|_| d1.samples.clone()).collect();
         let mut opts = Options::new(Structure::paper(1));
@@ -212,6 +213,27 @@ fn main() -> Res<()> {
         "K tracks, C does not converge",
         errors(&m2, &q1.last),
     );
+    {
+        // The same run read as the paper's Fig. 5 presumably does: the full
+        // Z_B(Omega) = Z0 + Omega Z1 at each speed, K = Re Z_B,
+        // C = Im Z_B / Omega (for constant bearings identical to
+        // K = Re Z0, C = Im Z1, since Re Z1 = Im Z0 = 0 there).
+        let mut full = q1.last.clone();
+        let w = full.omega;
+        for b in &mut full.bearings {
+            if let (Some(i0), Some(r1)) = (b.im_z0, b.re_z1) {
+                for e in 0..4 {
+                    b.k[e] += w * r1[e];
+                    b.c[e] += i0[e] / w;
+                }
+            }
+        }
+        row(
+            "4.2 same, read as K = Re Z_B(W), C = Im Z_B / W",
+            "K tracks, C does not converge",
+            errors(&m2, &full),
+        );
+    }
     let q1raw = run(&m2, &d2, Structure::paper(1), 0.99, false, true)?;
     row(
         "4.2 paper Z0+Omega Z1, raw SI",
@@ -262,27 +284,12 @@ fn main() -> Res<()> {
         );
     }
 
-    // Firmware-style run: f32 table blob at the measured speeds, core-only
-    // const-generic identifier (physical structure, f32).
-    let fe = FeModel::new(&m1)?;
-    let reducer_terms: Vec<rotorid::reduction::ReducedTerms> = speeds
-        .iter()
-        .map(|&w| {
-            let (a, b) = rotorid::identify::reduce_terms(&fe, &m1, w)?;
-            Ok(rotorid::reduction::ReducedTerms { omega: w, a, b })
-        })
-        .collect::<Res<_>>()?;
-    let table = rotorid::tables::ModelTable {
-        model_name: m1.name.clone(),
-        n_nodes: m1.n_nodes(),
-        bearing_nodes: m1.bearing_nodes(),
-        plane_nodes: m1.planes.clone(),
-        poles: Default::default(),
-        terms: reducer_terms,
-    };
-    let blob = table.to_blob(rotorid::tables::Scalar::F32)?;
-    std::fs::write(out.join("paper_table_f32.bin"), &blob)?;
-    let view = TableView::<f32>::parse(&blob)?;
+    // Firmware-style runs: f32 table blobs (at the measured speeds, and on
+    // a 100-rpm grid so that every other measured speed is interpolated),
+    // core-only const-generic identifier (physical structure, f32).
+    let coarse: Vec<f64> = std::iter::once(rpm_to_rad_s(50.0))
+        .chain((1..=150).map(|i| rpm_to_rad_s(100.0 * i as f64)))
+        .collect();
     let s = auto_scaling(&m1, rpm_to_rad_s(15000.0));
     let config = Config {
         structure: Structure::physical(1),
@@ -293,49 +300,63 @@ fn main() -> Res<()> {
         normalise_rows: false,
         steady: SteadyPolicy::default_guard(),
     };
-    let mut fw = PhysicalIdentifier::<f32, 4, 3, 22, 8>::new(config).map_err(|e| e.to_string())?;
-    for smp in &d1.samples {
-        let q: [Complex<f32>; 4] =
-            core::array::from_fn(|j| Complex::new(smp.q[j].re as f32, smp.q[j].im as f32));
-        fw.update(&view, smp.omega as f32, &q)
+    for (label, grid, file) in [
+        ("measured speeds", &speeds, "paper_table_f32.bin"),
+        (
+            "100-rpm grid, interpolated",
+            &coarse,
+            "paper_table_100rpm_f32.bin",
+        ),
+    ] {
+        let table = rotorid::tables::build(&m1, grid)?;
+        let blob = table.to_blob(rotorid::tables::Scalar::F32)?;
+        std::fs::write(out.join(file), &blob)?;
+        let view = TableView::<f32>::parse(&blob)?;
+        let mut fw =
+            PhysicalIdentifier::<f32, 4, 3, 22, 8>::new(config).map_err(|e| e.to_string())?;
+        for smp in &d1.samples {
+            let q: [Complex<f32>; 4] =
+                core::array::from_fn(|j| Complex::new(smp.q[j].re as f32, smp.q[j].im as f32));
+            fw.update(&view, smp.omega as f32, &q)
+                .map_err(|e| e.to_string())?;
+        }
+        let e = fw
+            .estimates(rpm_to_rad_s(15000.0) as f32)
             .map_err(|e| e.to_string())?;
+        let widen = EstimateSet {
+            omega: rpm_to_rad_s(15000.0),
+            bearings: e
+                .bearings
+                .iter()
+                .map(|b| rotorid::core::regressor::BearingEstimate {
+                    k: b.k.map(f64::from),
+                    c: b.c.map(f64::from),
+                    im_z0: None,
+                    re_z1: None,
+                })
+                .collect(),
+            unbalance: e
+                .unbalance
+                .iter()
+                .map(|u| {
+                    rotorid::core::regressor::UnbalanceEstimate::from_phasor(Complex::new(
+                        u.a.re as f64,
+                        u.a.im as f64,
+                    ))
+                })
+                .collect(),
+        };
+        let ef = errors(&m1, &widen);
+        println!(
+            "firmware-style run, f32 table on {label} ({} bytes, {} B of identifier state): K {:.1e} C {:.1e} m e {:.1e} phase {:.1e} deg",
+            blob.len(),
+            std::mem::size_of_val(&fw),
+            ef.0,
+            ef.1,
+            ef.2,
+            ef.3
+        );
     }
-    let e = fw
-        .estimates(rpm_to_rad_s(15000.0) as f32)
-        .map_err(|e| e.to_string())?;
-    let widen = EstimateSet {
-        omega: rpm_to_rad_s(15000.0),
-        bearings: e
-            .bearings
-            .iter()
-            .map(|b| rotorid::core::regressor::BearingEstimate {
-                k: b.k.map(f64::from),
-                c: b.c.map(f64::from),
-                im_z0: None,
-                re_z1: None,
-            })
-            .collect(),
-        unbalance: e
-            .unbalance
-            .iter()
-            .map(|u| {
-                rotorid::core::regressor::UnbalanceEstimate::from_phasor(Complex::new(
-                    u.a.re as f64,
-                    u.a.im as f64,
-                ))
-            })
-            .collect(),
-    };
-    let ef = errors(&m1, &widen);
-    println!(
-        "\nfirmware-style run (f32 blob of {} bytes, core only, {} B of identifier state): K {:.1e} C {:.1e} m e {:.1e} phase {:.1e} deg",
-        blob.len(),
-        std::mem::size_of_val(&fw),
-        ef.0,
-        ef.1,
-        ef.2,
-        ef.3
-    );
 
     // Figures.
     let mut files = Vec::new();

@@ -114,3 +114,64 @@ fn firmware_and_desktop_paths_agree_in_f32() {
     let _ = PaperIdentifier::<f32, NQ, NP, 19, 4>::new;
     let _ = PhysicalIdentifier::<f32, NQ, NP, 22, 8>::new;
 }
+
+/// The product paths end to end: `rotorid::tables::build` (banded
+/// reduction, poles) written as an f32 blob for the firmware identifier,
+/// against `rotorid::identify::identify` (banded reduction at each
+/// measured speed) in f32; and the banded product path against the
+/// independent dense reduction in f64.
+#[test]
+fn product_paths_agree() {
+    let model = RotorModel::paper();
+    let speeds = sweep(50.0, 15000.0, 50.0);
+    let mut meas = simulate(&model, &speeds);
+    add_noise(&mut meas, 0.001, 9);
+    let scaling = auto_scaling(&model, rpm_to_rad_s(15000.0));
+    let blob = rotorid::tables::build(&model, &speeds)
+        .unwrap()
+        .to_blob(Scalar::F32)
+        .unwrap();
+    let config = Config {
+        structure: Structure::physical(1),
+        lambda: 0.999f32,
+        delta: 1e-7f32,
+        scaling: ColumnScaling::<f32>::new(scaling.stiffness, scaling.omega_ref, scaling.unbalance)
+            .unwrap(),
+        normalise_rows: false,
+        steady: SteadyPolicy::default_guard(),
+    };
+    let fw = firmware_run::<f32, 22, 8>(&blob, config, &meas);
+    let mut opts = Options::new(Structure::physical(1));
+    opts.precision = Precision::F32;
+    let desk = rotorid::identify::identify(&model, &meas, &opts, None).unwrap();
+    let diff = max_rel_diff(&fw, &desk.last);
+    println!("tables::build blob (firmware) vs identify() (desktop), f32: {diff:.2e}");
+    assert!(diff < 1e-4, "{diff}");
+    // Banded (product) against dense (test) reduction, f64.
+    let mut opts = Options::new(Structure::paper(1));
+    opts.scaling = Some(scaling);
+    let banded = rotorid::identify::identify(&model, &meas, &opts, None).unwrap();
+    let red = DenseReduction::new(&model);
+    let mut src = red.source();
+    let dense = identify_with(
+        &model.bearing_nodes(),
+        &model.planes,
+        &meas,
+        &opts,
+        &mut src,
+        None,
+    )
+    .unwrap();
+    let mut worst = 0.0f64;
+    for (a, b) in banded.last.bearings.iter().zip(&dense.last.bearings) {
+        for j in 0..4 {
+            worst = worst.max((a.k[j] - b.k[j]).abs() / b.k[j].abs());
+            worst = worst.max((a.c[j] - b.c[j]).abs() / b.c[j].abs());
+        }
+    }
+    for (a, b) in banded.last.unbalance.iter().zip(&dense.last.unbalance) {
+        worst = worst.max((a.a - b.a).norm() / b.a.norm());
+    }
+    println!("banded vs dense reduction, identified parameters (0.1% noise, f64): {worst:.2e}");
+    assert!(worst < 1e-6, "{worst}");
+}

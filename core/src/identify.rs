@@ -84,7 +84,7 @@ impl fmt::Display for IdentifyError {
             IdentifyError::InvalidConfig => {
                 f.write_str("invalid identifier configuration (lambda, delta or thresholds)")
             }
-            IdentifyError::Table(e) => write!(f, "table lookup failed: {e:?}"),
+            IdentifyError::Table(e) => write!(f, "table lookup failed: {e}"),
             IdentifyError::Filter(e) => write!(f, "filter: {e}"),
         }
     }

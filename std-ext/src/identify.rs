@@ -2,7 +2,9 @@
 //! from a measurement sweep, with runtime sizes.
 //!
 //! The per-speed terms `A(Omega)`, `B(Omega)` come from the FE model,
-//! reduced exactly at each measured speed (no interpolation),
+//! reduced exactly at each measured speed by [`crate::reduction::Reducer`]
+//! (banded, no interpolation; a pedestal, if the model has one, is part of
+//! what is identified as "the bearing", see [`crate::reduction`]),
 //! and the identification itself runs the very same core kernels as the
 //! firmware ([`rotorid_core::identify::Kernel`]: regressor, scaling,
 //! excitation guard, Givens QRD/RLS slice kernel) on `Vec` buffers, in `f64`
@@ -150,7 +152,9 @@ pub struct Identification {
     pub scaled_weights: Vec<Complex64>,
     /// Estimated covariance of the scaled weights: White's
     /// heteroscedasticity-consistent sandwich from the final residuals of
-    /// every row, with the forgetting weights (`None` with too few rows).
+    /// every row, with the forgetting weights (`None` with too few rows, or
+    /// when more than 100000 rows still carry weight: the rows are kept in
+    /// memory until the end).
     /// It describes the scatter due to noise, not the errors-in-variables
     /// bias of noisy `q_B` in `U`.
     pub covariance: Option<DMatrix<Complex64>>,
@@ -220,11 +224,14 @@ pub fn identify(
 ) -> Result<Identification, IdentifyError> {
     let fe =
         crate::assembly::FeModel::new(model).map_err(|e| IdentifyError::Model(e.to_string()))?;
-    let t_planes = fe
-        .unbalance_distribution(&model.planes)
+    let reducer = crate::reduction::Reducer::new(&fe, model)
         .map_err(|e| IdentifyError::Model(e.to_string()))?;
-    let mut terms =
-        |omega: f64| -> Result<TermsAt, IdentifyError> { reduce_dense(&fe, &t_planes, omega) };
+    let mut terms = |omega: f64| -> Result<TermsAt, IdentifyError> {
+        let t = reducer
+            .reduce(omega)
+            .map_err(|e| IdentifyError::Model(e.to_string()))?;
+        Ok((t.a, t.b))
+    };
     let scaling = match options.scaling {
         Some(s) => s,
         None => auto_scaling(model, max_speed(&meas.samples)),
@@ -241,41 +248,17 @@ pub fn identify(
     )
 }
 
-/// Dense reduction of the shaft-and-disk model to the bearing channels at
-/// `omega`: `Y = Z_R,Bi Z_R,ii^-1`, `A = Z_R,BB - Y Z_R,iB`,
-/// `B = Omega^2 (T_B - Y T_i)` (`t` = the plane distribution `T`).
-fn reduce_dense(
-    fe: &crate::assembly::FeModel,
-    t: &DMatrix<Complex64>,
-    omega: f64,
-) -> Result<TermsAt, IdentifyError> {
-    let z = fe.rotor_dynamic_stiffness(omega).to_dense();
-    let bd = fe.bearing_dofs();
-    let id: Vec<usize> = (0..z.nrows()).filter(|i| !bd.contains(i)).collect();
-    let sub = |m: &DMatrix<Complex64>, r: &[usize], c: &[usize]| {
-        DMatrix::from_fn(r.len(), c.len(), |i, j| m[(r[i], c[j])])
-    };
-    let planes: Vec<usize> = (0..t.ncols()).collect();
-    let lu = sub(&z, &id, &id).lu();
-    let singular = || IdentifyError::Model(format!("shaft model singular at {omega} rad/s"));
-    let zbi = sub(&z, &bd, &id);
-    let a = sub(&z, &bd, &bd) - &zbi * lu.solve(&sub(&z, &id, &bd)).ok_or_else(singular)?;
-    let b = (sub(t, &bd, &planes) - &zbi * lu.solve(&sub(t, &id, &planes)).ok_or_else(singular)?)
-        * Complex64::new(omega * omega, 0.0);
-    Ok((a, b))
-}
-
 /// The reduced terms `A`, `B` of `model` (its planes) at `omega` (rad/s),
-/// as the identification uses them.
+/// as the identification uses them ([`crate::reduction::reduce`]). For many
+/// speeds build a [`crate::reduction::Reducer`] once instead.
 pub fn reduce_terms(
     fe: &crate::assembly::FeModel,
     model: &RotorModel,
     omega: f64,
 ) -> Result<TermsAt, IdentifyError> {
-    let t = fe
-        .unbalance_distribution(&model.planes)
+    let t = crate::reduction::reduce(fe, model, omega)
         .map_err(|e| IdentifyError::Model(e.to_string()))?;
-    reduce_dense(fe, &t, omega)
+    Ok((t.a, t.b))
 }
 
 /// Highest speed of a sweep (rad/s), 0 if empty.
@@ -370,7 +353,13 @@ struct State<T, F> {
     rows: Vec<(Vec<Complex64>, Complex64, f64)>,
     /// `sum ln lambda_used` so far.
     log_w: f64,
+    /// Too many rows kept: no covariance for this run.
+    rows_overflow: bool,
 }
+
+/// Rows kept for the covariance estimate (memory bound of the desktop
+/// driver: 100000 rows of 22 complex values = 35 MB).
+const MAX_COV_ROWS: usize = 100_000;
 
 impl<T: Real, F: IdField<T> + Widen> State<T, F> {
     fn new(config: Config<T>, nb: usize, np: usize) -> Result<Self, CoreError> {
@@ -391,6 +380,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
             w: vec![F::zero(); m],
             rows: Vec::new(),
             log_w: 0.0,
+            rows_overflow: false,
         };
         s.kernel().init()?;
         Ok(s)
@@ -429,9 +419,25 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
             if lam > 0.0 {
                 self.log_w += lam.ln();
                 let m = self.p.len();
-                for (row, dj) in self.u.chunks_exact(m).zip(&self.d) {
-                    let row = row.iter().map(|x| x.widen()).collect();
-                    self.rows.push((row, dj.widen(), self.log_w));
+                if !self.rows_overflow {
+                    for (row, dj) in self.u.chunks_exact(m).zip(&self.d) {
+                        let row = row.iter().map(|x| x.widen()).collect();
+                        self.rows.push((row, dj.widen(), self.log_w));
+                    }
+                    if self.rows.len() > MAX_COV_ROWS {
+                        // Rows forgotten below 1e-8 of weight no longer
+                        // matter; if that is not enough (lambda = 1 on a
+                        // very long run), give the covariance up.
+                        let log_w = self.log_w;
+                        let cut = self
+                            .rows
+                            .partition_point(|(_, _, lw)| log_w - lw < (1e-8f64).ln());
+                        self.rows.drain(..cut);
+                        if self.rows.len() > MAX_COV_ROWS {
+                            self.rows = Vec::new();
+                            self.rows_overflow = true;
+                        }
+                    }
                 }
             }
         }
@@ -450,7 +456,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
     /// `None` with fewer rows than unknowns or a singular factor.
     fn covariance(&self) -> Option<DMatrix<Complex64>> {
         let m = self.p.len();
-        if self.rows.len() <= m {
+        if self.rows_overflow || self.rows.len() <= m {
             return None;
         }
         let r = DMatrix::from_fn(m, m, |i, j| {
@@ -930,7 +936,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
     let std = id.std();
     let _ = writeln!(
         s,
-        "structure {} order {}, {} speeds ({} with forgetting frozen), last speed {:.1} rpm",
+        "structure {} order {}, {} speeds ({} held by the steady-running guard), last speed {:.1} rpm",
         match st.formulation {
             Formulation::Paper => "paper",
             Formulation::Physical => "physical",

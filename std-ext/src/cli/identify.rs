@@ -45,6 +45,22 @@ pub struct IdentifyArgs {
     /// Write plots (SVG) into this folder.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<std::path::PathBuf>,
+    /// Divide each equation by the norm of its regressor row (weights the
+    /// speeds evenly; better with noise proportional to the response).
+    #[arg(long)]
+    pub normalise_rows: bool,
+    /// Skip samples whose speed is within this many rpm of the last
+    /// excited sample (steady running); 0 disables the guard.
+    #[arg(
+        long,
+        default_value_t = 10.0,
+        value_name = "RPM",
+        allow_negative_numbers = true
+    )]
+    pub steady_rpm: f64,
+    /// Raw SI unknowns (no column scaling), as in the paper.
+    #[arg(long)]
+    pub no_scaling: bool,
 }
 
 /// Runs `rotorid identify`: loads the model and the measurements, reduces
@@ -91,6 +107,17 @@ pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
         Precision::F64
     };
     opts.record_history = args.plot.is_some();
+    opts.normalise_rows = args.normalise_rows;
+    if !(args.steady_rpm >= 0.0 && args.steady_rpm.is_finite()) {
+        return Err(CliError::new(format!(
+            "--steady-rpm must be finite and >= 0, got {}",
+            args.steady_rpm
+        )));
+    }
+    opts.steady.min_speed_step = crate::units::rpm_to_rad_s(args.steady_rpm);
+    if args.no_scaling {
+        opts.scaling = Some(crate::core::scaling::ColumnScaling::identity());
+    }
 
     let n = meas.samples.len();
     let bar = if std::io::stderr().is_terminal() && n >= 100 {
