@@ -310,6 +310,15 @@ fn bad_bearing_layout_is_an_error() {
     let m2 = RotorModel::paper();
     let r = Reducer::new(&fe, &m2).unwrap();
     assert!(r.reduce(f64::NAN).is_err());
+    // A single bearing does not hold the shaft: a clear error, no panic.
+    let mut m3 = RotorModel::paper();
+    m3.bearings.truncate(1);
+    let fe3 = FeModel::new(&m3).unwrap();
+    let e = Reducer::new(&fe3, &m3).err().map(|e| e.to_string());
+    assert!(
+        e.as_deref().is_some_and(|e| e.contains("two bearings")),
+        "{e:?}"
+    );
 }
 
 /// Workloads of the benchmark (`std-ext/benches/tables.rs`), for instruction

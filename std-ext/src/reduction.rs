@@ -181,8 +181,12 @@ fn partition(fe: &FeModel, model: &RotorModel) -> Result<(Vec<usize>, Vec<usize>
             fe.n_nodes()
         )));
     }
-    if model.bearings.is_empty() {
-        return Err(ReductionError::Invalid("no bearings".into()));
+    if model.bearings.len() < 2 {
+        // One bearing cannot stop the free shaft tilting about it: K_ii is
+        // singular (numerically, a tiny pivot), the reduction meaningless.
+        return Err(ReductionError::Invalid(
+            "the reduction needs at least two bearings to hold the shaft".into(),
+        ));
     }
     let bearing: Vec<usize> = model
         .bearings
@@ -307,8 +311,13 @@ impl<'a> Reducer<'a> {
             -z0.get(interior[r], bearing[c])
         });
         interior_block(&z0, &interior)?
-            .into_lu()?
-            .solve_many(&mut x0)?;
+            .into_lu()
+            .and_then(|lu| lu.solve_many(&mut x0))
+            .map_err(|e| {
+                ReductionError::Invalid(format!(
+                    "the bearings do not hold the shaft (K_ii singular, e.g. a single bearing): {e}"
+                ))
+            })?;
         let statics = statics(&k, &h, &t, &bearing, &interior, &x0);
         Ok(Reducer {
             fe,
