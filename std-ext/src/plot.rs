@@ -306,6 +306,33 @@ pub fn line_plot_with(
     Ok(())
 }
 
+/// A short tick label: `0`, plain decimals with trailing zeros trimmed for
+/// magnitudes in `[1e-3, 1e6)` (`2000`, `0.0042`, `17.5`), otherwise
+/// scientific notation with at most four significant digits (`5e7`,
+/// `2.5e-5`).
+fn tick_label(v: f64) -> String {
+    fn trim(s: &str) -> &str {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            s
+        }
+    }
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() {
+        return if v == 0.0 { "0".into() } else { format!("{v}") };
+    }
+    if (1e-3..1e6).contains(&a) {
+        let s = format!("{v:.4}");
+        return trim(&s).to_string();
+    }
+    let s = format!("{v:.3e}");
+    match s.split_once('e') {
+        Some((mantissa, exp)) => format!("{}e{exp}", trim(mantissa)),
+        None => s,
+    }
+}
+
 #[allow(clippy::too_many_arguments)]
 fn draw<'a, Y>(
     root: &DrawingArea<SVGBackend<'a>, Shift>,
@@ -332,6 +359,8 @@ where
         .configure_mesh()
         .x_desc(x_label)
         .y_desc(y_label)
+        .x_label_formatter(&|v| tick_label(*v))
+        .y_label_formatter(&|v| tick_label(*v))
         .light_line_style(RGBColor(235, 235, 235))
         .draw()
         .map_err(|e| e.to_string())?;
@@ -420,6 +449,18 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(tick_label(0.0), "0");
+        assert_eq!(tick_label(2000.0), "2000");
+        assert_eq!(tick_label(14000.0), "14000");
+        assert_eq!(tick_label(0.0042), "0.0042");
+        assert_eq!(tick_label(-17.5), "-17.5");
+        assert_eq!(tick_label(1e8), "1e8");
+        assert_eq!(tick_label(-2.5e7), "-2.5e7");
+        assert_eq!(tick_label(2.5e-5), "2.5e-5");
+    }
 
     #[test]
     fn writes_svg_linear_and_log() {
