@@ -20,6 +20,28 @@ use nalgebra::{ComplexField, DMatrix, DVector};
 use std::vec;
 use std::vec::Vec;
 
+/// The construction checks shared by both baselines (the same as the
+/// filter's: `M > 0`, [`validate_delta`], [`check_finite`] on `w0`), and the
+/// prior weights `w0`, zero when not given.
+fn prior_weights<F, T>(m: usize, delta: T, w0: Option<&[F]>) -> Result<Vec<F>, FilterError>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    if m == 0 {
+        return Err(FilterError::Dimension);
+    }
+    validate_delta(delta)?;
+    match w0 {
+        Some(w0) if w0.len() == m => {
+            check_finite(w0, &[])?;
+            Ok(w0.to_vec())
+        }
+        Some(_) => Err(FilterError::Dimension),
+        None => Ok(vec![F::zero(); m]),
+    }
+}
+
 /// Conventional (covariance-form) RLS, Eqs. 10-13 of the paper, in the
 /// `d = U w` convention of this crate.
 ///
@@ -67,18 +89,7 @@ where
 {
     /// `P(0) = delta^-1 I`, `w(0) = w0` (zero if `None`).
     pub fn new(m: usize, delta: T, w0: Option<&[F]>) -> Result<Self, FilterError> {
-        if m == 0 {
-            return Err(FilterError::Dimension);
-        }
-        validate_delta(delta)?;
-        let w = match w0 {
-            Some(w0) if w0.len() == m => {
-                check_finite(w0, &[])?;
-                w0.to_vec()
-            }
-            Some(_) => return Err(FilterError::Dimension),
-            None => vec![F::zero(); m],
-        };
+        let w = prior_weights(m, delta, w0)?;
         let mut p = vec![F::zero(); m * m];
         let inv = T::one() / delta;
         if !inv.is_finite() {
@@ -200,19 +211,9 @@ where
 {
     /// `R(0) = sqrt(delta) I`, `p(0) = sqrt(delta) w0`.
     pub fn new(m: usize, delta: T, w0: Option<&[F]>) -> Result<Self, FilterError> {
-        if m == 0 {
-            return Err(FilterError::Dimension);
-        }
-        validate_delta(delta)?;
+        let w = prior_weights(m, delta, w0)?;
         let sd = delta.sqrt();
-        let p = match w0 {
-            Some(w0) if w0.len() == m => {
-                check_finite(w0, &[])?;
-                DVector::from_iterator(m, w0.iter().map(|x| x.scale(sd)))
-            }
-            Some(_) => return Err(FilterError::Dimension),
-            None => DVector::zeros(m),
-        };
+        let p = DVector::from_iterator(m, w.iter().map(|x| x.scale(sd)));
         let r = DMatrix::from_diagonal_element(m, m, F::from_real(sd));
         Ok(Self { r, p })
     }
