@@ -66,7 +66,7 @@ fn main() {
         },
         None => {
             // Desktop side, only to make the example self-contained.
-            let speeds = rotorid::grid::uniform_rad_s(50.0, 15000.0, 50.0).expect("grid");
+            let speeds = rotorid::tables::grid::uniform_rad_s(50.0, 15000.0, 50.0).expect("grid");
             rotorid::tables::build(&rotorid::model::RotorModel::paper(), &speeds)
                 .and_then(|t| t.to_blob(rotorid::tables::Scalar::F64))
                 .expect("paper table")

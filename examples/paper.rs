@@ -16,17 +16,16 @@ use num_complex::Complex;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-use rotorid::assembly::FeModel;
 use rotorid::core::identify::{Config, PhysicalIdentifier, SteadyPolicy};
 use rotorid::core::regressor::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::TableView;
-use rotorid::identify::{
-    auto_scaling, identify, write_plots, EstimateSet, Identification, Options, Precision,
-};
-use rotorid::measurement::{Measurements, Sample};
+use rotorid::estimate::{auto_scaling, identify, EstimateSet, Identification, Options, Precision};
+use rotorid::fe::assembly::FeModel;
+use rotorid::fe::response::{unbalance_response, Forcing};
+use rotorid::io::measurement::{Measurements, Sample};
 use rotorid::model::RotorModel;
-use rotorid::response::{unbalance_response, Forcing};
+use rotorid::report::identify::write_plots;
 use rotorid::units::rpm_to_rad_s;
 use std::error::Error;
 use std::path::Path;
@@ -146,7 +145,7 @@ fn main() -> Res<()> {
         // The paper's setup needs many more speeds: the sweep repeated 80
         // times (24000 speeds), terms computed once.
         let table = rotorid::tables::build(&m1, &speeds)?;
-        let cache: std::collections::HashMap<u64, rotorid::identify::TermsAt> = table
+        let cache: std::collections::HashMap<u64, rotorid::estimate::TermsAt> = table
             .terms
             .into_iter()
             .map(|t| (t.omega.to_bits(), (t.a, t.b)))
@@ -160,9 +159,9 @@ fn main() -> Res<()> {
             cache
                 .get(&w.to_bits())
                 .cloned()
-                .ok_or_else(|| rotorid::identify::IdentifyError::Model("speed not cached".into()))
+                .ok_or_else(|| rotorid::estimate::IdentifyError::Model("speed not cached".into()))
         };
-        let id = rotorid::identify::identify_with(
+        let id = rotorid::estimate::identify_with(
             &m1.bearing_nodes(),
             &m1.planes,
             &long,

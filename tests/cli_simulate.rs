@@ -2,9 +2,11 @@
 
 use std::process::Command;
 
-use rotorid::measurement::read_csv;
+use rotorid::io::measurement::read_csv;
+use rotorid::model::extension::Effects;
 use rotorid::model::RotorModel;
-use rotorid::simulate::{simulate, uniform_rpm_grid, Effects, SimOptions};
+use rotorid::simulate::{simulate, SimOptions};
+use rotorid::tables::grid::uniform_rpm;
 
 fn tmp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("rotorid-clisim-{}", std::process::id()));
@@ -36,7 +38,7 @@ fn simulate_paper_writes_a_valid_csv() {
     let lib = simulate(
         &RotorModel::paper(),
         &SimOptions {
-            speeds_rpm: uniform_rpm_grid(50.0, 15000.0, 50.0).unwrap(),
+            speeds_rpm: uniform_rpm(50.0, 15000.0, 50.0).unwrap(),
             noise: 0.0,
             seed: 1,
             effects: Effects::default(),

@@ -17,11 +17,11 @@
 //!   overestimate by 3% to 30%.
 
 use nalgebra::{DMatrix, SymmetricEigen};
-use rotorid::assembly::{dof, Dir, FeModel};
+use rotorid::fe::assembly::{dof, Dir, FeModel};
+use rotorid::fe::shaft::{cowper_kappa, Section};
 use rotorid::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, Material, RotorModel, ShaftElement,
 };
-use rotorid::shaft::{cowper_kappa, Section};
 
 fn uniform_beam(theory: BeamTheory, length: f64, d: f64, n_el: usize) -> RotorModel {
     RotorModel {

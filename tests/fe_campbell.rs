@@ -2,14 +2,14 @@
 //! the paper rotor's critical speeds against its unbalance response, the
 //! pinned-bearing shaft resonance, and a pedestal's extra resonance.
 
-use rotorid::assembly::FeModel;
-use rotorid::campbell::{campbell_with, critical_speeds, CampbellOptions, Whirl};
+use rotorid::fe::assembly::FeModel;
+use rotorid::fe::campbell::{campbell_with, critical_speeds, CampbellOptions, Whirl};
+use rotorid::fe::response::{unbalance_response, Forcing};
+use rotorid::fe::shaft::Section;
 use rotorid::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, Disk, Material, Pedestal, RotorModel,
     ShaftElement,
 };
-use rotorid::response::{unbalance_response, Forcing};
-use rotorid::shaft::Section;
 use rotorid::units::{rad_s_to_rpm, rpm_to_rad_s};
 
 fn stiff_isotropic(node: usize, k: f64) -> Bearing {
@@ -93,7 +93,7 @@ fn disk_gyroscopic_split_matches_rigid_disk_closed_form() {
     assert!((ip * om + root) / (-ip * om + root) > 1.5);
 }
 
-fn paper_modes(model: &RotorModel, rpm: &[f64]) -> rotorid::campbell::CampbellDiagram {
+fn paper_modes(model: &RotorModel, rpm: &[f64]) -> rotorid::fe::campbell::CampbellDiagram {
     let fe = FeModel::new(model).unwrap();
     let speeds: Vec<f64> = rpm.iter().map(|&r| rpm_to_rad_s(r)).collect();
     campbell_with(
@@ -110,7 +110,7 @@ fn paper_modes(model: &RotorModel, rpm: &[f64]) -> rotorid::campbell::CampbellDi
 /// Speed of the largest response of `channel` on a fine grid in `[lo, hi]` rpm.
 fn peak_rpm(
     model: &RotorModel,
-    channel: impl Fn(&rotorid::response::Response) -> f64,
+    channel: impl Fn(&rotorid::fe::response::Response) -> f64,
     lo: f64,
     hi: f64,
     step: f64,

@@ -3,11 +3,11 @@
 //! isotropic rotor, and the low-speed limits of the two forcings.
 
 use num_complex::Complex64;
-use rotorid::assembly::{dof, Dir, FeModel};
+use rotorid::fe::assembly::{dof, Dir, FeModel};
+use rotorid::fe::response::{unbalance_response, unbalance_response_dense, Forcing};
 use rotorid::model::{
     BearingCoefficients, BearingLaw, BowPoint, Pedestal, RotorModel, ShaftBow, Unbalance,
 };
-use rotorid::response::{unbalance_response, unbalance_response_dense, Forcing};
 use rotorid::units::rpm_to_rad_s;
 
 fn max_rel(a: &[Complex64], b: &[Complex64]) -> f64 {
@@ -170,7 +170,7 @@ fn bow_response_persists_at_low_speed_while_unbalance_vanishes() {
     let fe3 = FeModel::new(&m3).unwrap();
     let b3 = unbalance_response(&fe3, &only_bow, &speeds).unwrap();
     let u3 = unbalance_response(&fe3, &only_unbalance, &speeds).unwrap();
-    let c = |r: &rotorid::response::Response| r.bearings[2].norm();
+    let c = |r: &rotorid::fe::response::Response| r.bearings[2].norm();
     assert!(c(&b3[0]) > 1e-9);
     assert!((c(&b3[1]) / c(&b3[0]) - 1.0).abs() < 1e-3);
     assert!(c(&b3[0]) > 1e3 * c(&u3[0]));
@@ -265,7 +265,7 @@ fn dof_partition_and_bearing_channels() {
     let f = Forcing::from_model(&m);
     let w = [300.0, 900.0];
     let full = unbalance_response(&fe, &f, &w).unwrap();
-    let only = rotorid::response::bearing_response(&fe, &f, &w).unwrap();
+    let only = rotorid::fe::response::bearing_response(&fe, &f, &w).unwrap();
     for (a, q) in full.iter().zip(&only) {
         assert_eq!(&a.bearings, q);
         assert_eq!(a.bearings[2], a.q[fe.dof(26, Dir::Y)]);

@@ -2,7 +2,7 @@
 //! every kind of bad row rejected with its line number and column.
 
 use num_complex::Complex64;
-use rotorid::measurement::{
+use rotorid::io::measurement::{
     parse_csv, to_csv_string, CsvLayout, MeasurementError, Measurements, Sample,
 };
 use rotorid::units::rpm_to_rad_s;
@@ -183,7 +183,7 @@ fn writer_refuses_inconsistent_data() {
 #[test]
 fn grid_speeds_are_written_as_round_rpm() {
     use num_complex::Complex64;
-    use rotorid::measurement::{parse_csv, to_csv_string, CsvLayout, Measurements, Sample};
+    use rotorid::io::measurement::{parse_csv, to_csv_string, CsvLayout, Measurements, Sample};
     use rotorid::units::rpm_to_rad_s;
     let m = Measurements {
         comments: vec![],

@@ -1,8 +1,10 @@
 //! Model files: the shipped examples load to the built-in rotor, and bad
 //! files give an error naming the field.
 
+use rotorid::io::model_file::{
+    load_model, model_by_name_or_path, parse_model_file, ModelFileError,
+};
 use rotorid::model::RotorModel;
-use rotorid::model_file::{load_model, model_by_name_or_path, parse_model_file, ModelFileError};
 
 fn example(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -243,7 +245,7 @@ fn shipped_variants_load() {
     }
     p.name = "paper-pedestal".into();
     assert_eq!(m, p);
-    let f = rotorid::model_file::load_model_file(example("paper_effects.toml")).unwrap();
+    let f = rotorid::io::model_file::load_model_file(example("paper_effects.toml")).unwrap();
     let mut p = RotorModel::paper();
     p.name = "paper-effects".into();
     assert_eq!(f.model, p);

@@ -72,10 +72,10 @@ fn mutated_model_files_never_panic() {
     for i in 0..3000 {
         let base = if i % 2 == 0 { &own } else { &ross };
         let text = mutate(&mut rng, base);
-        let r = if rotorid::model_file::is_ross(&text) {
-            rotorid::ross::parse_ross(&text).map_err(|e| e.to_string())
+        let r = if rotorid::io::model_file::is_ross(&text) {
+            rotorid::io::ross::parse_ross(&text).map_err(|e| e.to_string())
         } else {
-            rotorid::model_file::parse_model_file(&text)
+            rotorid::io::model_file::parse_model_file(&text)
                 .map(|f| f.model)
                 .map_err(|e| e.to_string())
         };
@@ -108,7 +108,7 @@ fn mutated_csv_never_panics() {
     let (mut ok, mut err) = (0, 0);
     for _ in 0..5000 {
         let text = mutate(&mut rng, &base);
-        match rotorid::measurement::parse_csv(&text) {
+        match rotorid::io::measurement::parse_csv(&text) {
             Ok(m) => {
                 for s in &m.samples {
                     assert!(s.omega.is_finite() && s.omega >= 0.0);
@@ -126,7 +126,7 @@ fn mutated_csv_never_panics() {
     }
     assert!(ok > 0 && err > 0, "ok {ok} err {err}");
     // Extreme speed overflows rad/s: an error, not an infinite speed.
-    let e = rotorid::measurement::parse_csv(
+    let e = rotorid::io::measurement::parse_csv(
         "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im\n1e308,0,0,0,0\n",
     )
     .unwrap_err()

@@ -1,9 +1,9 @@
 //! ROSS rotor files: the shipped paper rotor in ROSS format loads to the
 //! built-in rotor, and unsupported content is refused naming the element.
 
+use rotorid::io::model_file::{load_model, ModelFileError};
+use rotorid::io::ross::{parse_ross, RossError};
 use rotorid::model::{BearingLaw, RotorModel};
-use rotorid::model_file::{load_model, ModelFileError};
-use rotorid::ross::{parse_ross, RossError};
 
 fn example(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -196,9 +196,9 @@ fn ross_detection_by_key() {
 #[test]
 fn older_ross_files_without_version_key_are_detected() {
     let old = paper_ross().replace("ross_version = \"2.0.0\"\n", "");
-    assert!(rotorid::model_file::is_ross(&old));
+    assert!(rotorid::io::model_file::is_ross(&old));
     assert_eq!(parse_ross(&old).unwrap().shaft, RotorModel::paper().shaft);
-    assert!(!rotorid::model_file::is_ross(
+    assert!(!rotorid::io::model_file::is_ross(
         "name = \"x\"\n[[shaft]]\nlength = 1.0\n"
     ));
 }

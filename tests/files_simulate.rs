@@ -2,11 +2,11 @@
 //! noise has the SPEC's statistics and is reproducible.
 
 use num_complex::Complex64;
-use rotorid::measurement::Measurements;
+use rotorid::io::measurement::Measurements;
+use rotorid::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
 use rotorid::model::{BowPoint, Pedestal, RotorModel, ShaftBow, Unbalance};
-use rotorid::simulate::{
-    simulate, uniform_rpm_grid, Channel, Effects, Runout, SimOptions, SpeedLaw, SpeedScaling,
-};
+use rotorid::simulate::{simulate, SimOptions};
+use rotorid::tables::grid::uniform_rpm;
 
 fn run(model: &RotorModel, rpm: Vec<f64>, effects: Effects) -> Measurements {
     simulate(
@@ -40,7 +40,7 @@ fn paper_sweep_shape_and_low_speed_scaling() {
     let m = RotorModel::paper();
     let d = run(
         &m,
-        uniform_rpm_grid(0.0, 15000.0, 50.0).unwrap(),
+        uniform_rpm(0.0, 15000.0, 50.0).unwrap(),
         Effects::default(),
     );
     assert_eq!(d.n_bearings, 2);
@@ -59,7 +59,7 @@ fn paper_sweep_shape_and_low_speed_scaling() {
 #[test]
 fn runout_is_a_constant_phasor_on_its_channel() {
     let m = RotorModel::paper();
-    let rpm = uniform_rpm_grid(50.0, 15000.0, 250.0).unwrap();
+    let rpm = uniform_rpm(50.0, 15000.0, 250.0).unwrap();
     let base = run(&m, rpm.clone(), Effects::default());
     let z = Complex64::from_polar(3e-6, 0.7);
     let eff = Effects {
@@ -94,8 +94,8 @@ fn runout_is_a_constant_phasor_on_its_channel() {
 /// (`-M^-1 K_s q_bow / Omega^2`): the bow's share of the probe signal falls.
 #[test]
 fn bow_forcing_does_not_grow_with_speed() {
-    use rotorid::assembly::{Dir, FeModel};
-    use rotorid::response::{unbalance_response, Forcing};
+    use rotorid::fe::assembly::{Dir, FeModel};
+    use rotorid::fe::response::{unbalance_response, Forcing};
     let mut bowed = RotorModel::paper();
     bowed.unbalance.clear();
     let bow = ShaftBow {
@@ -170,7 +170,7 @@ fn peaks(d: &Measurements) -> Vec<f64> {
 #[test]
 fn pedestal_adds_a_resonance() {
     let m = RotorModel::paper();
-    let rpm = uniform_rpm_grid(50.0, 15000.0, 10.0).unwrap();
+    let rpm = uniform_rpm(50.0, 15000.0, 10.0).unwrap();
     let base = run(&m, rpm.clone(), Effects::default());
     // A soft, heavy pedestal: m = 200 kg on 5e7 N/m, about 4800 rpm alone.
     let eff = Effects {
@@ -194,7 +194,7 @@ fn stiffer_shaft_raises_the_critical_speeds() {
     // Response peaks near the first backward/forward pair (~5800 and
     // ~6110 rpm): every peak moves up with E x 1.1 and down with E x 0.9.
     let m = RotorModel::paper();
-    let rpm = uniform_rpm_grid(4000.0, 9000.0, 5.0).unwrap();
+    let rpm = uniform_rpm(4000.0, 9000.0, 5.0).unwrap();
     let peaks_of = |e_scale: f64| {
         let d = run(
             &m,
@@ -224,7 +224,7 @@ fn stiffer_shaft_raises_the_critical_speeds() {
 #[test]
 fn extra_unbalance_plane_adds_its_own_response() {
     let m = RotorModel::paper();
-    let rpm = uniform_rpm_grid(100.0, 15000.0, 500.0).unwrap();
+    let rpm = uniform_rpm(100.0, 15000.0, 500.0).unwrap();
     let extra = Unbalance {
         node: 14,
         me: 0.002,
@@ -299,7 +299,7 @@ fn speed_dependent_bearings_change_the_data_with_speed() {
 #[test]
 fn noise_has_the_spec_statistics_and_is_reproducible() {
     let m = RotorModel::paper();
-    let rpm = uniform_rpm_grid(50.0, 15000.0, 10.0).unwrap();
+    let rpm = uniform_rpm(50.0, 15000.0, 10.0).unwrap();
     let clean = run(&m, rpm.clone(), Effects::default());
     let s = 0.01;
     let noisy = |seed| {

@@ -4,10 +4,10 @@
 
 mod identify_common;
 use identify_common::*;
-use rotorid::assembly::FeModel;
-use rotorid::campbell::{campbell_with, CampbellOptions};
 use rotorid::core::regressor::Structure;
-use rotorid::identify::{auto_scaling, identify_with, Identification, Options};
+use rotorid::estimate::{auto_scaling, identify_with, Identification, Options};
+use rotorid::fe::assembly::FeModel;
+use rotorid::fe::campbell::{campbell_with, CampbellOptions};
 use rotorid::model::RotorModel;
 use rotorid::units::rpm_to_rad_s;
 

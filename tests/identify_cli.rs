@@ -21,7 +21,7 @@ fn identify_writes_the_spec_json() {
     let model = RotorModel::paper();
     let meas = simulate(&model, &sweep(50.0, 15000.0, 50.0));
     let csv = tmp("sweep.csv");
-    rotorid::measurement::write_csv(&meas, &csv, Default::default()).unwrap();
+    rotorid::io::measurement::write_csv(&meas, &csv, Default::default()).unwrap();
     for (formulation, order) in [("physical", "1"), ("paper", "1"), ("paper", "2")] {
         let json = tmp(&format!("out-{formulation}-{order}.json"));
         let out = bin()
@@ -86,7 +86,7 @@ fn identify_bad_input_exits_2_with_one_line() {
     let model = RotorModel::paper();
     let meas = simulate(&model, &sweep(1000.0, 3000.0, 500.0));
     let csv = tmp("short.csv");
-    rotorid::measurement::write_csv(&meas, &csv, Default::default()).unwrap();
+    rotorid::io::measurement::write_csv(&meas, &csv, Default::default()).unwrap();
     let cases: Vec<Vec<String>> = vec![
         vec!["--measurements".into(), "/nonexistent/x.csv".into()],
         vec![

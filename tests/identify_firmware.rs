@@ -11,9 +11,9 @@ use rotorid::core::identify::{
 use rotorid::core::regressor::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::TableView;
-use rotorid::identify::{auto_scaling, identify_with, EstimateSet, Options, Precision};
+use rotorid::estimate::{auto_scaling, identify_with, EstimateSet, Options, Precision};
 use rotorid::model::RotorModel;
-use rotorid::reduction::ReducedTerms;
+use rotorid::reduce::ReducedTerms;
 use rotorid::tables::{ModelTable, Scalar};
 use rotorid::units::rpm_to_rad_s;
 
@@ -23,7 +23,7 @@ const NP: usize = 3;
 fn firmware_run<F: IdField<f32>, const M: usize, const N: usize>(
     blob: &[u8],
     config: Config<f32>,
-    meas: &rotorid::measurement::Measurements,
+    meas: &rotorid::io::measurement::Measurements,
 ) -> rotorid::core::identify::Estimates<f32, NQ, NP> {
     let view = TableView::<f32>::parse(blob).unwrap();
     let mut id = Identifier::<f32, F, NQ, NP, M, N>::new(config).unwrap();
@@ -117,7 +117,7 @@ fn firmware_and_desktop_paths_agree_in_f32() {
 
 /// The product paths end to end: `rotorid::tables::build` (banded
 /// reduction, poles) written as an f32 blob for the firmware identifier,
-/// against `rotorid::identify::identify` (banded reduction at each
+/// against `rotorid::estimate::identify` (banded reduction at each
 /// measured speed) in f32; and the banded product path against the
 /// independent dense reduction in f64.
 #[test]
@@ -143,14 +143,14 @@ fn product_paths_agree() {
     let fw = firmware_run::<f32, 22, 8>(&blob, config, &meas);
     let mut opts = Options::new(Structure::physical(1));
     opts.precision = Precision::F32;
-    let desk = rotorid::identify::identify(&model, &meas, &opts, None).unwrap();
+    let desk = rotorid::estimate::identify(&model, &meas, &opts, None).unwrap();
     let diff = max_rel_diff(&fw, &desk.last);
     println!("tables::build blob (firmware) vs identify() (desktop), f32: {diff:.2e}");
     assert!(diff < 1e-4, "{diff}");
     // Banded (product) against dense (test) reduction, f64.
     let mut opts = Options::new(Structure::paper(1));
     opts.scaling = Some(scaling);
-    let banded = rotorid::identify::identify(&model, &meas, &opts, None).unwrap();
+    let banded = rotorid::estimate::identify(&model, &meas, &opts, None).unwrap();
     let red = DenseReduction::new(&model);
     let mut src = red.source();
     let dense = identify_with(

@@ -4,7 +4,7 @@
 mod identify_common;
 use identify_common::*;
 use rotorid::core::regressor::Structure;
-use rotorid::identify::{auto_scaling, identify_with, Options, TermsAt};
+use rotorid::estimate::{auto_scaling, identify_with, Options, TermsAt};
 use rotorid::model::RotorModel;
 use rotorid::units::rpm_to_rad_s;
 use std::collections::HashMap;

@@ -7,7 +7,7 @@ mod identify_common;
 use identify_common::*;
 use rotorid::core::identify::{SteadyAction, SteadyPolicy};
 use rotorid::core::regressor::Structure;
-use rotorid::identify::{
+use rotorid::estimate::{
     auto_scaling, identify_with, EstimateSet, Identification, Options, Precision, TermsAt,
 };
 use rotorid::model::RotorModel;

@@ -12,16 +12,16 @@ use rotorid::core::identify::{Config, PhysicalIdentifier, SteadyPolicy};
 use rotorid::core::regressor::{BearingEstimate, Structure, UnbalanceEstimate};
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::TableView;
-use rotorid::grid::AdaptiveOptions;
-use rotorid::identify::{auto_scaling, EstimateSet};
+use rotorid::estimate::{auto_scaling, EstimateSet};
 use rotorid::model::RotorModel;
+use rotorid::tables::grid::AdaptiveOptions;
 use rotorid::tables::{build, build_adaptive, ModelTable, Scalar};
 use rotorid::units::rpm_to_rad_s;
 
 fn firmware_errors(
     model: &RotorModel,
     table: &ModelTable,
-    meas: &rotorid::measurement::Measurements,
+    meas: &rotorid::io::measurement::Measurements,
 ) -> (f64, f64, f64, f64) {
     let blob = table.to_blob(Scalar::F32).unwrap();
     let view = TableView::<f32>::parse(&blob).unwrap();

@@ -6,8 +6,8 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use rotorid::core::table::{BearingTable, Table, TableError, TableView, Terms};
-use rotorid::grid::PoleSets;
-use rotorid::reduction::ReducedTerms;
+use rotorid::reduce::PoleSets;
+use rotorid::reduce::ReducedTerms;
 use rotorid::tables::{ModelTable, Scalar};
 
 /// Deterministic pseudo-random numbers (xorshift), no dependency on rand's

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use rotorid::core::table::TableView;
-use rotorid::grid::uniform_rad_s;
 use rotorid::model::RotorModel;
+use rotorid::tables::grid::uniform_rad_s;
 use rotorid::tables::{build, ModelTable, Scalar};
 
 fn out_dir(name: &str) -> PathBuf {

@@ -6,12 +6,13 @@
 //! table) is `#[ignore]`d (a few minutes):
 //! `cargo test --release --test tables_grid -- --ignored --nocapture`.
 
-use rotorid::assembly::FeModel;
-use rotorid::grid::{
-    adaptive, check_grid, linspace, uniform_points_needed, AdaptiveOptions, PoleSets,
-};
+use rotorid::fe::assembly::FeModel;
 use rotorid::model::RotorModel;
-use rotorid::reduction::Reducer;
+use rotorid::reduce::PoleSets;
+use rotorid::reduce::Reducer;
+use rotorid::tables::grid::{
+    adaptive, check_grid, linspace, uniform_points_needed, AdaptiveOptions,
+};
 use rotorid::units::rpm_to_rad_s;
 
 fn range() -> (f64, f64) {

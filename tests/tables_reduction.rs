@@ -5,14 +5,14 @@
 
 use nalgebra::{DMatrix, DVector, Matrix2};
 use num_complex::Complex64;
-use rotorid::assembly::FeModel;
 use rotorid::core::table::{BearingTable, TableView, Terms};
-use rotorid::grid::uniform_rad_s;
+use rotorid::fe::assembly::FeModel;
+use rotorid::fe::response::{unbalance_response, unbalance_response_dense, Forcing};
 use rotorid::model::{Bearing, Pedestal, RotorModel, Unbalance};
-use rotorid::reduction::{
+use rotorid::reduce::{
     reduce, reduce_dense, reduce_schur_dense, DenseReducer, ReducedTerms, Reducer,
 };
-use rotorid::response::{unbalance_response, unbalance_response_dense, Forcing};
+use rotorid::tables::grid::uniform_rad_s;
 use rotorid::tables::{build, Scalar};
 
 fn rel(a: &DMatrix<Complex64>, b: &DMatrix<Complex64>) -> f64 {
@@ -327,7 +327,7 @@ fn bad_bearing_layout_is_an_error() {
 fn workload(dense: bool) {
     let model = RotorModel::paper();
     let fe = FeModel::new(&model).unwrap();
-    let speeds = rotorid::grid::linspace(
+    let speeds = rotorid::tables::grid::linspace(
         rotorid::units::rpm_to_rad_s(15.0),
         rotorid::units::rpm_to_rad_s(15000.0),
         1000,

@@ -9,8 +9,8 @@
 //! (and `--f32 --out tests/data/paper_table_f32.rs`).
 
 use rotorid::core::table::{BearingTable, TableView, Terms};
-use rotorid::grid::uniform_rad_s;
 use rotorid::model::RotorModel;
+use rotorid::tables::grid::uniform_rad_s;
 use rotorid::tables::{build, ModelTable, Scalar};
 
 mod paper64 {

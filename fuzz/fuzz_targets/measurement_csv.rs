@@ -9,7 +9,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
-    if let Ok(m) = rotorid::measurement::parse_csv(text) {
+    if let Ok(m) = rotorid::io::measurement::parse_csv(text) {
         for s in &m.samples {
             assert!(s.omega.is_finite() && s.omega >= 0.0);
             assert_eq!(s.q.len(), 2 * m.n_bearings);

@@ -9,11 +9,11 @@ fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
-    if rotorid::model_file::is_ross(text) {
-        if let Ok(model) = rotorid::ross::parse_ross(text) {
+    if rotorid::io::model_file::is_ross(text) {
+        if let Ok(model) = rotorid::io::ross::parse_ross(text) {
             assert!(model.validate().is_ok());
         }
-    } else if let Ok(file) = rotorid::model_file::parse_model_file(text) {
+    } else if let Ok(file) = rotorid::io::model_file::parse_model_file(text) {
         assert!(file.model.validate().is_ok());
     }
 });

@@ -7,15 +7,15 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use num_complex::Complex;
-use rotorid::assembly::FeModel;
 use rotorid::core::identify::{Config, IdField, Identifier, SteadyPolicy};
 use rotorid::core::qrdrls::VectorQrdRls;
 use rotorid::core::regressor::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::Real;
-use rotorid::identify::reduce_terms;
+use rotorid::estimate::reduce_terms;
+use rotorid::fe::assembly::FeModel;
+use rotorid::fe::response::{unbalance_response, Forcing};
 use rotorid::model::RotorModel;
-use rotorid::response::{unbalance_response, Forcing};
 use rotorid::units::rpm_to_rad_s;
 use std::hint::black_box;
 

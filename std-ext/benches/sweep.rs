@@ -5,9 +5,9 @@
 //! `cargo bench --bench sweep -- --warm-up-time 1 --measurement-time 3`
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use rotorid::assembly::FeModel;
+use rotorid::fe::assembly::FeModel;
+use rotorid::fe::response::{unbalance_response, unbalance_response_dense, Forcing};
 use rotorid::model::RotorModel;
-use rotorid::response::{unbalance_response, unbalance_response_dense, Forcing};
 use rotorid::units::rpm_to_rad_s;
 use std::hint::black_box;
 

@@ -7,10 +7,10 @@
 //! ```
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use rotorid::assembly::FeModel;
-use rotorid::grid::linspace;
+use rotorid::fe::assembly::FeModel;
 use rotorid::model::RotorModel;
-use rotorid::reduction::{DenseReducer, Reducer};
+use rotorid::reduce::{DenseReducer, Reducer};
+use rotorid::tables::grid::linspace;
 use rotorid::units::rpm_to_rad_s;
 use std::hint::black_box;
 

@@ -6,40 +6,48 @@
 //! The firmware half (filter, table reader, identifier) is
 //! [`rotorid_core`], re-exported as [`core`].
 //!
+//! # Data flow and layering
+//!
+//! ```text
+//! model -> fe -> reduce -> tables -> estimate -> (diagnose) -> report -> cli
+//!   ^ io (model files, ROSS files, measurement CSV)    simulate (fe + model::extension)
+//! ```
+//!
+//! The top-level modules form layers, lowest first: [`units`], [`model`],
+//! [`io`], [`fe`], [`reduce`], [`tables`], [`simulate`], [`estimate`],
+//! [`report`], [`cli`]. A module may use the ones before it, never one
+//! after it (`tests/architecture.rs` checks this on the source), so there
+//! are no import cycles and each stage can be read and tested on its own.
+//!
 //! Conventions (see the README): SI units inside (m, kg, s, N, rad/s; rpm
 //! only at the edges), rotation about x, node DOFs `(y, z, phi_y, phi_z)`,
 //! nodes 0-based in code and 1-based in files, reports and the CLI, phasors
 //! `y(t) = Re{ Y exp(j Omega t) }`, bearing coefficients in the order
 //! `yy, yz, zy, zz`.
+#![warn(missing_docs)]
 
 pub use rotorid_core as core;
 
+pub mod units;
+
 /// Physical description of a rotor (material, shaft, disks, bearings,
-/// pedestals, unbalance, bow): what a model file says.
+/// pedestals, unbalance, bow) and the physical effects a nominal model may
+/// lack ([`model::extension`]): what a model file says.
 pub mod model;
 
-// Finite-element model.
-pub mod assembly;
-pub mod banded;
-pub mod bearing;
-pub mod campbell;
-pub mod disk;
-pub mod response;
-pub mod shaft;
+pub mod io;
 
-// Bearing-level tables for firmware.
-pub mod grid;
-pub mod reduction;
+pub mod fe;
+
+pub mod reduce;
+
 pub mod tables;
 
-// Files, simulation, identification, plots.
-pub mod identify;
-pub mod measurement;
-pub mod model_file;
-pub mod plot;
-pub mod ross;
 pub mod simulate;
-pub mod units;
+
+pub mod estimate;
+
+pub mod report;
 
 /// The command line (`rotorid`): argument parsing, model loading, errors.
 pub mod cli;

@@ -7,11 +7,11 @@ use num_complex::Complex64;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-use rotorid::assembly::FeModel;
-use rotorid::identify::{EstimateSet, IdentifyError, TermsAt};
-use rotorid::measurement::{Measurements, Sample};
+use rotorid::estimate::{EstimateSet, IdentifyError, TermsAt};
+use rotorid::fe::assembly::FeModel;
+use rotorid::fe::response::{unbalance_response, Forcing};
+use rotorid::io::measurement::{Measurements, Sample};
 use rotorid::model::RotorModel;
-use rotorid::response::{unbalance_response, Forcing};
 use rotorid::units::rpm_to_rad_s;
 
 /// Speeds `rpm_min, rpm_min + step, ..., <= rpm_max` (rad/s).

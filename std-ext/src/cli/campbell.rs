@@ -7,12 +7,12 @@ use std::fmt::Write as _;
 use clap::Args;
 
 use super::{load_model, CliError};
-use crate::assembly::FeModel;
-use crate::campbell::{
+use crate::fe::assembly::FeModel;
+use crate::fe::campbell::{
     campbell_with, critical_speeds, CampbellDiagram, CampbellOptions, CriticalSpeed, Whirl,
 };
-use crate::plot::{line_plot_with, Marker, PlotOptions, Series, VLine};
-use crate::simulate::uniform_rpm_grid;
+use crate::report::plot::{line_plot_with, Marker, PlotOptions, Series, VLine};
+use crate::tables::grid::uniform_rpm;
 use crate::units::{rad_s_to_hz, rad_s_to_rpm, rpm_to_rad_s};
 
 /// Arguments of `rotorid campbell`.
@@ -189,7 +189,7 @@ pub fn run(args: &CampbellArgs) -> Result<(), CliError> {
     if args.modes == 0 {
         return Err(CliError("--modes must be at least 1".into()));
     }
-    let rpm = uniform_rpm_grid(0.0, args.rpm_max, args.rpm_step)?;
+    let rpm = uniform_rpm(0.0, args.rpm_max, args.rpm_step)?;
     let omegas: Vec<f64> = rpm.iter().map(|&r| rpm_to_rad_s(r)).collect();
     let fe = FeModel::new(&file.model)?;
     let opts = CampbellOptions {

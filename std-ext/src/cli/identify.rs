@@ -70,7 +70,8 @@ pub struct IdentifyArgs {
 /// optionally writes the JSON of SPEC section 5 and SVG plots.
 pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
     use crate::core::regressor::{Structure, MAX_ORDER};
-    use crate::identify::{identify, report_table, write_plots, Options, Precision};
+    use crate::estimate::{identify, Options, Precision};
+    use crate::report::identify::{report_table, write_plots};
     use std::io::IsTerminal;
 
     if !(1..=MAX_ORDER).contains(&args.order) {
@@ -92,7 +93,7 @@ pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
         )));
     }
     let model = super::load_model(&args.model)?.model;
-    let meas = crate::measurement::read_csv(&args.measurements)
+    let meas = crate::io::measurement::read_csv(&args.measurements)
         .map_err(|e| CliError::new(format!("{}: {e}", args.measurements.display())))?;
     let structure = match args.formulation {
         Formulation::Physical => Structure::physical(args.order),
@@ -148,7 +149,7 @@ pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
             .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
     }
     if let Some(dir) = &args.plot {
-        let rpm_max = crate::units::rad_s_to_rpm(crate::identify::max_speed(&meas.samples));
+        let rpm_max = crate::units::rad_s_to_rpm(crate::estimate::max_speed(&meas.samples));
         let files = write_plots(dir, "", &id, &model, Some(&model), rpm_max.max(1.0))?;
         for f in files {
             eprintln!("wrote {}", f.display());

@@ -18,7 +18,7 @@ use std::fmt;
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::model_file::{model_file_by_name_or_path, ModelFile};
+use crate::io::model_file::{model_file_by_name_or_path, ModelFile};
 
 pub mod campbell;
 pub mod diagnose;
@@ -94,7 +94,7 @@ pub struct RpmGridArgs {
 impl RpmGridArgs {
     /// The speeds (rpm), validated.
     pub fn speeds_rpm(&self) -> Result<Vec<f64>, CliError> {
-        Ok(crate::simulate::uniform_rpm_grid(
+        Ok(crate::tables::grid::uniform_rpm(
             self.rpm_min,
             self.rpm_max,
             self.rpm_step,
@@ -148,7 +148,7 @@ impl<E: std::error::Error> From<E> for CliError {
 /// the file's `[simulate]` effects. The error names the model argument.
 pub fn load_model(name_or_path: &str) -> Result<ModelFile, CliError> {
     model_file_by_name_or_path(name_or_path).map_err(|e| match e {
-        crate::model_file::ModelFileError::UnknownModel(_) => CliError(e.to_string()),
+        crate::io::model_file::ModelFileError::UnknownModel(_) => CliError(e.to_string()),
         other => CliError(format!("model {name_or_path}: {other}")),
     })
 }

@@ -4,9 +4,10 @@
 use clap::{Args, ValueEnum};
 
 use super::{load_model, CliError, RpmGridArgs};
-use crate::measurement::{write_csv, CsvLayout};
+use crate::io::measurement::{write_csv, CsvLayout};
+use crate::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
 use crate::model::{BowPoint, Pedestal, Unbalance};
-use crate::simulate::{Channel, Effects, Runout, SimOptions, SpeedLaw, SpeedScaling};
+use crate::simulate::SimOptions;
 
 /// Column layout of the written CSV.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]

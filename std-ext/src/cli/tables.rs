@@ -21,7 +21,7 @@
 use clap::Args;
 
 use super::{load_model, CliError, RpmGridArgs};
-use crate::grid::AdaptiveOptions;
+use crate::tables::grid::AdaptiveOptions;
 use crate::tables::{build, build_adaptive, Scalar};
 use crate::units::{rad_s_to_rpm, rpm_to_rad_s};
 

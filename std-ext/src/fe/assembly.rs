@@ -11,7 +11,7 @@
 //! so the shaft + disk + bearing matrices have half bandwidth
 //! [`HALF_BANDWIDTH`] = 7 (an element couples `4n .. 4n + 7`). The harmonic
 //! analyses work on these `4 N_nodes` shaft DOFs only, pedestals being
-//! condensed exactly at each frequency (see [`crate::bearing`]), so the
+//! condensed exactly at each frequency (see [`crate::fe::bearing`]), so the
 //! band never widens. The dense matrices (for eigenvalues) append the
 //! pedestal DOFs after the shaft DOFs: the `p`-th pedestal (in bearing
 //! order, counting only bearings that have one) has
@@ -29,8 +29,8 @@
 //!
 //! and more generally, for eigenvalues `s`, `Z(s) = K + s (C + Omega G) + s^2 M`.
 //! `M`, `G`, `K` of the shaft are the Timoshenko (default) or
-//! Euler-Bernoulli elements of [`crate::shaft`]; disks add `M` and `G`
-//! ([`crate::disk`]); bearings add `K(Omega)` and `C(Omega)` ([`crate::bearing`]).
+//! Euler-Bernoulli elements of [`crate::fe::shaft`]; disks add `M` and `G`
+//! ([`crate::fe::disk`]); bearings add `K(Omega)` and `C(Omega)` ([`crate::fe::bearing`]).
 //!
 //! # Forcing
 //!
@@ -41,14 +41,14 @@
 //!   synchronous forcing is `K_s q_bow`, independent of speed. See
 //!   [`FeModel::bow_shape`] for the interpolation of the given points.
 
-use crate::banded::{BandedError, BandedMatrix};
-use crate::bearing::{
+use crate::fe::banded::{BandedError, BandedMatrix};
+use crate::fe::bearing::{
     bearing_dynamic_stiffness, condense_pedestal, damping, pedestal_dynamic_stiffness, stiffness,
     BearingError,
 };
-use crate::disk::disk_matrices;
+use crate::fe::disk::disk_matrices;
+use crate::fe::shaft::element_matrices;
 use crate::model::{ModelError, RotorModel, ShaftBow, Unbalance};
-use crate::shaft::element_matrices;
 use nalgebra::{DMatrix, Matrix2};
 use num_complex::Complex64;
 use thiserror::Error;
@@ -195,7 +195,7 @@ impl FeModel {
 
     /// Number of DOFs including the pedestals, `4 N_nodes + 2 N_pedestals`:
     /// the order of the dense matrices and the length of
-    /// [`crate::response::Response::q`].
+    /// [`crate::fe::response::Response::q`].
     pub fn n_dof(&self) -> usize {
         4 * self.n_nodes + 2 * self.n_pedestals
     }

@@ -17,7 +17,7 @@ use num_complex::Complex64;
 use rotorid_core::table::{locate, weights, Position, TableError, POLE_GUARD};
 use thiserror::Error;
 
-use crate::reduction::ReducedTerms;
+use crate::reduce::{PoleSets, ReducedTerms};
 use crate::units::rpm_to_rad_s;
 
 /// Error building a grid.
@@ -44,58 +44,68 @@ pub enum GridError<E: std::error::Error + 'static> {
     },
 }
 
-/// The poles of the reduced model (rad/s, increasing), per matrix: `A`
-/// has every pole of `Y`, `B` only those the unbalance excites (see
-/// [`rotorid_core::table`]).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct PoleSets {
-    /// Poles of `A`.
-    pub a: Vec<f64>,
-    /// Poles of `B`.
-    pub b: Vec<f64>,
+/// A uniform speed grid that cannot be built.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SpeedGridError {
+    /// `rpm_min` is not finite or negative.
+    #[error("--rpm-min must be finite and >= 0, got {0}")]
+    Min(f64),
+    /// `rpm_max` is not finite or below `rpm_min`.
+    #[error("--rpm-max must be finite and >= --rpm-min ({min}), got {max}")]
+    Max {
+        /// The lower end (rpm).
+        min: f64,
+        /// The upper end (rpm).
+        max: f64,
+    },
+    /// `rpm_step` is not finite or not positive.
+    #[error("--rpm-step must be finite and > 0, got {0}")]
+    Step(f64),
+    /// More than [`MAX_GRID_POINTS`] speeds.
+    #[error("{0} speeds is too many (at most 10000000)")]
+    TooMany(f64),
 }
 
-impl PoleSets {
-    /// No poles: plain linear interpolation of `X / Omega^2`.
-    pub fn none() -> Self {
-        PoleSets::default()
-    }
-}
+/// The largest uniform grid [`uniform_rpm`] builds.
+pub const MAX_GRID_POINTS: usize = 10_000_000;
 
-/// The SPEC's uniform grid (rpm): from `rpm_min` in steps of `rpm_step` up
-/// to and including `rpm_max` when it falls on the grid (within 1e-9 of a
-/// step). Speeds are `rpm_min + k rpm_step`, `k = 0..n` with an integer
-/// count `n = floor((rpm_max - rpm_min) / rpm_step + 1e-9) + 1`, so no
-/// rounding drift accumulates.
+/// The one uniform speed grid of rotorid (rpm): from `rpm_min` in steps of
+/// `rpm_step` up to and including `rpm_max` when it falls on the grid
+/// (within 1e-9 of a step). Speeds are `rpm_min + k rpm_step`, `k = 0..n`
+/// with an integer count `n = floor((rpm_max - rpm_min) / rpm_step + 1e-9) + 1`,
+/// so no rounding drift accumulates.
 ///
-/// Requires finite values, `rpm_min > 0` (the table stores `B / Omega^2`
-/// information, which is lost at rest), `rpm_step > 0`, `rpm_max >= rpm_min`,
-/// and at most 10 million speeds.
-pub fn uniform_rpm(rpm_min: f64, rpm_max: f64, rpm_step: f64) -> Result<Vec<f64>, String> {
-    if !(rpm_min.is_finite() && rpm_max.is_finite() && rpm_step.is_finite()) {
-        return Err("rpm-min, rpm-max and rpm-step must be finite".into());
+/// Requires finite values, `rpm_min >= 0`, `rpm_step > 0`,
+/// `rpm_max >= rpm_min` and at most [`MAX_GRID_POINTS`] speeds. (Tables
+/// need `rpm_min > 0`: they store `B / Omega^2`, which is lost at rest; the
+/// table builder checks that.)
+pub fn uniform_rpm(rpm_min: f64, rpm_max: f64, rpm_step: f64) -> Result<Vec<f64>, SpeedGridError> {
+    if !(rpm_min.is_finite() && rpm_min >= 0.0) {
+        return Err(SpeedGridError::Min(rpm_min));
     }
-    if rpm_min <= 0.0 {
-        return Err(format!("rpm-min must be > 0, got {rpm_min}"));
+    if !(rpm_max.is_finite() && rpm_max >= rpm_min) {
+        return Err(SpeedGridError::Max {
+            min: rpm_min,
+            max: rpm_max,
+        });
     }
-    if rpm_step <= 0.0 {
-        return Err(format!("rpm-step must be > 0, got {rpm_step}"));
+    if !(rpm_step.is_finite() && rpm_step > 0.0) {
+        return Err(SpeedGridError::Step(rpm_step));
     }
-    if rpm_max < rpm_min {
-        return Err(format!(
-            "rpm-max ({rpm_max}) must be >= rpm-min ({rpm_min})"
-        ));
+    let span = (rpm_max - rpm_min) / rpm_step;
+    if span >= MAX_GRID_POINTS as f64 {
+        return Err(SpeedGridError::TooMany(span.floor() + 1.0));
     }
-    let steps = ((rpm_max - rpm_min) / rpm_step + 1e-9).floor();
-    if steps >= 1e7 {
-        return Err(format!("{steps} speeds is too many"));
-    }
-    let n = steps as usize + 1;
+    let n = (span + 1e-9).floor() as usize + 1;
     Ok((0..n).map(|k| rpm_min + k as f64 * rpm_step).collect())
 }
 
 /// [`uniform_rpm`] converted to rad/s.
-pub fn uniform_rad_s(rpm_min: f64, rpm_max: f64, rpm_step: f64) -> Result<Vec<f64>, String> {
+pub fn uniform_rad_s(
+    rpm_min: f64,
+    rpm_max: f64,
+    rpm_step: f64,
+) -> Result<Vec<f64>, SpeedGridError> {
     Ok(uniform_rpm(rpm_min, rpm_max, rpm_step)?
         .into_iter()
         .map(rpm_to_rad_s)
@@ -486,6 +496,24 @@ pub fn uniform_points_needed<E: std::error::Error + 'static>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grid_includes_max_on_grid_only() {
+        let g = uniform_rpm(50.0, 15000.0, 50.0).unwrap();
+        assert_eq!(g.len(), 300);
+        assert_eq!(*g.last().unwrap(), 15000.0);
+        let g = uniform_rpm(0.0, 1.0, 0.1).unwrap();
+        assert_eq!(g.len(), 11);
+        assert!((g[10] - 1.0).abs() < 1e-12);
+        let g = uniform_rpm(0.0, 1.05, 0.1).unwrap();
+        assert_eq!(g.len(), 11);
+        assert_eq!(uniform_rpm(100.0, 100.0, 50.0).unwrap(), vec![100.0]);
+        assert!(uniform_rpm(100.0, 50.0, 50.0).is_err());
+        assert!(uniform_rpm(0.0, 50.0, 0.0).is_err());
+        assert!(uniform_rpm(-1.0, 50.0, 1.0).is_err());
+        assert!(uniform_rpm(0.0, f64::NAN, 1.0).is_err());
+        assert!(uniform_rpm(0.0, 1e12, 1e-3).is_err());
+    }
     use nalgebra::DMatrix;
 
     #[test]

@@ -99,10 +99,27 @@ use nalgebra::{Cholesky, DMatrix, SymmetricEigen};
 use num_complex::Complex64;
 use thiserror::Error;
 
-use crate::assembly::{Dir, FeError, FeModel};
-use crate::banded::{BandedError, BandedMatrix};
-use crate::grid::PoleSets;
+use crate::fe::assembly::{Dir, FeError, FeModel};
+use crate::fe::banded::{BandedError, BandedMatrix};
 use crate::model::{ModelError, RotorModel};
+
+/// The poles of the reduced model (rad/s, increasing), per matrix: `A`
+/// has every pole of `Y`, `B` only those the unbalance excites (see
+/// [`rotorid_core::table`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PoleSets {
+    /// Poles of `A`.
+    pub a: Vec<f64>,
+    /// Poles of `B`.
+    pub b: Vec<f64>,
+}
+
+impl PoleSets {
+    /// No poles: plain linear interpolation of `X / Omega^2`.
+    pub fn none() -> Self {
+        PoleSets::default()
+    }
+}
 
 /// `A` and `B` at one speed.
 #[derive(Debug, Clone, PartialEq)]

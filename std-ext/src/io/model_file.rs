@@ -63,7 +63,7 @@
 //! Unknown keys are errors, and every error names the field, with 1-based
 //! array indices (`bearing[2].node: node 40 is not on the shaft (nodes 1..=27)`).
 //! A file with a top-level `ross_version` key is read as a ROSS rotor
-//! instead (see [`crate::ross`]).
+//! instead (see [`crate::io::ross`]).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -71,12 +71,12 @@ use std::path::Path;
 use serde::Deserialize;
 use thiserror::Error;
 
+use crate::io::ross::RossError;
+use crate::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
 use crate::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, BowPoint, Disk, Material, ModelError,
     Pedestal, RotorModel, ShaftBow, ShaftElement, Unbalance,
 };
-use crate::ross::RossError;
-use crate::simulate::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
 use crate::units::rpm_to_rad_s;
 
 /// Error loading a model file or model name.
@@ -788,7 +788,7 @@ pub fn load_model_file(path: impl AsRef<Path>) -> Result<ModelFile, ModelFileErr
         source,
     })?;
     if is_ross(&text) {
-        let model = crate::ross::parse_ross(&text)?;
+        let model = crate::io::ross::parse_ross(&text)?;
         Ok(ModelFile {
             model,
             effects: Effects::default(),

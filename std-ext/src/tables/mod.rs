@@ -1,6 +1,6 @@
 //! Bearing-level model tables for firmware: the per-speed reduced terms
-//! `A(Omega)`, `B(Omega)` of [`crate::reduction`] on a speed grid
-//! ([`crate::grid`]), written as
+//! `A(Omega)`, `B(Omega)` of [`crate::reduce`] on a speed grid
+//! ([`crate::tables::grid`]), written as
 //!
 //! * a binary blob (little-endian, CRC-32; byte layout in
 //!   [`rotorid_core::table`] and the README section "Model tables"), read in
@@ -13,6 +13,8 @@
 //! its bearing points held fixed resonates) that the firmware's
 //! pole-factored interpolation needs.
 
+pub mod grid;
+
 use std::fmt::Write as _;
 
 use num_complex::Complex64;
@@ -23,10 +25,11 @@ use rotorid_core::table::{
 };
 use thiserror::Error;
 
-use crate::assembly::FeModel;
-use crate::grid::{self, AdaptiveOptions, CheckReport, PoleSets};
+use crate::fe::assembly::FeModel;
 use crate::model::RotorModel;
-use crate::reduction::{ReducedTerms, Reducer, ReductionError};
+use crate::reduce::PoleSets;
+use crate::reduce::{ReducedTerms, Reducer, ReductionError};
+use grid::{AdaptiveOptions, CheckReport};
 
 /// Error writing or reading a table.
 #[derive(Debug, Error)]

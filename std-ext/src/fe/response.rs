@@ -9,12 +9,12 @@
 //! ```
 //!
 //! on the shaft DOFs, pedestals condensed exactly
-//! ([`crate::bearing`]), by one banded LU factorisation per speed
-//! ([`crate::banded`]); the pedestal responses follow from
+//! ([`crate::fe::bearing`]), by one banded LU factorisation per speed
+//! ([`crate::fe::banded`]); the pedestal responses follow from
 //! `q_p = (Z_B + Z_P)^-1 Z_B q_s`. A dense reference implementation that
 //! keeps the pedestal DOFs explicitly is [`unbalance_response_dense`].
 
-use crate::assembly::{FeError, FeModel};
+use crate::fe::assembly::{FeError, FeModel};
 use crate::model::{RotorModel, ShaftBow, Unbalance};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -22,7 +22,7 @@ use num_complex::Complex64;
 /// What drives the 1X response.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Forcing {
-    /// Unbalance planes (force `Omega^2 a`, see [`crate::assembly`]).
+    /// Unbalance planes (force `Omega^2 a`, see [`crate::fe::assembly`]).
     pub unbalance: Vec<Unbalance>,
     /// Shaft bow (force `K_s q_bow`, speed-independent).
     pub bow: Option<ShaftBow>,
@@ -94,8 +94,8 @@ pub fn unbalance_response(
         q.resize(fe.n_dof(), Complex64::new(0.0, 0.0));
         for (bi, _) in fe.model().bearings.iter().enumerate() {
             if let (Some(py), Some(pz)) = (
-                fe.pedestal_dof(bi, crate::assembly::Dir::Y),
-                fe.pedestal_dof(bi, crate::assembly::Dir::Z),
+                fe.pedestal_dof(bi, crate::fe::assembly::Dir::Y),
+                fe.pedestal_dof(bi, crate::fe::assembly::Dir::Z),
             ) {
                 q[py] = pedestals[2 * bi];
                 q[pz] = pedestals[2 * bi + 1];
@@ -172,8 +172,8 @@ pub fn unbalance_response_dense(
         let mut pedestals = vec![Complex64::new(0.0, 0.0); 2 * fe.model().bearings.len()];
         for (bi, _) in fe.model().bearings.iter().enumerate() {
             if let (Some(py), Some(pz)) = (
-                fe.pedestal_dof(bi, crate::assembly::Dir::Y),
-                fe.pedestal_dof(bi, crate::assembly::Dir::Z),
+                fe.pedestal_dof(bi, crate::fe::assembly::Dir::Y),
+                fe.pedestal_dof(bi, crate::fe::assembly::Dir::Z),
             ) {
                 pedestals[2 * bi] = q[py];
                 pedestals[2 * bi + 1] = q[pz];

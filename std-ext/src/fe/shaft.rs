@@ -94,7 +94,7 @@
 //! ```
 //!
 //! skew-symmetric, and for a rigid slice reducing to the disk's
-//! `G[phi_y, phi_z] = I_p`, `G[phi_z, phi_y] = -I_p` (see [`crate::disk`]).
+//! `G[phi_y, phi_z] = I_p`, `G[phi_z, phi_y] = -I_p` (see [`crate::fe::disk`]).
 //! With the equation of motion `M q'' + (C + Omega G) q' + K q = f` this
 //! sign raises the forward-whirl frequencies (checked in the tests).
 

@@ -1,7 +1,7 @@
 //! Complex band matrices and their LU factorisation with partial pivoting.
 //!
 //! A beam model couples each node only to its neighbours: with the DOF
-//! numbering `dof(node, dir) = 4 node + dir` of [`crate::assembly`], every
+//! numbering `dof(node, dir) = 4 node + dir` of [`crate::fe::assembly`], every
 //! non-zero of the dynamic stiffness `Z(Omega)` lies within 7 places of the
 //! diagonal (`kl = ku = 7`). Solving `Z q = f` in band storage costs
 //! `O(n kl (kl + ku))` instead of the `O(n^3)` of a dense LU.

@@ -2,7 +2,7 @@
 //! direction, logarithmic decrement and critical speeds.
 //!
 //! At each speed `Omega` the free motion `M q'' + (C + Omega G) q' + K q = 0`
-//! (dense matrices of [`crate::assembly`], pedestal DOFs explicit, bearing
+//! (dense matrices of [`crate::fe::assembly`], pedestal DOFs explicit, bearing
 //! coefficients at `Omega`) is written in first-order form. With
 //! `D = C + Omega G` and a scale `s_c` (of the order of the largest natural
 //! frequency, so that both blocks have similar norms), the state
@@ -44,7 +44,7 @@
 //! frequency at the next speed; where `w_d - Omega` changes sign the
 //! crossing is interpolated linearly.
 
-use crate::assembly::{FeError, FeModel};
+use crate::fe::assembly::{FeError, FeModel};
 use nalgebra::{DMatrix, Schur};
 use num_complex::Complex64;
 
@@ -235,7 +235,7 @@ fn eigenvector(fe: &FeModel, omega: f64, lam: Complex64) -> Result<Vec<Complex64
         let s = lam * (1.0 + shift);
         let lu = match fe.system_dynamic_stiffness_at(omega, s)?.into_lu() {
             Ok(lu) => lu,
-            Err(crate::banded::BandedError::Singular(_)) => {
+            Err(crate::fe::banded::BandedError::Singular(_)) => {
                 shift *= 100.0;
                 continue;
             }

@@ -2,7 +2,7 @@
 //!
 //! This is what a model file (TOML, ROSS) is parsed into and what the
 //! finite-element assembly, the simulator and the table generator read. It
-//! holds no matrices: see [`crate::assembly`] for those.
+//! holds no matrices: see [`crate::fe::assembly`] for those.
 //!
 //! Node indices here are **0-based** (`node = 0` is the left end of the
 //! shaft); files, reports and the CLI number nodes from 1, and convert once at
@@ -12,6 +12,8 @@
 //! the rotor turns from +y toward +z, so a feature at angle `alpha` in the
 //! rotating frame (measured from +y at `t = 0`) has phasors
 //! `Y = r exp(j alpha)`, `Z = -j r exp(j alpha)`.
+
+pub mod extension;
 
 use core::f64::consts::PI;
 use thiserror::Error;
@@ -267,7 +269,7 @@ pub struct BowPoint {
 }
 
 /// A bent shaft: a bow shape given at some nodes (see
-/// [`crate::assembly`] for how it is interpolated to all DOFs). Its
+/// [`crate::fe::assembly`] for how it is interpolated to all DOFs). Its
 /// synchronous forcing is `K_shaft q_bow`, independent of speed.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ShaftBow {

@@ -22,7 +22,7 @@
 //!
 //! an exact condensation at each frequency that keeps the shaft's banded
 //! structure. For eigenvalues (Campbell diagram) the pedestal DOFs are kept
-//! explicitly instead (see [`crate::assembly`]).
+//! explicitly instead (see [`crate::fe::assembly`]).
 
 use crate::model::{BearingCoefficients, BearingLaw, Pedestal};
 use nalgebra::{Matrix2, Vector2};

@@ -1,6 +1,6 @@
 //! Rigid disk attached to a shaft node.
 //!
-//! With the node DOFs `(y, z, phi_y, phi_z)` (see [`crate::shaft`] for the
+//! With the node DOFs `(y, z, phi_y, phi_z)` (see [`crate::fe::shaft`] for the
 //! axes: `phi_z = dy/dx`, `phi_y = -dz/dx`, spin `Omega` about +x), the
 //! angular momentum of a disk of polar inertia `Ip` and diametral inertia
 //! `Id`, tilted by small `phi_y`, `phi_z`, is `H = Ip Omega e_x' + Id (phi_y' e_y

@@ -1,0 +1,12 @@
+//! The finite-element rotor model: element matrices ([`shaft`], [`disk`],
+//! [`bearing`]), the complex band LU ([`banded`]), global assembly and
+//! forcing ([`assembly`]), the 1X response ([`response`]) and the damped
+//! eigenvalue analysis ([`campbell`]).
+
+pub mod assembly;
+pub mod banded;
+pub mod bearing;
+pub mod campbell;
+pub mod disk;
+pub mod response;
+pub mod shaft;

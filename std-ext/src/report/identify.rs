@@ -1,0 +1,383 @@
+//! The identification report: a text table of the estimates beside a
+//! reference model, and SVG plots of the estimates against speed (like the
+//! method paper's Figs. 4-6). Shared by `rotorid identify` and
+//! `examples/paper.rs`.
+
+use thiserror::Error;
+
+use crate::estimate::Identification;
+use crate::model::RotorModel;
+use rotorid_core::regressor::Formulation;
+
+const COEF: [&str; 4] = ["yy", "yz", "zy", "zz"];
+
+fn rel(x: f64, truth: f64) -> f64 {
+    if truth != 0.0 {
+        (x - truth).abs() / truth.abs()
+    } else {
+        (x - truth).abs()
+    }
+}
+
+/// A plain-text table of the final estimates (SI units, 1-based nodes),
+/// their standard deviations when known ([`Identification::std`]) and,
+/// when `reference` is given, the reference values (its bearing laws at the
+/// last speed, its unbalance at the plane nodes) with relative errors
+/// (absolute error in degrees for phases).
+pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> String {
+    use std::fmt::Write;
+    struct Row {
+        name: String,
+        value: f64,
+        std: Option<f64>,
+        model: Option<f64>,
+        phase: bool,
+    }
+    let mut s = String::new();
+    let omega = id.last.omega;
+    let st = id.options.structure;
+    let std = id.std();
+    let _ = writeln!(
+        s,
+        "structure {} order {}, {} speeds ({} held by the steady-running guard), last speed {:.1} rpm",
+        match st.formulation {
+            Formulation::Paper => "paper",
+            Formulation::Physical => "physical",
+        },
+        st.order,
+        id.steps,
+        id.frozen,
+        crate::units::rad_s_to_rpm(omega)
+    );
+    let mut rows = Vec::new();
+    for (m, b) in id.last.bearings.iter().enumerate() {
+        let node = id.bearing_nodes.get(m).map(|n| n + 1).unwrap_or(m + 1);
+        let truth = reference
+            .and_then(|r| r.bearings.get(m))
+            .map(|rb| rb.law.at(omega));
+        let sd = std.as_ref().and_then(|x| x.bearings.get(m));
+        for (e, name) in COEF.iter().enumerate() {
+            rows.push(Row {
+                name: format!("b{}@{node} k{name}", m + 1),
+                value: b.k[e],
+                std: sd.map(|x| x.0[e]),
+                model: truth.map(|t| t.k[e]),
+                phase: false,
+            });
+        }
+        for (e, name) in COEF.iter().enumerate() {
+            rows.push(Row {
+                name: format!("b{}@{node} c{name}", m + 1),
+                value: b.c[e],
+                std: sd.map(|x| x.1[e]),
+                model: truth.map(|t| t.c[e]),
+                phase: false,
+            });
+        }
+    }
+    for (k, u) in id.last.unbalance.iter().enumerate() {
+        let node = id.plane_nodes.get(k).copied().unwrap_or(k);
+        let truth = reference.and_then(|r| r.unbalance.iter().find(|t| t.node == node));
+        let sd = std.as_ref().and_then(|x| x.unbalance.get(k));
+        rows.push(Row {
+            name: format!("n{} me", node + 1),
+            value: u.me,
+            std: sd.map(|x| x.0),
+            model: truth.map(|t| t.me),
+            phase: false,
+        });
+        rows.push(Row {
+            name: format!("n{} phase_deg", node + 1),
+            value: u.phase_deg(),
+            std: sd.map(|x| x.1),
+            model: truth.map(|t| t.phase.to_degrees()),
+            phase: true,
+        });
+    }
+    let _ = writeln!(
+        s,
+        "{:<14} {:>14} {:>10} {:>14} {:>10}",
+        "quantity", "identified", "std", "model", "error"
+    );
+    let num = |x: f64, phase: bool| {
+        if phase {
+            format!("{x:.6}")
+        } else {
+            format!("{x:.6e}")
+        }
+    };
+    for r in rows {
+        let sd = r
+            .std
+            .map(|x| format!("{x:.2e}"))
+            .unwrap_or_else(|| "-".into());
+        let (model, err) = match r.model {
+            Some(t) => {
+                let e = if r.phase {
+                    ((r.value - t + 180.0).rem_euclid(360.0) - 180.0).abs()
+                } else {
+                    rel(r.value, t)
+                };
+                (num(t, r.phase), format!("{e:.2e}"))
+            }
+            None => ("-".into(), "-".into()),
+        };
+        let _ = writeln!(
+            s,
+            "{:<14} {:>14} {:>10} {:>14} {:>10}",
+            r.name,
+            num(r.value, r.phase),
+            sd,
+            model,
+            err
+        );
+    }
+    if st.formulation == Formulation::Paper {
+        let _ = writeln!(
+            s,
+            "consistency (physically zero): Im Z0 (N/m), Re Z1 (N s/m)"
+        );
+        for (m, b) in id.last.bearings.iter().enumerate() {
+            if let (Some(i0), Some(r1)) = (b.im_z0, b.re_z1) {
+                let _ = writeln!(
+                    s,
+                    "b{} Im Z0 {:.3e} {:.3e} {:.3e} {:.3e}   Re Z1 {:.3e} {:.3e} {:.3e} {:.3e}",
+                    m + 1,
+                    i0[0],
+                    i0[1],
+                    i0[2],
+                    i0[3],
+                    r1[0],
+                    r1[1],
+                    r1[2],
+                    r1[3]
+                );
+            }
+        }
+    }
+    s
+}
+
+/// Errors of [`write_plots`].
+#[derive(Debug, Error)]
+pub enum ReportError {
+    /// Writing a plot failed.
+    #[error(transparent)]
+    Plot(#[from] crate::report::plot::PlotError),
+    /// Creating the folder failed.
+    #[error("{0}")]
+    Io(String),
+    /// The Campbell analysis failed.
+    #[error("campbell: {0}")]
+    Campbell(String),
+    /// No history was recorded.
+    #[error("no estimates recorded against speed")]
+    NoHistory,
+}
+
+/// Writes SVG plots of the estimates against speed into `dir` (created if
+/// needed), like the paper's Figs. 4 and 5: per bearing its stiffness and its
+/// damping (identified as lines; the `reference` model's values as dashed
+/// lines), the unbalance m e and phase per plane, and the Campbell diagram
+/// of the identified rotor (lines) against the reference rotor (points) up to
+/// `rpm_max`, like Fig. 6. `prefix` starts every file name. Returns the
+/// files written.
+pub fn write_plots(
+    dir: &std::path::Path,
+    prefix: &str,
+    id: &Identification,
+    model: &RotorModel,
+    reference: Option<&RotorModel>,
+    rpm_max: f64,
+) -> Result<Vec<std::path::PathBuf>, ReportError> {
+    use crate::report::plot::{line_plot, line_plot_with, Marker, PlotOptions, Series};
+    use crate::units::rad_s_to_rpm;
+    if id.history.is_empty() {
+        return Err(ReportError::NoHistory);
+    }
+    std::fs::create_dir_all(dir).map_err(|e| ReportError::Io(format!("{}: {e}", dir.display())))?;
+    let mut files = Vec::new();
+    let rpm: Vec<f64> = id.history.iter().map(|h| rad_s_to_rpm(h.omega)).collect();
+    for (m, _) in id.last.bearings.iter().enumerate() {
+        for (what, unit, pick) in [("stiffness", "N/m", 0usize), ("damping", "N s/m", 1usize)] {
+            let mut series = Vec::new();
+            for (e, name) in COEF.iter().enumerate() {
+                let y: Vec<f64> = id
+                    .history
+                    .iter()
+                    .map(|h| {
+                        let b = &h.estimate.bearings[m];
+                        if pick == 0 {
+                            b.k[e]
+                        } else {
+                            b.c[e]
+                        }
+                    })
+                    .collect();
+                let letter = if pick == 0 { "k" } else { "c" };
+                series.push(Series::line(format!("{letter}{name}"), rpm.clone(), y));
+                if let Some(r) = reference.and_then(|r| r.bearings.get(m)) {
+                    let yt: Vec<f64> = id
+                        .history
+                        .iter()
+                        .map(|h| {
+                            let c = r.law.at(h.omega);
+                            if pick == 0 {
+                                c.k[e]
+                            } else {
+                                c.c[e]
+                            }
+                        })
+                        .collect();
+                    series.push(
+                        Series::line(format!("{letter}{name} model"), rpm.clone(), yt).dashed(),
+                    );
+                }
+            }
+            // Same colour for an entry and its reference.
+            let palette = [(31, 119, 180), (214, 39, 40), (44, 160, 44), (255, 127, 14)];
+            let per = if reference.is_some() { 2 } else { 1 };
+            let series: Vec<Series> = series
+                .into_iter()
+                .enumerate()
+                .map(|(i, s)| s.color(palette[(i / per) % 4]))
+                .collect();
+            let path = dir.join(format!("{prefix}bearing{}_{what}.svg", m + 1));
+            let node = id.bearing_nodes.get(m).map(|n| n + 1).unwrap_or(m + 1);
+            let title = format!("Bearing {} (node {node}): identified {what}", m + 1);
+            // Keep the axis on the physical range: early transients of an
+            // RLS run can be orders of magnitude off.
+            let mut opts = PlotOptions::default();
+            if let Some(r) = reference.and_then(|r| r.bearings.get(m)) {
+                let mut lo = f64::INFINITY;
+                let mut hi = f64::NEG_INFINITY;
+                for h in &id.history {
+                    let c = r.law.at(h.omega);
+                    for v in if pick == 0 { c.k } else { c.c } {
+                        lo = lo.min(v);
+                        hi = hi.max(v);
+                    }
+                }
+                let span = (hi - lo).max(hi.abs().max(lo.abs()) * 0.1).max(1e-12);
+                opts.y_range = Some((lo - 0.5 * span, hi + 0.5 * span));
+            }
+            line_plot_with(&path, &title, "speed (rpm)", unit, &series, &opts)?;
+            files.push(path);
+        }
+    }
+    // Unbalance.
+    for (what, unit) in [("me", "kg m"), ("phase", "deg")] {
+        let mut series = Vec::new();
+        for (k, _) in id.last.unbalance.iter().enumerate() {
+            let node = id.plane_nodes.get(k).copied().unwrap_or(k);
+            let y: Vec<f64> = id
+                .history
+                .iter()
+                .map(|h| {
+                    let u = &h.estimate.unbalance[k];
+                    if what == "me" {
+                        u.me
+                    } else {
+                        u.phase_deg()
+                    }
+                })
+                .collect();
+            series.push(Series::line(format!("node {}", node + 1), rpm.clone(), y));
+            if let Some(t) = reference.and_then(|r| r.unbalance.iter().find(|t| t.node == node)) {
+                let v = if what == "me" {
+                    t.me
+                } else {
+                    t.phase.to_degrees()
+                };
+                series.push(
+                    Series::line(
+                        format!("node {} model", node + 1),
+                        rpm.clone(),
+                        vec![v; rpm.len()],
+                    )
+                    .dashed(),
+                );
+            }
+        }
+        let path = dir.join(format!("{prefix}unbalance_{what}.svg"));
+        let mut opts = PlotOptions::default();
+        if what == "me" {
+            let top = reference
+                .map(|r| r.unbalance.iter().map(|u| u.me).fold(0.0, f64::max))
+                .unwrap_or(0.0);
+            if top > 0.0 {
+                opts.y_range = Some((0.0, 2.0 * top));
+            }
+        } else {
+            opts.y_range = Some((-180.0, 180.0));
+        }
+        line_plot_with(
+            &path,
+            &format!("Identified unbalance: {what}"),
+            "speed (rpm)",
+            unit,
+            &series,
+            &opts,
+        )?;
+        files.push(path);
+    }
+    // Campbell diagram of the identified rotor (Fig. 6).
+    let ident = id.identified_model(model);
+    let speeds: Vec<f64> = (0..=30)
+        .map(|i| crate::units::rpm_to_rad_s(rpm_max * i as f64 / 30.0))
+        .collect();
+    let copts = crate::fe::campbell::CampbellOptions {
+        max_frequency: Some(2.0 * crate::units::rpm_to_rad_s(rpm_max)),
+        max_modes: 8,
+    };
+    let diagram = |m: &RotorModel| {
+        let fe = crate::fe::assembly::FeModel::new(m)
+            .map_err(|e| ReportError::Campbell(e.to_string()))?;
+        crate::fe::campbell::campbell_with(&fe, &speeds, &copts)
+            .map_err(|e| ReportError::Campbell(e.to_string()))
+    };
+    let di = diagram(&ident)?;
+    let mut series = Vec::new();
+    let n_modes = di.points.iter().map(|p| p.modes.len()).max().unwrap_or(0);
+    let hz = |w: f64| w / (2.0 * core::f64::consts::PI);
+    for j in 0..n_modes {
+        let (x, y): (Vec<f64>, Vec<f64>) = di
+            .points
+            .iter()
+            .filter_map(|p| {
+                p.modes
+                    .get(j)
+                    .map(|md| (rad_s_to_rpm(p.omega), hz(md.frequency)))
+            })
+            .unzip();
+        series.push(Series::line(format!("identified mode {}", j + 1), x, y).color((31, 119, 180)));
+    }
+    if let Some(r) = reference {
+        let dr = diagram(r)?;
+        let (x, y): (Vec<f64>, Vec<f64>) = dr
+            .points
+            .iter()
+            .flat_map(|p| {
+                p.modes
+                    .iter()
+                    .map(move |md| (rad_s_to_rpm(p.omega), hz(md.frequency)))
+            })
+            .unzip();
+        series.push(Series::points("model", x, y, Marker::Circle).color((214, 39, 40)));
+    }
+    series.push(
+        Series::line("1X", vec![0.0, rpm_max], vec![0.0, rpm_max / 60.0])
+            .dashed()
+            .color((0, 0, 0)),
+    );
+    let path = dir.join(format!("{prefix}campbell_identified.svg"));
+    line_plot(
+        &path,
+        "Campbell diagram of the identified rotor",
+        "speed (rpm)",
+        "frequency (Hz)",
+        &series,
+    )?;
+    files.push(path);
+    Ok(files)
+}
