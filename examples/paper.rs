@@ -17,7 +17,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rotorid::core::identify::{Config, PhysicalIdentifier, SteadyPolicy};
-use rotorid::core::regressor::Structure;
+use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::TableView;
 use rotorid::estimate::{auto_scaling, identify, EstimateSet, Identification, Options, Precision};
@@ -156,10 +156,10 @@ fn main() -> Res<()> {
         opts.scaling = Some(ColumnScaling::identity());
         opts.record_history = false;
         let mut src = |w: f64| {
-            cache
+            Ok(cache
                 .get(&w.to_bits())
                 .cloned()
-                .ok_or_else(|| rotorid::estimate::IdentifyError::Model("speed not cached".into()))
+                .expect("every speed of the repeated sweep is cached"))
         };
         let id = rotorid::estimate::identify_with(
             &m1.bearing_nodes(),
@@ -327,7 +327,7 @@ fn main() -> Res<()> {
             bearings: e
                 .bearings
                 .iter()
-                .map(|b| rotorid::core::regressor::BearingEstimate {
+                .map(|b| rotorid::core::parametrization::BearingEstimate {
                     k: b.k.map(f64::from),
                     c: b.c.map(f64::from),
                     im_z0: None,
@@ -338,7 +338,7 @@ fn main() -> Res<()> {
                 .unbalance
                 .iter()
                 .map(|u| {
-                    rotorid::core::regressor::UnbalanceEstimate::from_phasor(Complex::new(
+                    rotorid::core::parametrization::UnbalanceEstimate::from_phasor(Complex::new(
                         u.a.re as f64,
                         u.a.im as f64,
                     ))

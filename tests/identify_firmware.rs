@@ -8,7 +8,7 @@ use num_complex::Complex;
 use rotorid::core::identify::{
     Config, IdField, Identifier, PaperIdentifier, PhysicalIdentifier, SteadyPolicy,
 };
-use rotorid::core::regressor::Structure;
+use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::TableView;
 use rotorid::estimate::{auto_scaling, identify_with, EstimateSet, Options, Precision};

@@ -5,7 +5,7 @@
 
 mod identify_common;
 use identify_common::*;
-use rotorid::core::regressor::Structure;
+use rotorid::core::parametrization::Structure;
 use rotorid::estimate::{auto_scaling, identify_with, Options, TermsAt};
 use rotorid::model::RotorModel;
 use rotorid::units::rpm_to_rad_s;

@@ -5,7 +5,7 @@
 
 mod identify_common;
 use identify_common::*;
-use rotorid::core::regressor::Structure;
+use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::estimate::{auto_scaling, identify_with, Identification, Options, Precision, TermsAt};
 use rotorid::io::measurement::Measurements;

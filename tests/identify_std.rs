@@ -3,7 +3,7 @@
 
 mod identify_common;
 use identify_common::*;
-use rotorid::core::regressor::Structure;
+use rotorid::core::parametrization::Structure;
 use rotorid::estimate::{auto_scaling, identify_with, Options, TermsAt};
 use rotorid::model::RotorModel;
 use rotorid::units::rpm_to_rad_s;
@@ -53,7 +53,7 @@ fn reported_std_matches_the_spread_over_seeds() {
             me.push(id.last.unbalance[2].me);
             std_k.push(s.bearings[0].0[0]);
             std_me.push(s.unbalance[2].0);
-            let v = id.to_json();
+            let v = serde_json::to_value(id.result()).unwrap();
             assert!(v["bearings"][0]["std"]["k"]["yy"].as_f64().unwrap() > 0.0);
             assert!(v["unbalance"][2]["me_std"].as_f64().unwrap() > 0.0);
         }

@@ -6,7 +6,7 @@
 mod identify_common;
 use identify_common::*;
 use rotorid::core::identify::{SteadyAction, SteadyPolicy};
-use rotorid::core::regressor::Structure;
+use rotorid::core::parametrization::Structure;
 use rotorid::estimate::{
     auto_scaling, identify_with, EstimateSet, Identification, Options, Precision, TermsAt,
 };

@@ -9,7 +9,7 @@ mod identify_common;
 use identify_common::*;
 use num_complex::Complex;
 use rotorid::core::identify::{Config, PhysicalIdentifier, SteadyPolicy};
-use rotorid::core::regressor::{BearingEstimate, Structure, UnbalanceEstimate};
+use rotorid::core::parametrization::{BearingEstimate, Structure, UnbalanceEstimate};
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::TableView;
 use rotorid::estimate::{auto_scaling, EstimateSet};

@@ -41,10 +41,12 @@
 //! arrays, firmware) and any caller with runtime-sized buffers through
 //! [`Kernel`] (the desktop driver in `rotorid::identify`).
 
-use crate::qrdrls::{self, FilterError};
-use crate::regressor::{
-    self, BearingEstimate, Formulation, RegressorError, Structure, UnbalanceEstimate,
+use crate::parametrization::{
+    bearing_estimate, unbalance_estimate, BearingEstimate, Formulation, ParamError, Structure,
+    UnbalanceEstimate,
 };
+use crate::qrdrls::{self, FilterError};
+use crate::regressor::{self, Equations, RegressorError};
 use crate::scalar::Real;
 use crate::scaling::ColumnScaling;
 use crate::table::{BearingTable, TableError};
@@ -98,6 +100,15 @@ impl From<RegressorError> for IdentifyError {
             RegressorError::InvalidOrder => IdentifyError::InvalidOrder,
             RegressorError::Dimension => IdentifyError::Dimension,
             RegressorError::NonFinite => IdentifyError::NonFinite,
+        }
+    }
+}
+
+impl From<ParamError> for IdentifyError {
+    fn from(e: ParamError) -> Self {
+        match e {
+            ParamError::InvalidOrder => IdentifyError::InvalidOrder,
+            ParamError::Dimension => IdentifyError::Dimension,
         }
     }
 }
@@ -201,47 +212,20 @@ impl<T: Real> Config<T> {
 
 /// The field of the filter for a formulation: `Complex<T>` for
 /// [`Formulation::Paper`], `T` for [`Formulation::Physical`]. Dispatches
-/// the regressor and the estimate extraction.
+/// the regressor.
 pub trait IdField<T: Real>: ComplexField<RealField = T> + Copy {
     /// The formulation this field serves.
     const FORMULATION: Formulation;
 
     /// Forms `d` and `U S` (see [`regressor::form_paper`],
     /// [`regressor::form_physical`]).
-    #[allow(clippy::too_many_arguments)]
     fn form(
         order: usize,
         scaling: &ColumnScaling<T>,
-        omega: T,
-        a: &[Complex<T>],
-        b: &[Complex<T>],
-        q: &[Complex<T>],
-        nq: usize,
-        np: usize,
+        eq: &Equations<'_, T>,
         d: &mut [Self],
         u: &mut [Self],
     ) -> Result<(), RegressorError>;
-
-    /// Bearing `m` at speed `omega` from the scaled weights.
-    fn bearing(
-        order: usize,
-        scaling: &ColumnScaling<T>,
-        w: &[Self],
-        nb: usize,
-        np: usize,
-        m: usize,
-        omega: T,
-    ) -> Result<BearingEstimate<T>, RegressorError>;
-
-    /// Plane `k` from the scaled weights.
-    fn unbalance(
-        order: usize,
-        scaling: &ColumnScaling<T>,
-        w: &[Self],
-        nb: usize,
-        np: usize,
-        k: usize,
-    ) -> Result<UnbalanceEstimate<T>, RegressorError>;
 }
 
 impl<T: Real> IdField<T> for Complex<T> {
@@ -250,39 +234,11 @@ impl<T: Real> IdField<T> for Complex<T> {
     fn form(
         order: usize,
         scaling: &ColumnScaling<T>,
-        omega: T,
-        a: &[Complex<T>],
-        b: &[Complex<T>],
-        q: &[Complex<T>],
-        nq: usize,
-        np: usize,
+        eq: &Equations<'_, T>,
         d: &mut [Self],
         u: &mut [Self],
     ) -> Result<(), RegressorError> {
-        regressor::form_paper(order, scaling, omega, a, b, q, nq, np, d, u)
-    }
-
-    fn bearing(
-        order: usize,
-        scaling: &ColumnScaling<T>,
-        w: &[Self],
-        nb: usize,
-        np: usize,
-        m: usize,
-        omega: T,
-    ) -> Result<BearingEstimate<T>, RegressorError> {
-        regressor::paper_bearing(order, scaling, w, nb, np, m, omega)
-    }
-
-    fn unbalance(
-        order: usize,
-        scaling: &ColumnScaling<T>,
-        w: &[Self],
-        nb: usize,
-        np: usize,
-        k: usize,
-    ) -> Result<UnbalanceEstimate<T>, RegressorError> {
-        regressor::paper_unbalance(order, scaling, w, nb, np, k)
+        regressor::form_paper(order, scaling, eq, d, u)
     }
 }
 
@@ -294,39 +250,11 @@ macro_rules! real_field {
             fn form(
                 order: usize,
                 scaling: &ColumnScaling<$t>,
-                omega: $t,
-                a: &[Complex<$t>],
-                b: &[Complex<$t>],
-                q: &[Complex<$t>],
-                nq: usize,
-                np: usize,
+                eq: &Equations<'_, $t>,
                 d: &mut [Self],
                 u: &mut [Self],
             ) -> Result<(), RegressorError> {
-                regressor::form_physical(order, scaling, omega, a, b, q, nq, np, d, u)
-            }
-
-            fn bearing(
-                order: usize,
-                scaling: &ColumnScaling<$t>,
-                w: &[Self],
-                nb: usize,
-                np: usize,
-                m: usize,
-                omega: $t,
-            ) -> Result<BearingEstimate<$t>, RegressorError> {
-                regressor::physical_bearing(order, scaling, w, nb, np, m, omega)
-            }
-
-            fn unbalance(
-                order: usize,
-                scaling: &ColumnScaling<$t>,
-                w: &[Self],
-                nb: usize,
-                np: usize,
-                k: usize,
-            ) -> Result<UnbalanceEstimate<$t>, RegressorError> {
-                regressor::physical_unbalance(order, scaling, w, nb, np, k)
+                regressor::form_physical(order, scaling, eq, d, u)
             }
         }
     };
@@ -381,6 +309,20 @@ pub struct Kernel<'a, T, F> {
     pub guard: &'a mut GuardState<T>,
 }
 
+/// Scratch buffers of one step: `d`, `U S`, a-posteriori errors `xi`
+/// (length `N`, `N x M`, `N`) and conversion factors `gamma` (`N`).
+#[derive(Debug)]
+pub struct Scratch<'a, T, F> {
+    /// Desired response `d`.
+    pub d: &'a mut [F],
+    /// Scaled data matrix `U S`, row-major.
+    pub u: &'a mut [F],
+    /// A-posteriori errors.
+    pub xi: &'a mut [F],
+    /// Conversion factors.
+    pub gamma: &'a mut [T],
+}
+
 /// Checks that field, `M` and `N` match the structure for `nq` channels and
 /// `np` planes.
 pub fn check_sizes<T: Real, F: IdField<T>>(
@@ -418,24 +360,22 @@ impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
         Ok(())
     }
 
-    /// One measurement: speed `omega` (rad/s), terms `a` (`nq x nq`), `b`
-    /// (`nq x np`), both row-major, phasors `q` (`nq`, m). On any error the
+    /// One measurement `eq` (speed, terms `A`, `B`, phasors `q`; see
+    /// [`Equations`]) with scratch buffers `scratch`. On any error the
     /// state is untouched.
-    #[allow(clippy::too_many_arguments)]
     pub fn step(
         &mut self,
-        omega: T,
-        a: &[Complex<T>],
-        b: &[Complex<T>],
-        q: &[Complex<T>],
-        d: &mut [F],
-        u: &mut [F],
-        xi: &mut [F],
-        gamma: &mut [T],
+        eq: &Equations<'_, T>,
+        scratch: Scratch<'_, T, F>,
     ) -> Result<StepReport<T>, IdentifyError> {
         let cfg = self.config;
-        if !omega.is_finite() || q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
+        let Scratch { d, u, xi, gamma } = scratch;
+        let omega = eq.omega;
+        if !omega.is_finite() || eq.q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
             return Err(IdentifyError::NonFinite);
+        }
+        if eq.nq != self.nq || eq.np != self.np {
+            return Err(IdentifyError::Dimension);
         }
         if omega < T::zero() {
             return Err(IdentifyError::InvalidSpeed);
@@ -444,7 +384,7 @@ impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
         let m = self.p.len();
         let n = d.len();
         check_sizes::<T, F>(&cfg.structure, self.nq, self.np, m, n)?;
-        F::form(order, &cfg.scaling, omega, a, b, q, self.nq, self.np, d, u)?;
+        F::form(order, &cfg.scaling, eq, d, u)?;
         if cfg.normalise_rows {
             regressor::normalise_rows(u, d, n, m)?;
         }
@@ -521,12 +461,12 @@ pub fn estimates_into<T: Real, F: IdField<T>>(
     if bearings.len() != nb || unbalance.len() != np {
         return Err(IdentifyError::Dimension);
     }
-    let order = config.structure.order;
+    let st = &config.structure;
     for (m, be) in bearings.iter_mut().enumerate() {
-        *be = F::bearing(order, &config.scaling, w, nb, np, m, omega)?;
+        *be = bearing_estimate(st, &config.scaling, w, nb, np, m, omega)?;
     }
     for (k, ue) in unbalance.iter_mut().enumerate() {
-        *ue = F::unbalance(order, &config.scaling, w, nb, np, k)?;
+        *ue = unbalance_estimate(st, &config.scaling, w, nb, np, k)?;
     }
     Ok(())
 }
@@ -635,15 +575,22 @@ impl<T: Real, F: IdField<T>, const NQ: usize, const NP: usize, const M: usize, c
         let mut u = [[F::zero(); M]; N];
         let mut xi = [F::zero(); N];
         let mut gamma = [T::zero(); N];
-        self.kernel().step(
+        let eq = Equations {
             omega,
-            a.as_flattened(),
-            b.as_flattened(),
+            a: a.as_flattened(),
+            b: b.as_flattened(),
             q,
-            &mut d,
-            u.as_flattened_mut(),
-            &mut xi,
-            &mut gamma,
+            nq: NQ,
+            np: NP,
+        };
+        self.kernel().step(
+            &eq,
+            Scratch {
+                d: &mut d,
+                u: u.as_flattened_mut(),
+                xi: &mut xi,
+                gamma: &mut gamma,
+            },
         )
     }
 

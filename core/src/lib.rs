@@ -8,6 +8,8 @@
 //! * [`table`]: per-speed bearing-level model tables (the reduction of the
 //!   finite-element rotor to the bearing degrees of freedom), parsed from a
 //!   validated byte blob.
+//! * [`parametrization`]: what each unknown of the identification is, its
+//!   scale, how it enters the bearing dynamic stiffness or the forcing.
 //! * [`identify`]: bearing stiffness, damping and unbalance identification
 //!   from measured 1X responses at the bearings.
 //!
@@ -25,6 +27,7 @@ pub mod baseline;
 pub mod crc32;
 pub mod givens;
 pub mod identify;
+pub mod parametrization;
 pub mod qrdrls;
 pub mod regressor;
 pub mod scalar;
@@ -32,4 +35,5 @@ pub mod scaling;
 pub mod table;
 
 pub use num_complex::Complex;
+pub use parametrization::{Formulation, Structure};
 pub use scalar::Real;

@@ -27,27 +27,13 @@
 //!
 //! # Model structures
 //!
-//! * [`Formulation::Paper`], order `P` (`P = 1` is Eqs. 43, 47, 48):
-//!   `Z_B^(m)(Omega) = sum_{p=0..P} Omega^p Z_p^(m)` with complex 2x2 `Z_p`.
-//!   Complex unknowns, `M = 4 (P+1) N_b + N_p`, `N = 2 N_b` complex rows.
-//!   Column of `Z_p[r][c]` in row `(m, r)`: `-Omega^p q_(m,c)`.
-//!   Unknown index (bearing `m`, row direction `r`, power `p`, column `c`):
-//!   `j = 4 (P+1) m + 2 (P+1) r + 2 p + c`, i.e. per bearing
-//!   `(Z0yy Z0yz Z1yy Z1yz Z0zy Z0zz Z1zy Z1zz)` for `P = 1` (Eq. 48);
-//!   then the planes `j = 4 (P+1) N_b + k`.
-//! * [`Formulation::Physical`], order `P`: real
-//!   `K(Omega) = sum_{p<P} K_p Omega^p`, `C(Omega) = sum_{p<P} C_p Omega^p`,
-//!   so `Z_B = K + j Omega C` is a polynomial of degree `P` in `Omega`
-//!   (`P = 1`: constant K and C). Real unknowns: `8 P` per bearing and
-//!   `(Re a_k, Im a_k)` per plane, `M = 8 P N_b + 2 N_p`. Each complex
-//!   equation is split into its real and imaginary rows (`N = 4 N_b`, row
-//!   `2 i` = Re, `2 i + 1` = Im of complex row `i`). Columns in row `(m, r)`:
-//!   `K_p[r][c] -> -Omega^p q_(m,c)`, `C_p[r][c] -> -j Omega^(p+1) q_(m,c)`,
-//!   `Re a_k -> B_ik`, `Im a_k -> j B_ik` (then split). Unknown index
-//!   (bearing `m`, direction `r`, power `p`, kind `K = 0 / C = 1`, column
-//!   `c`): `j = 8 P m + 4 P r + 4 p + 2 kind + c`, i.e. per bearing
-//!   `(Kyy Kyz Cyy Cyz Kzy Kzz Czy Czz)` for `P = 1`; then
-//!   `j = 8 P N_b + 2 k (+1)` for `Re a_k` (`Im a_k`).
+//! What the unknowns are, their order, scales and how each enters `Z_B`
+//! is [`crate::parametrization`]. The column of unknown `j` in row
+//! `(m, r)` is `-g_j(Omega) s_j q_(m,c)` for a bearing term of entry
+//! `[r][c]` of bearing `m` (zero for other bearings and directions) and
+//! `B_(m,r),k s_a da/dw_j` for plane `k`. The physical structure's complex
+//! equation is split into its real and imaginary rows (`N = 4 N_b`, row
+//! `2 i` = Re, `2 i + 1` = Im of complex row `i`).
 //!
 //! Stiffness proportional to `Omega^2` (the paper's Eq. 49) needs physical
 //! order 3 or paper order 2.
@@ -57,32 +43,10 @@
 //! The functions work on slices (row-major, caller buffers) so that firmware
 //! uses fixed arrays and the desktop uses `Vec`s of runtime size.
 
+use crate::parametrization::{ParamError, Structure, UnbalancePart, Unknown};
 use crate::scalar::Real;
 use crate::scaling::ColumnScaling;
 use num_complex::Complex;
-
-/// Which unknowns describe the bearings.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Formulation {
-    /// Complex `Z_p` per bearing (the paper's Eqs. 43, 47, 48 for order 1).
-    Paper,
-    /// Real polynomial `K(Omega)`, `C(Omega)` per bearing, complex unbalance
-    /// as two reals; each complex equation split into two real rows.
-    Physical,
-}
-
-/// A model structure: formulation and polynomial order `P` of the bearing
-/// dynamic stiffness in `Omega` (`Z_B` of degree `P`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Structure {
-    /// The formulation.
-    pub formulation: Formulation,
-    /// The order `P >= 1`.
-    pub order: usize,
-}
-
-/// Highest supported order (keeps `(Omega/Omega_r)^P` meaningful in f32).
-pub const MAX_ORDER: usize = 8;
 
 /// Errors of the regressor formation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -95,195 +59,120 @@ pub enum RegressorError {
     NonFinite,
 }
 
-impl Structure {
-    /// The paper's complex formulation of order `order`.
-    pub const fn paper(order: usize) -> Self {
-        Structure {
-            formulation: Formulation::Paper,
-            order,
+impl From<ParamError> for RegressorError {
+    fn from(e: ParamError) -> Self {
+        match e {
+            ParamError::InvalidOrder => RegressorError::InvalidOrder,
+            ParamError::Dimension => RegressorError::Dimension,
         }
     }
+}
 
-    /// The physical (real K, C) formulation of order `order`.
-    pub const fn physical(order: usize) -> Self {
-        Structure {
-            formulation: Formulation::Physical,
-            order,
+/// One measurement with its reduced terms: the input of the regression.
+#[derive(Debug, Clone, Copy)]
+pub struct Equations<'a, T> {
+    /// Speed `Omega` (rad/s).
+    pub omega: T,
+    /// `A(Omega)`, row-major `nq x nq` (N/m).
+    pub a: &'a [Complex<T>],
+    /// `B(Omega)`, row-major `nq x np` (1/s^2).
+    pub b: &'a [Complex<T>],
+    /// Measured phasors `q_B` (m), `nq = 2 N_b`.
+    pub q: &'a [Complex<T>],
+    /// Number of bearing channels `nq = 2 N_b`.
+    pub nq: usize,
+    /// Number of planes `N_p`.
+    pub np: usize,
+}
+
+impl<T: Real> Equations<'_, T> {
+    /// Checks lengths and finiteness; returns `N_b`.
+    fn check(&self) -> Result<usize, RegressorError> {
+        let (nq, np) = (self.nq, self.np);
+        if nq == 0
+            || nq % 2 != 0
+            || self.a.len() != nq * nq
+            || self.b.len() != nq * np
+            || self.q.len() != nq
+        {
+            return Err(RegressorError::Dimension);
         }
-    }
-
-    /// Checks the order.
-    pub const fn validate(&self) -> Result<(), RegressorError> {
-        if self.order >= 1 && self.order <= MAX_ORDER {
-            Ok(())
-        } else {
-            Err(RegressorError::InvalidOrder)
+        let f = |z: &Complex<T>| z.re.is_finite() && z.im.is_finite();
+        if !(self.omega.is_finite()
+            && self.a.iter().all(f)
+            && self.b.iter().all(f)
+            && self.q.iter().all(f))
+        {
+            return Err(RegressorError::NonFinite);
         }
+        Ok(nq / 2)
     }
 
-    /// Whether the unknowns and rows are complex (`Paper`) or real.
-    pub const fn is_complex(&self) -> bool {
-        matches!(self.formulation, Formulation::Paper)
-    }
-
-    /// Unknowns per bearing: `4 (P+1)` (paper) or `8 P` (physical).
-    pub const fn per_bearing(&self) -> usize {
-        match self.formulation {
-            Formulation::Paper => 4 * (self.order + 1),
-            Formulation::Physical => 8 * self.order,
+    /// `d_i = (A q)_i`.
+    fn d(&self, i: usize) -> Complex<T> {
+        let mut s = Complex::new(T::zero(), T::zero());
+        for (aij, qj) in self.a[i * self.nq..(i + 1) * self.nq].iter().zip(self.q) {
+            s += *aij * *qj;
         }
+        s
     }
 
-    /// Unknowns per plane: 1 complex (paper) or 2 real (physical).
-    pub const fn per_plane(&self) -> usize {
-        match self.formulation {
-            Formulation::Paper => 1,
-            Formulation::Physical => 2,
-        }
-    }
-
-    /// Number of unknowns `M` for `nb` bearings and `np` planes.
-    pub const fn n_unknowns(&self, nb: usize, np: usize) -> usize {
-        self.per_bearing() * nb + self.per_plane() * np
-    }
-
-    /// Number of rows `N` per update for `nb` bearings: `2 N_b` complex
-    /// (paper) or `4 N_b` real (physical).
-    pub const fn n_rows(&self, nb: usize) -> usize {
-        match self.formulation {
-            Formulation::Paper => 2 * nb,
-            Formulation::Physical => 4 * nb,
-        }
-    }
-
-    /// Index of the paper unknown `Z_p[r][c]` of bearing `m`.
-    pub const fn paper_index(&self, m: usize, r: usize, p: usize, c: usize) -> usize {
-        let p1 = self.order + 1;
-        4 * p1 * m + 2 * p1 * r + 2 * p + c
-    }
-
-    /// Index of the physical unknown `K_p[r][c]` (`kind = 0`) or `C_p[r][c]`
-    /// (`kind = 1`) of bearing `m`.
-    pub const fn physical_index(
+    /// Calls `put(j, g)` for every non-zero column `j` of complex row `i`
+    /// (channel `(m, r) = (i / 2, i % 2)`) with its complex coefficient
+    /// `g` of the scaled unknown (see the module documentation).
+    fn columns(
         &self,
-        m: usize,
-        r: usize,
-        p: usize,
-        kind: usize,
-        c: usize,
-    ) -> usize {
-        8 * self.order * m + 4 * self.order * r + 4 * p + 2 * kind + c
-    }
-
-    /// Index of the (first) unknown of plane `k` for `nb` bearings.
-    pub const fn plane_index(&self, nb: usize, k: usize) -> usize {
-        self.per_bearing() * nb + self.per_plane() * k
-    }
-
-    /// The column scale `s_j` of unknown `j` (the physical unknown is
-    /// `w_j = s_j w~_j`), see [`crate::scaling`]. `None` if `j >= M`.
-    pub fn column_scale<T: Real>(
-        &self,
+        structure: &Structure,
         scaling: &ColumnScaling<T>,
         nb: usize,
-        np: usize,
-        j: usize,
-    ) -> Option<T> {
-        let nbear = self.per_bearing() * nb;
-        if j >= self.n_unknowns(nb, np) {
-            return None;
-        }
-        if j >= nbear {
-            return Some(scaling.unbalance);
-        }
-        let within = j % self.per_bearing();
-        Some(match self.formulation {
-            Formulation::Paper => {
-                let p = (within % (2 * (self.order + 1))) / 2;
-                scaling.power_scale(p)
+        i: usize,
+        mut put: impl FnMut(usize, Complex<T>),
+    ) -> Result<(), RegressorError> {
+        let (m, r) = (i / 2, i % 2);
+        for t in 0..structure.terms_per_entry() {
+            let term = structure.entry_term(t);
+            let g = term.scaled_z_factor(scaling, self.omega);
+            for c in 0..2 {
+                let j = structure
+                    .bearing_index(m, r, c, term)
+                    .ok_or(RegressorError::Dimension)?;
+                put(j, -(self.q[2 * m + c] * g));
             }
-            Formulation::Physical => {
-                let rem = within % (4 * self.order);
-                let p = rem / 4;
-                let kind = (rem % 4) / 2;
-                scaling.power_scale(p + kind)
+        }
+        for k in 0..self.np {
+            let bik = self.b[i * self.np + k] * scaling.unbalance;
+            for part in [UnbalancePart::Phasor, UnbalancePart::Re, UnbalancePart::Im] {
+                if let Some(j) = structure.index(nb, Unknown::Unbalance { plane: k, part }) {
+                    put(j, bik * part.factor());
+                }
             }
-        })
+        }
+        Ok(())
     }
-}
-
-/// Checks the lengths common to both formulations.
-fn check_terms<T>(
-    nq: usize,
-    np: usize,
-    a: &[Complex<T>],
-    b: &[Complex<T>],
-    q: &[Complex<T>],
-) -> Result<usize, RegressorError> {
-    if nq == 0 || nq % 2 != 0 || a.len() != nq * nq || b.len() != nq * np || q.len() != nq {
-        return Err(RegressorError::Dimension);
-    }
-    Ok(nq / 2)
-}
-
-fn all_finite<T: Real>(omega: T, a: &[Complex<T>], b: &[Complex<T>], q: &[Complex<T>]) -> bool {
-    let f = |z: &Complex<T>| z.re.is_finite() && z.im.is_finite();
-    omega.is_finite() && a.iter().all(f) && b.iter().all(f) && q.iter().all(f)
-}
-
-/// `d = A q` (complex, length `nq`), `A` row-major `nq x nq`.
-fn a_times_q<T: Real>(nq: usize, a: &[Complex<T>], q: &[Complex<T>], i: usize) -> Complex<T> {
-    let mut s = Complex::new(T::zero(), T::zero());
-    for (aij, qj) in a[i * nq..(i + 1) * nq].iter().zip(q) {
-        s += *aij * *qj;
-    }
-    s
 }
 
 /// Forms the complex regression of the `paper` structure of order `P`,
 /// scaled: `d = A q` (length `N = nq`) and `U S` (row-major `N x M`).
-///
-/// `a`: `A(Omega)` row-major `nq x nq`; `b`: `B(Omega)` row-major
-/// `nq x np`; `q`: measured phasors (m), `nq = 2 N_b`. Errors: order,
-/// buffer lengths, non-finite input (outputs untouched then).
-#[allow(clippy::too_many_arguments)]
+/// Errors: order, buffer lengths, non-finite input (outputs untouched then).
 pub fn form_paper<T: Real>(
     order: usize,
     scaling: &ColumnScaling<T>,
-    omega: T,
-    a: &[Complex<T>],
-    b: &[Complex<T>],
-    q: &[Complex<T>],
-    nq: usize,
-    np: usize,
+    eq: &Equations<'_, T>,
     d: &mut [Complex<T>],
     u: &mut [Complex<T>],
 ) -> Result<(), RegressorError> {
     let s = Structure::paper(order);
     s.validate()?;
-    let nb = check_terms(nq, np, a, b, q)?;
-    let m_cols = s.n_unknowns(nb, np);
-    if d.len() != nq || u.len() != nq * m_cols {
+    let nb = eq.check()?;
+    let m_cols = s.n_unknowns(nb, eq.np);
+    if d.len() != eq.nq || u.len() != eq.nq * m_cols {
         return Err(RegressorError::Dimension);
     }
-    if !all_finite(omega, a, b, q) {
-        return Err(RegressorError::NonFinite);
-    }
-    let zero = Complex::new(T::zero(), T::zero());
-    u.fill(zero);
-    for i in 0..nq {
-        d[i] = a_times_q(nq, a, q, i);
-        let (m, r) = (i / 2, i % 2);
+    u.fill(Complex::new(T::zero(), T::zero()));
+    for (i, di) in d.iter_mut().enumerate() {
+        *di = eq.d(i);
         let row = &mut u[i * m_cols..(i + 1) * m_cols];
-        for p in 0..=order {
-            let f = -(scaling.speed_power(omega, p) * scaling.stiffness);
-            for c in 0..2 {
-                row[s.paper_index(m, r, p, c)] = q[2 * m + c] * f;
-            }
-        }
-        for k in 0..np {
-            row[s.plane_index(nb, k)] = b[i * np + k] * scaling.unbalance;
-        }
+        eq.columns(&s, scaling, nb, i, |j, g| row[j] = g)?;
     }
     Ok(())
 }
@@ -291,236 +180,34 @@ pub fn form_paper<T: Real>(
 /// Forms the real regression of the `physical` structure of order `P`,
 /// scaled: `d` (length `N = 2 nq`: Re and Im of `A q`, interleaved) and
 /// `U S` (row-major `N x M`). Arguments as in [`form_paper`].
-#[allow(clippy::too_many_arguments)]
 pub fn form_physical<T: Real>(
     order: usize,
     scaling: &ColumnScaling<T>,
-    omega: T,
-    a: &[Complex<T>],
-    b: &[Complex<T>],
-    q: &[Complex<T>],
-    nq: usize,
-    np: usize,
+    eq: &Equations<'_, T>,
     d: &mut [T],
     u: &mut [T],
 ) -> Result<(), RegressorError> {
     let s = Structure::physical(order);
     s.validate()?;
-    let nb = check_terms(nq, np, a, b, q)?;
-    let m_cols = s.n_unknowns(nb, np);
-    let n_rows = 2 * nq;
+    let nb = eq.check()?;
+    let m_cols = s.n_unknowns(nb, eq.np);
+    let n_rows = 2 * eq.nq;
     if d.len() != n_rows || u.len() != n_rows * m_cols {
         return Err(RegressorError::Dimension);
     }
-    if !all_finite(omega, a, b, q) {
-        return Err(RegressorError::NonFinite);
-    }
     u.fill(T::zero());
-    for i in 0..nq {
-        let di = a_times_q(nq, a, q, i);
+    for i in 0..eq.nq {
+        let di = eq.d(i);
         d[2 * i] = di.re;
         d[2 * i + 1] = di.im;
-        let (m, r) = (i / 2, i % 2);
         // Complex coefficient g of a real unknown: Re row gets Re g, Im row Im g.
-        let mut put = |j: usize, g: Complex<T>| {
-            u[2 * i * m_cols + j] = g.re;
-            u[(2 * i + 1) * m_cols + j] = g.im;
-        };
-        for p in 0..order {
-            let fk = -(scaling.speed_power(omega, p) * scaling.stiffness);
-            let fc = -(scaling.speed_power(omega, p + 1) * scaling.stiffness);
-            for c in 0..2 {
-                let qc = q[2 * m + c];
-                // K_p: -Omega^p q ; C_p: -j Omega^(p+1) q.
-                put(s.physical_index(m, r, p, 0, c), qc * fk);
-                put(
-                    s.physical_index(m, r, p, 1, c),
-                    Complex::new(T::zero(), T::one()) * qc * fc,
-                );
-            }
-        }
-        for k in 0..np {
-            let g = b[i * np + k] * scaling.unbalance;
-            let j = s.plane_index(nb, k);
-            // Re a -> g ; Im a -> j g.
-            put(j, g);
-            put(j + 1, Complex::new(-g.im, g.re));
-        }
+        let (re_row, im_row) = u[2 * i * m_cols..(2 * i + 2) * m_cols].split_at_mut(m_cols);
+        eq.columns(&s, scaling, nb, i, |j, g| {
+            re_row[j] = g.re;
+            im_row[j] = g.im;
+        })?;
     }
     Ok(())
-}
-
-/// Identified parameters of one bearing at one speed.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BearingEstimate<T> {
-    /// Stiffness `[kyy, kyz, kzy, kzz]` (N/m).
-    pub k: [T; 4],
-    /// Damping `[cyy, cyz, czy, czz]` (N s/m).
-    pub c: [T; 4],
-    /// For the paper structure: `Im(Z_0)` (N/m), physically zero (the
-    /// dynamic stiffness at rest is real); `None` for the physical one.
-    pub im_z0: Option<[T; 4]>,
-    /// For the paper structure: `Re(Z_1)` (N s/m), physically zero when the
-    /// stiffness does not vary linearly with speed (exactly the consistency
-    /// check of order 1); `None` for the physical one.
-    pub re_z1: Option<[T; 4]>,
-}
-
-/// Identified unbalance of one plane.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct UnbalanceEstimate<T> {
-    /// `a = m e exp(j alpha)` (kg m).
-    pub a: Complex<T>,
-    /// `m e = |a|` (kg m).
-    pub me: T,
-    /// `alpha = arg a` (rad), in `(-pi, pi]`.
-    pub phase: T,
-}
-
-impl<T: Real> UnbalanceEstimate<T> {
-    /// From the complex unbalance.
-    pub fn from_phasor(a: Complex<T>) -> Self {
-        UnbalanceEstimate {
-            a,
-            me: a.re.hypot(a.im),
-            phase: a.im.atan2(a.re),
-        }
-    }
-
-    /// The phase in degrees.
-    pub fn phase_deg(&self) -> T {
-        self.phase * T::lit(180.0) / T::pi()
-    }
-}
-
-/// Physical bearing parameters of bearing `m` from the **scaled** complex
-/// weights `w~` of the paper structure, evaluated at `omega`.
-///
-/// `Z_B(Omega) = sum_p Omega^p Z_p`. Order 1: `K = Re Z_0`, `C = Im Z_1`
-/// (speed-independent, the physically consistent part). Order >= 2:
-/// `K(Omega) = Re Z_B(Omega)`, `C(Omega) = Im Z_B(Omega) / Omega`, with
-/// `C(0) = Im Z_1` (the limit when `Im Z_0 = 0`).
-pub fn paper_bearing<T: Real>(
-    order: usize,
-    scaling: &ColumnScaling<T>,
-    w: &[Complex<T>],
-    nb: usize,
-    np: usize,
-    m: usize,
-    omega: T,
-) -> Result<BearingEstimate<T>, RegressorError> {
-    let s = Structure::paper(order);
-    s.validate()?;
-    if m >= nb || w.len() != s.n_unknowns(nb, np) {
-        return Err(RegressorError::Dimension);
-    }
-    let z = |p: usize, e: usize| w[s.paper_index(m, e / 2, p, e % 2)] * scaling.power_scale(p);
-    let mut out = BearingEstimate {
-        k: [T::zero(); 4],
-        c: [T::zero(); 4],
-        im_z0: Some([T::zero(); 4]),
-        re_z1: Some([T::zero(); 4]),
-    };
-    let mut im_z0 = [T::zero(); 4];
-    let mut re_z1 = [T::zero(); 4];
-    for e in 0..4 {
-        im_z0[e] = z(0, e).im;
-        re_z1[e] = z(1, e).re;
-        if order == 1 {
-            out.k[e] = z(0, e).re;
-            out.c[e] = z(1, e).im;
-        } else {
-            let mut zb = Complex::new(T::zero(), T::zero());
-            let mut pw = T::one();
-            for p in 0..=order {
-                zb += z(p, e) * pw;
-                pw *= omega;
-            }
-            out.k[e] = zb.re;
-            out.c[e] = if omega.abs() > T::zero() {
-                zb.im / omega
-            } else {
-                z(1, e).im
-            };
-        }
-    }
-    out.im_z0 = Some(im_z0);
-    out.re_z1 = Some(re_z1);
-    Ok(out)
-}
-
-/// Physical bearing parameters of bearing `m` from the **scaled** real
-/// weights `w~` of the physical structure: `K(Omega) = sum_p K_p Omega^p`,
-/// `C(Omega) = sum_p C_p Omega^p`.
-pub fn physical_bearing<T: Real>(
-    order: usize,
-    scaling: &ColumnScaling<T>,
-    w: &[T],
-    nb: usize,
-    np: usize,
-    m: usize,
-    omega: T,
-) -> Result<BearingEstimate<T>, RegressorError> {
-    let s = Structure::physical(order);
-    s.validate()?;
-    if m >= nb || w.len() != s.n_unknowns(nb, np) {
-        return Err(RegressorError::Dimension);
-    }
-    let mut out = BearingEstimate {
-        k: [T::zero(); 4],
-        c: [T::zero(); 4],
-        im_z0: None,
-        re_z1: None,
-    };
-    for e in 0..4 {
-        let (r, c) = (e / 2, e % 2);
-        let mut pw = T::one();
-        for p in 0..order {
-            out.k[e] += w[s.physical_index(m, r, p, 0, c)] * scaling.power_scale(p) * pw;
-            out.c[e] += w[s.physical_index(m, r, p, 1, c)] * scaling.power_scale(p + 1) * pw;
-            pw *= omega;
-        }
-    }
-    Ok(out)
-}
-
-/// Unbalance of plane `k` from the scaled paper weights.
-pub fn paper_unbalance<T: Real>(
-    order: usize,
-    scaling: &ColumnScaling<T>,
-    w: &[Complex<T>],
-    nb: usize,
-    np: usize,
-    k: usize,
-) -> Result<UnbalanceEstimate<T>, RegressorError> {
-    let s = Structure::paper(order);
-    s.validate()?;
-    if k >= np || w.len() != s.n_unknowns(nb, np) {
-        return Err(RegressorError::Dimension);
-    }
-    Ok(UnbalanceEstimate::from_phasor(
-        w[s.plane_index(nb, k)] * scaling.unbalance,
-    ))
-}
-
-/// Unbalance of plane `k` from the scaled physical weights.
-pub fn physical_unbalance<T: Real>(
-    order: usize,
-    scaling: &ColumnScaling<T>,
-    w: &[T],
-    nb: usize,
-    np: usize,
-    k: usize,
-) -> Result<UnbalanceEstimate<T>, RegressorError> {
-    let s = Structure::physical(order);
-    s.validate()?;
-    if k >= np || w.len() != s.n_unknowns(nb, np) {
-        return Err(RegressorError::Dimension);
-    }
-    let j = s.plane_index(nb, k);
-    Ok(UnbalanceEstimate::from_phasor(
-        Complex::new(w[j], w[j + 1]) * scaling.unbalance,
-    ))
 }
 
 /// Divides each row of `[U d]` (row-major `n x m`, `d` of length `n`) by
@@ -573,6 +260,7 @@ pub fn normalise_rows<T: Real, F: nalgebra::ComplexField<RealField = T> + Copy>(
 #[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
+    use crate::parametrization::{bearing_estimate, unbalance_estimate, BearingTerm};
     use nalgebra::DMatrix;
     use std::vec;
     use std::vec::Vec;
@@ -602,6 +290,19 @@ mod tests {
         a: Vec<C64>,
         b: Vec<C64>,
         q: Vec<C64>,
+    }
+
+    impl Problem {
+        fn eq(&self) -> Equations<'_, f64> {
+            Equations {
+                omega: self.omega,
+                a: &self.a,
+                b: &self.b,
+                q: &self.q,
+                nq: self.nq,
+                np: self.np,
+            }
+        }
     }
 
     fn solve_q(
@@ -669,7 +370,9 @@ mod tests {
                     for m in 0..nb {
                         for p in 0..=order {
                             for e in 0..4 {
-                                let j = st.paper_index(m, e / 2, p, e % 2);
+                                let j = st
+                                    .bearing_index(m, e / 2, e % 2, BearingTerm::Z { power: p })
+                                    .unwrap();
                                 w[j] = zp[m * (order + 1) + p][e]
                                     / st.column_scale(&sc, nb, np, j).unwrap();
                             }
@@ -680,10 +383,7 @@ mod tests {
                     }
                     let mut d = vec![C64::new(0.0, 0.0); nq];
                     let mut u = vec![C64::new(0.0, 0.0); nq * mm];
-                    form_paper(
-                        order, &sc, pb.omega, &pb.a, &pb.b, &pb.q, pb.nq, pb.np, &mut d, &mut u,
-                    )
-                    .unwrap();
+                    form_paper(order, &sc, &pb.eq(), &mut d, &mut u).unwrap();
                     let dn: f64 = d.iter().map(|x| x.norm_sqr()).sum::<f64>().sqrt();
                     for i in 0..nq {
                         let mut uw = C64::new(0.0, 0.0);
@@ -695,26 +395,22 @@ mod tests {
                             "order {order} nb {nb} row {i}"
                         );
                     }
-                    // Estimates recover Z_B(Omega) = K + j Omega C.
+                    // Estimates recover Z_B(Omega) = K + j Omega C + j Im Z_0.
                     for m in 0..nb {
-                        let be = paper_bearing(order, &sc, &w, nb, np, m, omega).unwrap();
+                        let be = bearing_estimate(&st, &sc, &w, nb, np, m, omega).unwrap();
                         for e in 0..4 {
                             let z = zb[(2 * m + e / 2, 2 * m + e % 2)];
-                            if order == 1 {
-                                let z0 = zp[m * 2][e];
-                                let z1 = zp[m * 2 + 1][e];
-                                assert!((be.k[e] - z0.re).abs() <= 1e-12 * z0.norm());
-                                assert!((be.c[e] - z1.im).abs() <= 1e-12 * z1.norm());
-                                assert!((be.im_z0.unwrap()[e] - z0.im).abs() <= 1e-12 * z0.norm());
-                                assert!((be.re_z1.unwrap()[e] - z1.re).abs() <= 1e-12 * z1.norm());
-                            } else {
-                                assert!((be.k[e] - z.re).abs() <= 1e-12 * z.norm());
-                                assert!((be.c[e] * omega - z.im).abs() <= 1e-12 * z.norm());
-                            }
+                            let z0 = zp[m * (order + 1)][e];
+                            // Eq. 43 read at the speed, every order.
+                            assert!((be.k[e] - z.re).abs() <= 1e-12 * z.norm());
+                            assert!((be.c[e] * omega - (z.im - z0.im)).abs() <= 1e-12 * z.norm());
+                            let z1 = zp[m * (order + 1) + 1][e];
+                            assert!((be.im_z0.unwrap()[e] - z0.im).abs() <= 1e-12 * z0.norm());
+                            assert!((be.re_z1.unwrap()[e] - z1.re).abs() <= 1e-12 * z1.norm());
                         }
                     }
                     for k in 0..np {
-                        let ue = paper_unbalance(order, &sc, &w, nb, np, k).unwrap();
+                        let ue = unbalance_estimate(&st, &sc, &w, nb, np, k).unwrap();
                         assert!((ue.a - ua[k]).norm() <= 1e-14 * ua[k].norm());
                         assert!((ue.me - ua[k].norm()).abs() <= 1e-14);
                         assert!((ue.phase - ua[k].arg()).abs() <= 1e-12);
@@ -763,8 +459,12 @@ mod tests {
                     for m in 0..nb {
                         for p in 0..order {
                             for e in 0..4 {
-                                let jk = st.physical_index(m, e / 2, p, 0, e % 2);
-                                let jc = st.physical_index(m, e / 2, p, 1, e % 2);
+                                let jk = st
+                                    .bearing_index(m, e / 2, e % 2, BearingTerm::K { power: p })
+                                    .unwrap();
+                                let jc = st
+                                    .bearing_index(m, e / 2, e % 2, BearingTerm::C { power: p })
+                                    .unwrap();
                                 w[jk] = kp[m * order + p][e]
                                     / st.column_scale(&sc, nb, np, jk).unwrap();
                                 w[jc] = cp[m * order + p][e]
@@ -780,10 +480,7 @@ mod tests {
                     let n = 2 * nq;
                     let mut d = vec![0.0; n];
                     let mut u = vec![0.0; n * mm];
-                    form_physical(
-                        order, &sc, pb.omega, &pb.a, &pb.b, &pb.q, pb.nq, pb.np, &mut d, &mut u,
-                    )
-                    .unwrap();
+                    form_physical(order, &sc, &pb.eq(), &mut d, &mut u).unwrap();
                     let dn: f64 = d.iter().map(|x| x * x).sum::<f64>().sqrt();
                     for i in 0..n {
                         let uw: f64 = (0..mm).map(|j| u[i * mm + j] * w[j]).sum();
@@ -793,7 +490,7 @@ mod tests {
                         );
                     }
                     for m in 0..nb {
-                        let be = physical_bearing(order, &sc, &w, nb, np, m, omega).unwrap();
+                        let be = bearing_estimate(&st, &sc, &w, nb, np, m, omega).unwrap();
                         for e in 0..4 {
                             assert!((be.k[e] - kt[m][e]).abs() <= 1e-12 * 1e7 * order as f64);
                             assert!((be.c[e] - ct[m][e]).abs() <= 1e-12 * 1e4 * order as f64);
@@ -801,7 +498,7 @@ mod tests {
                         assert!(be.im_z0.is_none());
                     }
                     for k in 0..np {
-                        let ue = physical_unbalance(order, &sc, &w, nb, np, k).unwrap();
+                        let ue = unbalance_estimate(&st, &sc, &w, nb, np, k).unwrap();
                         assert!((ue.a - ua[k]).norm() <= 1e-14 * ua[k].norm());
                     }
                 }
@@ -831,15 +528,13 @@ mod tests {
         let sc = ColumnScaling::identity();
         let mut d = vec![C64::new(0.0, 0.0); nq];
         let mut u = vec![C64::new(0.0, 0.0); nq * mm];
-        form_paper(
-            order, &sc, omega, &pb.a, &pb.b, &pb.q, nq, np, &mut d, &mut u,
-        )
-        .unwrap();
+        form_paper(order, &sc, &pb.eq(), &mut d, &mut u).unwrap();
         // Flip the bearing columns' sign: residual must be of the order of d.
         let mut w = vec![C64::new(0.0, 0.0); mm];
         for m in 0..nb {
             for e in 0..4 {
-                w[st.paper_index(m, e / 2, 0, e % 2)] = zb[(2 * m + e / 2, 2 * m + e % 2)];
+                w[st.bearing_index(m, e / 2, e % 2, BearingTerm::Z { power: 0 })
+                    .unwrap()] = zb[(2 * m + e / 2, 2 * m + e % 2)];
             }
         }
         for k in 0..np {
@@ -889,23 +584,17 @@ mod tests {
         let n = st.n_rows(nb);
         let (mut d64, mut u64) = (vec![0.0f64; n], vec![0.0f64; n * mm]);
         let (mut d32, mut u32) = (vec![0.0f32; n], vec![0.0f32; n * mm]);
-        form_physical(
-            order, &sc64, omega, &pb.a, &pb.b, &pb.q, nq, np, &mut d64, &mut u64,
-        )
-        .unwrap();
-        form_physical(
-            order,
-            &sc32,
-            omega as f32,
-            &c32(&pb.a),
-            &c32(&pb.b),
-            &c32(&pb.q),
+        form_physical(order, &sc64, &pb.eq(), &mut d64, &mut u64).unwrap();
+        let (a32, b32, q32) = (c32(&pb.a), c32(&pb.b), c32(&pb.q));
+        let eq32 = Equations {
+            omega: omega as f32,
+            a: &a32,
+            b: &b32,
+            q: &q32,
             nq,
             np,
-            &mut d32,
-            &mut u32,
-        )
-        .unwrap();
+        };
+        form_physical(order, &sc32, &eq32, &mut d32, &mut u32).unwrap();
         let umax = u64.iter().fold(0.0f64, |a, x| a.max(x.abs()));
         for (x, y) in u64.iter().zip(&u32) {
             assert!((x - *y as f64).abs() <= 1e-6 * umax);
@@ -923,27 +612,92 @@ mod tests {
         let mut d = vec![z; 2];
         let mut u = vec![z; 2 * mm];
         assert_eq!(
-            form_paper(0, &sc, 1.0, &a, &b, &q, 2, 1, &mut d, &mut u),
+            form_paper(
+                0,
+                &sc,
+                &Equations {
+                    omega: 1.0,
+                    a: &a,
+                    b: &b,
+                    q: &q,
+                    nq: 2,
+                    np: 1
+                },
+                &mut d,
+                &mut u
+            ),
             Err(RegressorError::InvalidOrder)
         );
         assert_eq!(
-            form_paper(1, &sc, 1.0, &a, &b, &q, 2, 1, &mut d[..1], &mut u),
+            form_paper(
+                1,
+                &sc,
+                &Equations {
+                    omega: 1.0,
+                    a: &a,
+                    b: &b,
+                    q: &q,
+                    nq: 2,
+                    np: 1
+                },
+                &mut d[..1],
+                &mut u
+            ),
             Err(RegressorError::Dimension)
         );
         assert_eq!(
-            form_paper(1, &sc, 1.0, &a, &b[..1], &q, 2, 1, &mut d, &mut u),
+            form_paper(
+                1,
+                &sc,
+                &Equations {
+                    omega: 1.0,
+                    a: &a,
+                    b: &b[..1],
+                    q: &q,
+                    nq: 2,
+                    np: 1
+                },
+                &mut d,
+                &mut u
+            ),
             Err(RegressorError::Dimension)
         );
         q[1].im = f64::NAN;
         assert_eq!(
-            form_paper(1, &sc, 1.0, &a, &b, &q, 2, 1, &mut d, &mut u),
+            form_paper(
+                1,
+                &sc,
+                &Equations {
+                    omega: 1.0,
+                    a: &a,
+                    b: &b,
+                    q: &q,
+                    nq: 2,
+                    np: 1
+                },
+                &mut d,
+                &mut u
+            ),
             Err(RegressorError::NonFinite)
         );
         assert!(d.iter().chain(&u).all(|x| *x == z));
         let mut dr = vec![0.0; 4];
         let mut ur = vec![0.0; 4 * Structure::physical(1).n_unknowns(1, 1)];
         assert_eq!(
-            form_physical(1, &sc, f64::INFINITY, &a, &b, &q, 2, 1, &mut dr, &mut ur),
+            form_physical(
+                1,
+                &sc,
+                &Equations {
+                    omega: f64::INFINITY,
+                    a: &a,
+                    b: &b,
+                    q: &q,
+                    nq: 2,
+                    np: 1
+                },
+                &mut dr,
+                &mut ur
+            ),
             Err(RegressorError::NonFinite)
         );
         assert!(ColumnScaling::<f32>::new(1e60, 1.0, 1.0).is_err());

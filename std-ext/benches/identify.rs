@@ -8,11 +8,10 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use num_complex::Complex;
 use rotorid::core::identify::{Config, IdField, Identifier, SteadyPolicy};
+use rotorid::core::parametrization::Structure;
 use rotorid::core::qrdrls::VectorQrdRls;
-use rotorid::core::regressor::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::Real;
-use rotorid::estimate::reduce_terms;
 use rotorid::fe::assembly::FeModel;
 use rotorid::fe::response::{unbalance_response, Forcing};
 use rotorid::model::RotorModel;
@@ -42,7 +41,8 @@ fn data<T: Real>() -> Data<T> {
         q: vec![],
     };
     for (w, r) in speeds.iter().zip(&resp) {
-        let (a, b) = reduce_terms(&fe, &model, *w).expect("terms");
+        let rotorid::reduce::ReducedTerms { a, b, .. } =
+            rotorid::reduce::reduce(&fe, &model, *w).expect("terms");
         d.omega.push(T::lit(*w));
         d.a.push(core::array::from_fn(|i| {
             core::array::from_fn(|j| c(a[(i, j)]))

@@ -69,7 +69,7 @@ pub struct IdentifyArgs {
 /// of identified values next to the model's with relative errors, and
 /// optionally writes the JSON of SPEC section 5 and SVG plots.
 pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
-    use crate::core::regressor::{Structure, MAX_ORDER};
+    use crate::core::parametrization::{Structure, MAX_ORDER};
     use crate::estimate::{identify, Options, Precision};
     use crate::report::identify::{report_table, write_plots};
     use std::io::IsTerminal;
@@ -144,7 +144,7 @@ pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
 
     print!("{}", report_table(&id, Some(&model)));
     if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&id.to_json())?;
+        let text = serde_json::to_string_pretty(&id.result())?;
         std::fs::write(path, text + "\n")
             .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
     }

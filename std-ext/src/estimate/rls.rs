@@ -12,32 +12,72 @@
 //! like the paper's Figs. 4 and 5) and the final ones (for reports and the
 //! SPEC's JSON).
 
+use crate::estimate::parametrization::Parametrization;
+use crate::estimate::uncertainty::{sandwich_covariance, WeightedRow};
+use crate::fe::assembly::FeError;
 use crate::io::measurement::{Measurements, Sample};
-use crate::model::{BearingCoefficients, BearingLaw, RotorModel, Unbalance};
+use crate::model::{BearingLaw, ModelError, RotorModel, Unbalance};
+use crate::reduce::ReductionError;
 use nalgebra::DMatrix;
 use num_complex::{Complex, Complex64};
 use rotorid_core::identify::{
     check_sizes, estimates_into, Config, GuardState, IdField, IdentifyError as CoreError, Kernel,
-    SteadyPolicy,
+    Scratch, SteadyPolicy, StepReport,
 };
-use rotorid_core::regressor::{BearingEstimate, Formulation, Structure, UnbalanceEstimate};
+use rotorid_core::parametrization::{BearingEstimate, Formulation, Structure, UnbalanceEstimate};
+use rotorid_core::regressor::Equations;
 use rotorid_core::scaling::ColumnScaling;
 use rotorid_core::Real;
-use serde_json::{json, Value};
 use thiserror::Error;
 
 /// Errors of the desktop identification.
 #[derive(Debug, Error)]
 pub enum IdentifyError {
-    /// The measurement does not fit the model (channel count, no samples).
-    #[error("measurements: {0}")]
-    Measurements(String),
-    /// The FE model or the reduction failed.
+    /// The model has no bearing.
+    #[error("measurements: the model has no bearing")]
+    NoBearing,
+    /// The measurement has no sample.
+    #[error("measurements: no samples")]
+    NoSamples,
+    /// The measurement's bearing count differs from the model's.
+    #[error("measurements: {file} bearing(s) in the file, {model} in the model")]
+    BearingCount {
+        /// Bearings (channel groups) in the file.
+        file: usize,
+        /// Bearings in the model.
+        model: usize,
+    },
+    /// The model is invalid.
     #[error("model: {0}")]
-    Model(String),
-    /// Options out of range.
+    Model(#[from] ModelError),
+    /// The FE model could not be built.
+    #[error("model: {0}")]
+    Fe(#[from] FeError),
+    /// The reduction to the bearings failed.
+    #[error("model: {0}")]
+    Reduction(#[from] ReductionError),
+    /// Reduced terms of the wrong size from a caller's terms function.
+    #[error("model: reduced terms of size {a_rows}x{a_cols} and {b_rows}x{b_cols}, expected {nq}x{nq} and {nq}x{np}")]
+    TermsSize {
+        /// Rows of `A`.
+        a_rows: usize,
+        /// Columns of `A`.
+        a_cols: usize,
+        /// Rows of `B`.
+        b_rows: usize,
+        /// Columns of `B`.
+        b_cols: usize,
+        /// Expected `2 N_b`.
+        nq: usize,
+        /// Expected `N_p`.
+        np: usize,
+    },
+    /// The column scaling does not fit the working precision.
+    #[error("options: column scaling not representable in this precision")]
+    Scaling,
+    /// The configuration was refused by the core identifier.
     #[error("options: {0}")]
-    Options(String),
+    Config(CoreError),
     /// The identifier refused sample `index` (0-based) at `rpm`.
     #[error("sample {index} ({rpm} rpm): {source}")]
     Step {
@@ -133,12 +173,8 @@ pub struct HistoryPoint {
 pub struct Identification {
     /// Options used (with the scaling actually applied).
     pub options: Options,
-    /// Column scaling actually applied.
-    pub scaling: ColumnScaling<f64>,
-    /// Bearing nodes (0-based).
-    pub bearing_nodes: Vec<usize>,
-    /// Plane nodes (0-based).
-    pub plane_nodes: Vec<usize>,
+    /// What the unknowns are (structure, scaling, bearing and plane nodes).
+    pub param: Parametrization,
     /// Estimates after each sample (empty unless recorded).
     pub history: Vec<HistoryPoint>,
     /// Estimates at the end of the sweep, bearings evaluated at the last speed.
@@ -148,28 +184,14 @@ pub struct Identification {
     /// Steps with forgetting frozen by the guard.
     pub frozen: u64,
     /// Final scaled weights `w~` (for the physical structure the real
-    /// weights in `re`), see `rotorid_core::regressor` for the layout.
+    /// weights in `re`), see [`Parametrization`] for their meaning.
     pub scaled_weights: Vec<Complex64>,
-    /// Estimated covariance of the scaled weights: White's
-    /// heteroscedasticity-consistent sandwich from the final residuals of
-    /// every row, with the forgetting weights (`None` with too few rows, or
-    /// when more than 100000 rows still carry weight: the rows are kept in
-    /// memory until the end).
-    /// It describes the scatter due to noise, not the errors-in-variables
-    /// bias of noisy `q_B` in `U`.
+    /// Estimated covariance of the scaled weights
+    /// ([`sandwich_covariance`]; `None` with too few rows, or when more than
+    /// 100000 rows still carry weight: the rows are kept in memory until
+    /// the end). It describes the scatter due to noise, not the
+    /// errors-in-variables bias of noisy `q_B` in `U`.
     pub covariance: Option<DMatrix<Complex64>>,
-}
-
-/// A sparse linear functional of the scaled weights: `(index, coefficient)`.
-type Functional = Vec<(usize, f64)>;
-
-/// Standard deviations of the final estimates (same units as the values).
-#[derive(Debug, Clone, PartialEq)]
-pub struct StdSet {
-    /// Per bearing: std of `k` (N/m) and `c` (N s/m), `yy..zz`.
-    pub bearings: Vec<([f64; 4], [f64; 4])>,
-    /// Per plane: std of `m e` (kg m) and of the phase (deg).
-    pub unbalance: Vec<(f64, f64)>,
 }
 
 /// Reference magnitudes for the column scaling from the known part of the
@@ -222,14 +244,10 @@ pub fn identify(
     options: &Options,
     progress: Option<&dyn Fn(usize)>,
 ) -> Result<Identification, IdentifyError> {
-    let fe = crate::fe::assembly::FeModel::new(model)
-        .map_err(|e| IdentifyError::Model(e.to_string()))?;
-    let reducer =
-        crate::reduce::Reducer::new(&fe, model).map_err(|e| IdentifyError::Model(e.to_string()))?;
+    let fe = crate::fe::assembly::FeModel::new(model)?;
+    let reducer = crate::reduce::Reducer::new(&fe, model)?;
     let mut terms = |omega: f64| -> Result<TermsAt, IdentifyError> {
-        let t = reducer
-            .reduce(omega)
-            .map_err(|e| IdentifyError::Model(e.to_string()))?;
+        let t = reducer.reduce(omega)?;
         Ok((t.a, t.b))
     };
     let scaling = match options.scaling {
@@ -246,19 +264,6 @@ pub fn identify(
         &mut terms,
         progress,
     )
-}
-
-/// The reduced terms `A`, `B` of `model` (its planes) at `omega` (rad/s),
-/// as the identification uses them ([`crate::reduce::reduce`]). For many
-/// speeds build a [`crate::reduce::Reducer`] once instead.
-pub fn reduce_terms(
-    fe: &crate::fe::assembly::FeModel,
-    model: &RotorModel,
-    omega: f64,
-) -> Result<TermsAt, IdentifyError> {
-    let t =
-        crate::reduce::reduce(fe, model, omega).map_err(|e| IdentifyError::Model(e.to_string()))?;
-    Ok((t.a, t.b))
 }
 
 /// Highest speed of a sweep (rad/s), 0 if empty.
@@ -279,39 +284,40 @@ pub fn identify_with(
     progress: Option<&dyn Fn(usize)>,
 ) -> Result<Identification, IdentifyError> {
     let nb = bearing_nodes.len();
-    let np = plane_nodes.len();
     if nb == 0 {
-        return Err(IdentifyError::Measurements(
-            "the model has no bearing".into(),
-        ));
+        return Err(IdentifyError::NoBearing);
     }
     if meas.samples.is_empty() {
-        return Err(IdentifyError::Measurements("no samples".into()));
+        return Err(IdentifyError::NoSamples);
     }
     if meas.n_bearings != nb || meas.samples.iter().any(|s| s.q.len() != 2 * nb) {
-        return Err(IdentifyError::Measurements(format!(
-            "{} bearing(s) in the file, {} in the model",
-            meas.n_bearings, nb
-        )));
+        return Err(IdentifyError::BearingCount {
+            file: meas.n_bearings,
+            model: nb,
+        });
     }
     let scaling = options.scaling.unwrap_or_else(ColumnScaling::identity);
     let structure = options.structure;
-    let mut out = match (structure.formulation, options.precision) {
+    let param = Parametrization {
+        structure,
+        scaling,
+        bearing_nodes: bearing_nodes.to_vec(),
+        plane_nodes: plane_nodes.to_vec(),
+    };
+    let out = match (structure.formulation, options.precision) {
         (Formulation::Paper, Precision::F64) => {
-            run::<f64, Complex<f64>>(nb, np, meas, options, scaling, terms, progress)?
+            run::<f64, Complex<f64>>(param, meas, options, terms, progress)?
         }
         (Formulation::Paper, Precision::F32) => {
-            run::<f32, Complex<f32>>(nb, np, meas, options, scaling, terms, progress)?
+            run::<f32, Complex<f32>>(param, meas, options, terms, progress)?
         }
         (Formulation::Physical, Precision::F64) => {
-            run::<f64, f64>(nb, np, meas, options, scaling, terms, progress)?
+            run::<f64, f64>(param, meas, options, terms, progress)?
         }
         (Formulation::Physical, Precision::F32) => {
-            run::<f32, f32>(nb, np, meas, options, scaling, terms, progress)?
+            run::<f32, f32>(param, meas, options, terms, progress)?
         }
     };
-    out.bearing_nodes = bearing_nodes.to_vec();
-    out.plane_nodes = plane_nodes.to_vec();
     Ok(out)
 }
 
@@ -350,7 +356,7 @@ struct State<T, F> {
     /// Every row folded in (as the filter saw it: scaled, normalised) with
     /// the cumulative log forgetting at the time it was folded in, for the
     /// covariance estimate.
-    rows: Vec<(Vec<Complex64>, Complex64, f64)>,
+    rows: Vec<WeightedRow>,
     /// `sum ln lambda_used` so far.
     log_w: f64,
     /// Too many rows kept: no covariance for this run.
@@ -397,22 +403,22 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
         }
     }
 
-    fn step(
-        &mut self,
-        omega: T,
-        a: &[Complex<T>],
-        b: &[Complex<T>],
-        q: &[Complex<T>],
-    ) -> Result<rotorid_core::identify::StepReport<T>, CoreError> {
+    fn step(&mut self, eq: &Equations<'_, T>) -> Result<StepReport<T>, CoreError> {
         let (mut d, mut u, mut xi, mut gamma) = (
             std::mem::take(&mut self.d),
             std::mem::take(&mut self.u),
             std::mem::take(&mut self.xi),
             std::mem::take(&mut self.gamma),
         );
-        let res = self
-            .kernel()
-            .step(omega, a, b, q, &mut d, &mut u, &mut xi, &mut gamma);
+        let res = self.kernel().step(
+            eq,
+            Scratch {
+                d: &mut d,
+                u: &mut u,
+                xi: &mut xi,
+                gamma: &mut gamma,
+            },
+        );
         (self.d, self.u, self.xi, self.gamma) = (d, u, xi, gamma);
         if let Ok(rep) = &res {
             let lam = rep.lambda_used.to_f64();
@@ -422,7 +428,11 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
                 if !self.rows_overflow {
                     for (row, dj) in self.u.chunks_exact(m).zip(&self.d) {
                         let row = row.iter().map(|x| x.widen()).collect();
-                        self.rows.push((row, dj.widen(), self.log_w));
+                        self.rows.push(WeightedRow {
+                            u: row,
+                            d: dj.widen(),
+                            log_weight: self.log_w,
+                        });
                     }
                     if self.rows.len() > MAX_COV_ROWS {
                         // Rows forgotten below 1e-8 of weight no longer
@@ -431,7 +441,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
                         let log_w = self.log_w;
                         let cut = self
                             .rows
-                            .partition_point(|(_, _, lw)| log_w - lw < (1e-8f64).ln());
+                            .partition_point(|r| log_w - r.log_weight < (1e-8f64).ln());
                         self.rows.drain(..cut);
                         if self.rows.len() > MAX_COV_ROWS {
                             self.rows = Vec::new();
@@ -444,62 +454,15 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
         res
     }
 
-    /// Heteroscedasticity-consistent covariance of the scaled weights
-    /// (White's sandwich with the HC3 leverage correction): with the row
-    /// weights `v_j` (product of the forgetting factors applied after row
-    /// `j`), `Phi = R^H R`, the final residuals `e_j = d_j - u_j w~` and the
-    /// leverages `h_j = v_j u_j Phi^-1 u_j^H`,
-    /// `Cov = Phi^-1 (sum_j v_j^2 |e_j / (1 - h_j)|^2 u_j^H u_j) Phi^-1`.
-    /// The leverage correction matters here: the few speeds near the
-    /// critical speeds carry most of the information (large `|q_B|`), so
-    /// their residuals are strongly shrunk by the fit.
-    /// `None` with fewer rows than unknowns or a singular factor.
+    /// The covariance of the scaled weights from the rows kept
+    /// ([`sandwich_covariance`]); `None` when the rows were given up.
     fn covariance(&self) -> Option<DMatrix<Complex64>> {
-        let m = self.p.len();
-        if self.rows_overflow || self.rows.len() <= m {
+        if self.rows_overflow {
             return None;
         }
-        let r = DMatrix::from_fn(m, m, |i, j| {
-            if j >= i {
-                self.r[i * m + j].widen()
-            } else {
-                Complex64::new(0.0, 0.0)
-            }
-        });
-        let rinv = r.solve_upper_triangular(&DMatrix::identity(m, m))?;
-        let phi_inv = &rinv * rinv.adjoint();
+        let r: Vec<Complex64> = self.r.iter().map(|x| x.widen()).collect();
         let w: Vec<Complex64> = self.w.iter().map(|x| x.widen()).collect();
-        let mut meat = DMatrix::<Complex64>::zeros(m, m);
-        for (u, d, lw) in &self.rows {
-            let v = (self.log_w - lw).exp();
-            let e = d - u.iter().zip(&w).map(|(a, b)| a * b).sum::<Complex64>();
-            // Leverage h = v u Phi^-1 u^H in [0, 1): the fit pulls row j's
-            // residual toward zero by (1 - h); undo it (HC3).
-            let mut h = Complex64::new(0.0, 0.0);
-            for i in 0..m {
-                if u[i] == Complex64::new(0.0, 0.0) {
-                    continue;
-                }
-                for (k, uk) in u.iter().enumerate() {
-                    h += u[i] * phi_inv[(i, k)] * uk.conj();
-                }
-            }
-            let one_minus_h = (1.0 - v * h.re).max(1e-3);
-            let s2 = v * v * e.norm_sqr() / (one_minus_h * one_minus_h);
-            if s2 == 0.0 {
-                continue;
-            }
-            for i in 0..m {
-                let ui = u[i].conj() * s2;
-                for (k, uk) in u.iter().enumerate() {
-                    meat[(i, k)] += ui * uk;
-                }
-            }
-        }
-        let c = &phi_inv * meat * &phi_inv;
-        c.iter()
-            .all(|z| z.re.is_finite() && z.im.is_finite())
-            .then_some(c)
+        sandwich_covariance(&r, &w, &self.rows, self.log_w)
     }
 
     fn estimates(&mut self, omega: T) -> Result<EstimateSet, CoreError> {
@@ -555,18 +518,17 @@ impl Widen for f64 {
 }
 
 fn run<T: Real, F: IdField<T> + Widen>(
-    nb: usize,
-    np: usize,
+    param: Parametrization,
     meas: &Measurements,
     options: &Options,
-    scaling: ColumnScaling<f64>,
     terms: &mut dyn FnMut(f64) -> Result<TermsAt, IdentifyError>,
     progress: Option<&dyn Fn(usize)>,
 ) -> Result<Identification, IdentifyError> {
-    let opt_err = |what: &str| IdentifyError::Options(what.to_string());
+    let (nb, np) = (param.n_bearings(), param.n_planes());
+    let scaling = param.scaling;
     let scaling_t =
         ColumnScaling::<T>::new(scaling.stiffness, scaling.omega_ref, scaling.unbalance)
-            .map_err(|_| opt_err("column scaling not representable in this precision"))?;
+            .map_err(|_| IdentifyError::Scaling)?;
     let config = Config {
         structure: options.structure,
         lambda: T::lit(options.lambda),
@@ -579,8 +541,8 @@ fn run<T: Real, F: IdField<T> + Widen>(
             action: options.steady.action,
         },
     };
-    config.validate().map_err(|e| opt_err(&e.to_string()))?;
-    let mut st = State::<T, F>::new(config, nb, np).map_err(|e| opt_err(&e.to_string()))?;
+    config.validate().map_err(IdentifyError::Config)?;
+    let mut st = State::<T, F>::new(config, nb, np).map_err(IdentifyError::Config)?;
     let nq = 2 * nb;
     let mut history = Vec::new();
     let mut a_t = vec![Complex::new(T::zero(), T::zero()); nq * nq];
@@ -591,13 +553,14 @@ fn run<T: Real, F: IdField<T> + Widen>(
         let rpm = crate::units::rad_s_to_rpm(s.omega);
         let (a, b) = terms(s.omega)?;
         if a.nrows() != nq || a.ncols() != nq || b.nrows() != nq || b.ncols() != np {
-            return Err(IdentifyError::Model(format!(
-                "reduced terms of size {}x{} and {}x{}, expected {nq}x{nq} and {nq}x{np}",
-                a.nrows(),
-                a.ncols(),
-                b.nrows(),
-                b.ncols()
-            )));
+            return Err(IdentifyError::TermsSize {
+                a_rows: a.nrows(),
+                a_cols: a.ncols(),
+                b_rows: b.nrows(),
+                b_cols: b.ncols(),
+                nq,
+                np,
+            });
         }
         // Row-major copies in the working precision.
         for i in 0..nq {
@@ -611,8 +574,16 @@ fn run<T: Real, F: IdField<T> + Widen>(
         for (x, z) in q_t.iter_mut().zip(&s.q) {
             *x = lit(*z);
         }
+        let eq = Equations {
+            omega: T::lit(s.omega),
+            a: &a_t,
+            b: &b_t,
+            q: &q_t,
+            nq,
+            np,
+        };
         let rep = st
-            .step(T::lit(s.omega), &a_t, &b_t, &q_t)
+            .step(&eq)
             .map_err(|source| IdentifyError::Step { index, rpm, source })?;
         last_omega = s.omega;
         if options.record_history {
@@ -639,9 +610,7 @@ fn run<T: Real, F: IdField<T> + Widen>(
     opts.scaling = Some(scaling);
     Ok(Identification {
         options: opts,
-        scaling,
-        bearing_nodes: Vec::new(),
-        plane_nodes: Vec::new(),
+        param,
         history,
         last,
         steps: st.guard.steps,
@@ -651,178 +620,23 @@ fn run<T: Real, F: IdField<T> + Widen>(
     })
 }
 
-fn coef_json(v: &[f64; 4]) -> Value {
-    json!({"yy": v[0], "yz": v[1], "zy": v[2], "zz": v[3]})
-}
-
 impl Identification {
-    /// Standard deviations of the final estimates from [`Self::covariance`]
-    /// by linearisation: each reported quantity is a linear functional
-    /// `g . w~` of the scaled weights (`K`, `C` at the last speed), and
-    /// `m e`, phase are linearised about the estimate. For the complex paper
-    /// structure the errors are taken circular (`var Re = var Im = E|.|^2 / 2`).
-    pub fn std(&self) -> Option<StdSet> {
-        let cov = self.covariance.as_ref()?;
-        let st = self.options.structure;
-        let nb = self.last.bearings.len();
-        let np = self.last.unbalance.len();
-        let omega = self.last.omega;
-        let scale = |j: usize| st.column_scale(&self.scaling, nb, np, j).unwrap_or(0.0);
-        // E|g . dw|^2 for a sparse real-coefficient functional.
-        let quad = |g: &[(usize, f64)]| -> f64 {
-            let mut v = Complex64::new(0.0, 0.0);
-            for &(i, gi) in g {
-                for &(j, gj) in g {
-                    v += cov[(i, j)] * gi * gj;
-                }
-            }
-            v.re.max(0.0)
-        };
-        let complex = st.formulation == Formulation::Paper;
-        let half = if complex { 0.5 } else { 1.0 };
-        let mut bearings = Vec::with_capacity(nb);
-        for m in 0..nb {
-            let mut ks = [0.0; 4];
-            let mut cs = [0.0; 4];
-            for e in 0..4 {
-                let (r, c) = (e / 2, e % 2);
-                let (gk, gc): (Functional, Functional) = match st.formulation {
-                    Formulation::Paper if st.order == 1 => {
-                        let j0 = st.paper_index(m, r, 0, c);
-                        let j1 = st.paper_index(m, r, 1, c);
-                        (vec![(j0, scale(j0))], vec![(j1, scale(j1))])
-                    }
-                    Formulation::Paper => {
-                        let g: Vec<(usize, f64)> = (0..=st.order)
-                            .map(|p| {
-                                let j = st.paper_index(m, r, p, c);
-                                (j, scale(j) * omega.powi(p as i32))
-                            })
-                            .collect();
-                        let gc = g
-                            .iter()
-                            .map(|&(j, x)| (j, if omega > 0.0 { x / omega } else { 0.0 }))
-                            .collect();
-                        (g, gc)
-                    }
-                    Formulation::Physical => {
-                        let gk = (0..st.order)
-                            .map(|p| {
-                                let j = st.physical_index(m, r, p, 0, c);
-                                (j, scale(j) * omega.powi(p as i32))
-                            })
-                            .collect();
-                        let gc = (0..st.order)
-                            .map(|p| {
-                                let j = st.physical_index(m, r, p, 1, c);
-                                (j, scale(j) * omega.powi(p as i32))
-                            })
-                            .collect();
-                        (gk, gc)
-                    }
-                };
-                ks[e] = (half * quad(&gk)).sqrt();
-                cs[e] = (half * quad(&gc)).sqrt();
-            }
-            bearings.push((ks, cs));
-        }
-        let mut unbalance = Vec::with_capacity(np);
-        for (k, u) in self.last.unbalance.iter().enumerate() {
-            let j = st.plane_index(nb, k);
-            let sa = self.scaling.unbalance;
-            let (var_me, var_ph) = if complex {
-                let v = 0.5 * cov[(j, j)].re.max(0.0) * sa * sa;
-                (v, v / (u.me * u.me).max(f64::MIN_POSITIVE))
-            } else {
-                // d me = (x dx + y dy) / |a|, d phase = (x dy - y dx) / |a|^2.
-                let (x, y) = (u.a.re, u.a.im);
-                let r2 = (x * x + y * y).max(f64::MIN_POSITIVE);
-                let r = r2.sqrt();
-                let me = quad(&[(j, sa * x / r), (j + 1, sa * y / r)]);
-                let ph = quad(&[(j, -sa * y / r2), (j + 1, sa * x / r2)]);
-                (me, ph)
-            };
-            unbalance.push((var_me.sqrt(), var_ph.sqrt().to_degrees()));
-        }
-        Some(StdSet {
-            bearings,
-            unbalance,
-        })
-    }
-
-    /// Physical (unscaled, SI) weight `j`: `s_j w~_j`.
-    fn weight(&self, j: usize) -> Complex64 {
-        let nb = self.last.bearings.len();
-        let np = self.last.unbalance.len();
-        let s = self
-            .options
-            .structure
-            .column_scale(&self.scaling, nb, np, j)
-            .unwrap_or(0.0);
-        self.scaled_weights.get(j).copied().unwrap_or_default() * s
-    }
-
-    /// The identified bearing laws, exactly as the structure models them:
-    ///
-    /// * paper order 1: constant `K = Re Z_0`, `C = Im Z_1`;
-    /// * paper order `P >= 2`: `K(Omega) = sum_p Re(Z_p) Omega^p`,
-    ///   `C(Omega) = sum_{p>=1} Im(Z_p) Omega^(p-1)` (i.e. `Im Z_0`, physically
-    ///   zero, is dropped);
-    /// * physical order `P`: the polynomials `sum_p K_p Omega^p`,
-    ///   `sum_p C_p Omega^p` (constant for `P = 1`).
+    /// The identified bearing laws, exactly the `Z_B(Omega)` the structure
+    /// fitted ([`Parametrization::bearing_laws`]).
     pub fn bearing_laws(&self) -> Vec<BearingLaw> {
-        let st = self.options.structure;
-        let nb = self.last.bearings.len();
-        let order = st.order;
-        (0..nb)
-            .map(|m| match st.formulation {
-                Formulation::Paper => {
-                    let z = |p: usize| -> [Complex64; 4] {
-                        core::array::from_fn(|e| self.weight(st.paper_index(m, e / 2, p, e % 2)))
-                    };
-                    if order == 1 {
-                        BearingLaw::Constant(BearingCoefficients {
-                            k: z(0).map(|x| x.re),
-                            c: z(1).map(|x| x.im),
-                        })
-                    } else {
-                        BearingLaw::Polynomial {
-                            k: (0..=order).map(|p| z(p).map(|x| x.re)).collect(),
-                            c: (1..=order).map(|p| z(p).map(|x| x.im)).collect(),
-                        }
-                    }
-                }
-                Formulation::Physical => {
-                    let coef = |p: usize, kind: usize| -> [f64; 4] {
-                        core::array::from_fn(|e| {
-                            self.weight(st.physical_index(m, e / 2, p, kind, e % 2)).re
-                        })
-                    };
-                    if order == 1 {
-                        BearingLaw::Constant(BearingCoefficients {
-                            k: coef(0, 0),
-                            c: coef(0, 1),
-                        })
-                    } else {
-                        BearingLaw::Polynomial {
-                            k: (0..order).map(|p| coef(p, 0)).collect(),
-                            c: (0..order).map(|p| coef(p, 1)).collect(),
-                        }
-                    }
-                }
-            })
-            .collect()
+        self.param.bearing_laws(&self.scaled_weights)
     }
 
     /// `model` with its bearing laws replaced by the identified ones and its
-    /// unbalance by the identified one (same nodes as `plane_nodes`): the
-    /// identified rotor, e.g. for its Campbell diagram.
+    /// unbalance by the identified one (at the plane nodes): the identified
+    /// rotor, e.g. for its Campbell diagram.
     pub fn identified_model(&self, model: &RotorModel) -> RotorModel {
         let mut out = model.clone();
         for (b, law) in out.bearings.iter_mut().zip(self.bearing_laws()) {
             b.law = law;
         }
         out.unbalance = self
+            .param
             .plane_nodes
             .iter()
             .zip(&self.last.unbalance)
@@ -834,71 +648,5 @@ impl Identification {
             .collect();
         out.name = format!("{} (identified)", model.name);
         out
-    }
-
-    /// The SPEC section 5 JSON: `bearings` (node 1-based, `k` and `c` as
-    /// `yy..zz` in SI, evaluated at the last speed), `unbalance` (node
-    /// 1-based, `me` in kg m, `phase_deg`), plus `structure`, `order`,
-    /// `last_speed_rpm`, for the paper structure the consistency values
-    /// `check: {im_z0, re_z1}` per bearing, and the standard deviations of
-    /// [`Self::std`] when known: `std: {k, c}` per bearing, `me_std`,
-    /// `phase_deg_std` (also as `std: {me, phase_deg}`) per plane.
-    pub fn to_json(&self) -> Value {
-        let structure = match self.options.structure.formulation {
-            Formulation::Paper => "paper",
-            Formulation::Physical => "physical",
-        };
-        let std = self.std();
-        let bearings: Vec<Value> = self
-            .last
-            .bearings
-            .iter()
-            .enumerate()
-            .map(|(m, b)| {
-                let mut v = json!({
-                    "node": self.bearing_nodes.get(m).map(|n| n + 1).unwrap_or(m + 1),
-                    "k": coef_json(&b.k),
-                    "c": coef_json(&b.c),
-                });
-                if let (Some(i0), Some(r1)) = (b.im_z0, b.re_z1) {
-                    v["check"] = json!({"im_z0": coef_json(&i0), "re_z1": coef_json(&r1)});
-                }
-                if let Some((ks, cs)) = std.as_ref().and_then(|s| s.bearings.get(m)) {
-                    v["std"] = json!({"k": coef_json(ks), "c": coef_json(cs)});
-                }
-                v
-            })
-            .collect();
-        let unbalance: Vec<Value> = self
-            .last
-            .unbalance
-            .iter()
-            .enumerate()
-            .map(|(k, u)| {
-                let mut v = json!({
-                    "node": self.plane_nodes.get(k).map(|n| n + 1).unwrap_or(k + 1),
-                    "me": u.me,
-                    "phase_deg": u.phase_deg(),
-                });
-                if let Some(&(me_std, ph_std)) = std.as_ref().and_then(|s| s.unbalance.get(k)) {
-                    v["me_std"] = json!(me_std);
-                    v["phase_deg_std"] = json!(ph_std);
-                    v["std"] = json!({"me": me_std, "phase_deg": ph_std});
-                }
-                v
-            })
-            .collect();
-        json!({
-            "structure": structure,
-            "order": self.options.structure.order,
-            "precision": match self.options.precision { Precision::F64 => "f64", Precision::F32 => "f32" },
-            "lambda": self.options.lambda,
-            "delta": self.options.delta,
-            "last_speed_rpm": crate::units::rad_s_to_rpm(self.last.omega),
-            "steps": self.steps,
-            "frozen_steps": self.frozen,
-            "bearings": bearings,
-            "unbalance": unbalance,
-        })
     }
 }

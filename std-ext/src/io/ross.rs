@@ -748,7 +748,7 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
                 speeds,
                 coefficients,
             } => (Some(speeds.as_slice()), coefficients.clone()),
-            BearingLaw::Polynomial { .. } => {
+            BearingLaw::Polynomial { .. } | BearingLaw::DynamicStiffness { .. } => {
                 return Err(unsupported(
                     &format!("bearing {}", i + 1),
                     "polynomial bearing laws have no ROSS equivalent",

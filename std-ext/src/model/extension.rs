@@ -262,9 +262,9 @@ pub fn apply_effects(model: &RotorModel, effects: &Effects) -> Result<RotorModel
             let (k, c) = match &b.law {
                 BearingLaw::Constant(co) => (vec![co.k], vec![co.c]),
                 BearingLaw::Polynomial { k, c } => (k.clone(), c.clone()),
-                BearingLaw::Table { .. } => {
+                BearingLaw::Table { .. } | BearingLaw::DynamicStiffness { .. } => {
                     return Err(ExtensionError::Invalid(format!(
-                        "bearing {} has a coefficient table: speed scaling applies to constant or polynomial bearings only",
+                        "bearing {} has a coefficient table or a complex dynamic stiffness: speed scaling applies to constant or polynomial bearings only",
                         i + 1
                     )))
                 }

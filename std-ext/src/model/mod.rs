@@ -16,6 +16,7 @@
 pub mod extension;
 
 use core::f64::consts::PI;
+use num_complex::Complex64;
 use thiserror::Error;
 
 /// Error in a rotor description: names the offending field.
@@ -165,6 +166,16 @@ pub enum BearingLaw {
         /// Damping coefficients per power of Omega (N s/m / (rad/s)^p).
         c: Vec<[f64; 4]>,
     },
+    /// A complex polynomial dynamic stiffness on the 1X line,
+    /// `Z_B(Omega) = sum_p Omega^p z[p]` (the paper's Eq. 43 for `p <= 1`;
+    /// what its identification structure fits), read at each speed as
+    /// `K(Omega) = Re Z_B(Omega)`, `C(Omega) = Im (Z_B(Omega) - Z_B(0)) /
+    /// Omega = sum_(p>=1) Omega^(p-1) Im z[p]` (`Im z[0]`, an imaginary
+    /// stiffness at rest, is physically zero and not damping).
+    DynamicStiffness {
+        /// Coefficients per power of Omega (N/m / (rad/s)^p).
+        z: Vec<[Complex64; 4]>,
+    },
 }
 
 impl BearingLaw {
@@ -195,6 +206,18 @@ impl BearingLaw {
                 for j in 0..4 {
                     out.k[j] = a.k[j] + t * (b.k[j] - a.k[j]);
                     out.c[j] = a.c[j] + t * (b.c[j] - a.c[j]);
+                }
+                out
+            }
+            BearingLaw::DynamicStiffness { z } => {
+                let mut out = BearingCoefficients::default();
+                for j in 0..4 {
+                    out.k[j] = z.iter().rev().fold(0.0, |acc, row| acc * omega + row[j].re);
+                    out.c[j] = z
+                        .iter()
+                        .skip(1)
+                        .rev()
+                        .fold(0.0, |acc, row| acc * omega + row[j].im);
                 }
                 out
             }
@@ -509,6 +532,14 @@ impl RotorModel {
                     }
                     for (j, c) in coefficients.iter().enumerate() {
                         check(c, &format!("table[{}].", j + 1))?;
+                    }
+                }
+                BearingLaw::DynamicStiffness { z } => {
+                    for (p, row) in z.iter().enumerate() {
+                        for (j, v) in row.iter().enumerate() {
+                            finite(f(&format!("z_poly[{p}][{j}].re")), v.re)?;
+                            finite(f(&format!("z_poly[{p}][{j}].im")), v.im)?;
+                        }
                     }
                 }
                 BearingLaw::Polynomial { k, c } => {

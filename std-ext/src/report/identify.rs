@@ -7,7 +7,7 @@ use thiserror::Error;
 
 use crate::estimate::Identification;
 use crate::model::RotorModel;
-use rotorid_core::regressor::Formulation;
+use rotorid_core::parametrization::Formulation;
 
 const COEF: [&str; 4] = ["yy", "yz", "zy", "zz"];
 
@@ -51,7 +51,12 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
     );
     let mut rows = Vec::new();
     for (m, b) in id.last.bearings.iter().enumerate() {
-        let node = id.bearing_nodes.get(m).map(|n| n + 1).unwrap_or(m + 1);
+        let node = id
+            .param
+            .bearing_nodes
+            .get(m)
+            .map(|n| n + 1)
+            .unwrap_or(m + 1);
         let truth = reference
             .and_then(|r| r.bearings.get(m))
             .map(|rb| rb.law.at(omega));
@@ -76,7 +81,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         }
     }
     for (k, u) in id.last.unbalance.iter().enumerate() {
-        let node = id.plane_nodes.get(k).copied().unwrap_or(k);
+        let node = id.param.plane_nodes.get(k).copied().unwrap_or(k);
         let truth = reference.and_then(|r| r.unbalance.iter().find(|t| t.node == node));
         let sd = std.as_ref().and_then(|x| x.unbalance.get(k));
         rows.push(Row {
@@ -243,7 +248,12 @@ pub fn write_plots(
                 .map(|(i, s)| s.color(palette[(i / per) % 4]))
                 .collect();
             let path = dir.join(format!("{prefix}bearing{}_{what}.svg", m + 1));
-            let node = id.bearing_nodes.get(m).map(|n| n + 1).unwrap_or(m + 1);
+            let node = id
+                .param
+                .bearing_nodes
+                .get(m)
+                .map(|n| n + 1)
+                .unwrap_or(m + 1);
             let title = format!("Bearing {} (node {node}): identified {what}", m + 1);
             // Keep the axis on the physical range: early transients of an
             // RLS run can be orders of magnitude off.
@@ -269,7 +279,7 @@ pub fn write_plots(
     for (what, unit) in [("me", "kg m"), ("phase", "deg")] {
         let mut series = Vec::new();
         for (k, _) in id.last.unbalance.iter().enumerate() {
-            let node = id.plane_nodes.get(k).copied().unwrap_or(k);
+            let node = id.param.plane_nodes.get(k).copied().unwrap_or(k);
             let y: Vec<f64> = id
                 .history
                 .iter()

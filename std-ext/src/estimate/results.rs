@@ -1,0 +1,196 @@
+//! Typed results of an identification in physical units, as a program
+//! calling the library gets them and as `rotorid identify --json` writes
+//! them (`serde::Serialize`; the keys are those of the command-line
+//! contract: `bearings[].node/k/c`, `unbalance[].node/me/phase_deg`, and
+//! the standard deviations beside their values under `std`).
+//!
+//! Nodes are 1-based here, as in files and reports; values are SI (N/m,
+//! N s/m, kg m) and degrees for phases.
+
+use serde::Serialize;
+
+use crate::estimate::{Identification, Precision};
+use crate::units::rad_s_to_rpm;
+use rotorid_core::parametrization::Formulation;
+
+/// A 2x2 bearing coefficient matrix by entry.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Coefficients {
+    /// `yy` entry.
+    pub yy: f64,
+    /// `yz` entry.
+    pub yz: f64,
+    /// `zy` entry.
+    pub zy: f64,
+    /// `zz` entry.
+    pub zz: f64,
+}
+
+impl From<[f64; 4]> for Coefficients {
+    fn from(v: [f64; 4]) -> Self {
+        Coefficients {
+            yy: v[0],
+            yz: v[1],
+            zy: v[2],
+            zz: v[3],
+        }
+    }
+}
+
+/// The paper structure's consistency values (physically zero).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Consistency {
+    /// `Im Z_0` (N/m).
+    pub im_z0: Coefficients,
+    /// `Re Z_1` (N s/m).
+    pub re_z1: Coefficients,
+}
+
+/// Standard deviations of a bearing's coefficients.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BearingStd {
+    /// Of the stiffness (N/m).
+    pub k: Coefficients,
+    /// Of the damping (N s/m).
+    pub c: Coefficients,
+}
+
+/// One identified bearing.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BearingResult {
+    /// Node (1-based).
+    pub node: usize,
+    /// Stiffness at the evaluation speed (N/m).
+    pub k: Coefficients,
+    /// Damping at the evaluation speed (N s/m).
+    pub c: Coefficients,
+    /// Consistency values (paper structure only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub check: Option<Consistency>,
+    /// Standard deviations, when known.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub std: Option<BearingStd>,
+}
+
+/// Standard deviations of a plane's unbalance.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct UnbalanceStd {
+    /// Of `m e` (kg m).
+    pub me: f64,
+    /// Of the phase (deg).
+    pub phase_deg: f64,
+}
+
+/// One identified unbalance plane.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UnbalanceResult {
+    /// Node (1-based).
+    pub node: usize,
+    /// `m e` (kg m).
+    pub me: f64,
+    /// Phase `alpha` (deg).
+    pub phase_deg: f64,
+    /// Standard deviation of `m e` (kg m), when known.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub me_std: Option<f64>,
+    /// Standard deviation of the phase (deg), when known.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub phase_deg_std: Option<f64>,
+    /// Both standard deviations, under the keys of their values.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub std: Option<UnbalanceStd>,
+}
+
+/// The result of `rotorid identify`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IdentifyResult {
+    /// `"paper"` or `"physical"`.
+    pub structure: &'static str,
+    /// Polynomial order of `Z_B` in `Omega`.
+    pub order: usize,
+    /// `"f64"` or `"f32"`.
+    pub precision: &'static str,
+    /// Forgetting factor.
+    pub lambda: f64,
+    /// Start-up regularisation.
+    pub delta: f64,
+    /// Speed at which the bearing coefficients are evaluated (rpm).
+    pub last_speed_rpm: f64,
+    /// Steps folded in.
+    pub steps: u64,
+    /// Steps held by the steady-running guard.
+    pub frozen_steps: u64,
+    /// Bearings in bearing order.
+    pub bearings: Vec<BearingResult>,
+    /// Planes in plane order.
+    pub unbalance: Vec<UnbalanceResult>,
+}
+
+impl Identification {
+    /// The typed result (see the module documentation), with the standard
+    /// deviations of [`Identification::std`] when known.
+    pub fn result(&self) -> IdentifyResult {
+        let std = self.std();
+        let p = &self.param;
+        let bearings = self
+            .last
+            .bearings
+            .iter()
+            .enumerate()
+            .map(|(m, b)| BearingResult {
+                node: p.bearing_nodes.get(m).map_or(m + 1, |n| n + 1),
+                k: b.k.into(),
+                c: b.c.into(),
+                check: match (b.im_z0, b.re_z1) {
+                    (Some(i0), Some(r1)) => Some(Consistency {
+                        im_z0: i0.into(),
+                        re_z1: r1.into(),
+                    }),
+                    _ => None,
+                },
+                std: std
+                    .as_ref()
+                    .and_then(|s| s.bearings.get(m))
+                    .map(|(k, c)| BearingStd {
+                        k: (*k).into(),
+                        c: (*c).into(),
+                    }),
+            })
+            .collect();
+        let unbalance = self
+            .last
+            .unbalance
+            .iter()
+            .enumerate()
+            .map(|(k, u)| {
+                let sd = std.as_ref().and_then(|s| s.unbalance.get(k)).copied();
+                UnbalanceResult {
+                    node: p.plane_nodes.get(k).map_or(k + 1, |n| n + 1),
+                    me: u.me,
+                    phase_deg: u.phase_deg(),
+                    me_std: sd.map(|s| s.0),
+                    phase_deg_std: sd.map(|s| s.1),
+                    std: sd.map(|(me, phase_deg)| UnbalanceStd { me, phase_deg }),
+                }
+            })
+            .collect();
+        IdentifyResult {
+            structure: match p.structure.formulation {
+                Formulation::Paper => "paper",
+                Formulation::Physical => "physical",
+            },
+            order: p.structure.order,
+            precision: match self.options.precision {
+                Precision::F64 => "f64",
+                Precision::F32 => "f32",
+            },
+            lambda: self.options.lambda,
+            delta: self.options.delta,
+            last_speed_rpm: rad_s_to_rpm(self.last.omega),
+            steps: self.steps,
+            frozen_steps: self.frozen,
+            bearings,
+            unbalance,
+        }
+    }
+}
