@@ -18,15 +18,22 @@ the JSON files; the rpm they came from is stated next to them.
 """
 
 import os
+import sys
 
-# One thread for the linear algebra: modest CPU use and reproducible last bits.
+# ROSS assembles the rotor matrices by iterating over a set of elements
+# hashed by their tag strings, so the summation order (and the last bits of
+# every result) depends on Python's string-hash seed. Fix the seed (this
+# needs a fresh interpreter) and use one BLAS thread, so re-runs give the
+# same files bit for bit.
+if os.environ.get("PYTHONHASHSEED") != "0":
+    os.environ["PYTHONHASHSEED"] = "0"
+    os.execv(sys.executable, [sys.executable] + sys.argv)
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse
 import json
 import math
-import sys
 import warnings
 from pathlib import Path
 
