@@ -24,7 +24,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use thiserror::Error;
 
-use crate::fe::assembly::FeModel;
+use crate::fe::assembly::{FeError, FeModel};
 use crate::fe::response::{unbalance_response, Forcing};
 use crate::io::measurement::{Measurements, Sample};
 use crate::model::extension::{apply_effects, Effects, ExtensionError, Runout};
@@ -37,12 +37,20 @@ pub enum SimulateError {
     /// The model (after effects) is invalid.
     #[error("{0}")]
     Model(#[from] ModelError),
-    /// Bad speed grid.
-    #[error("speed grid: {0}")]
-    Grid(String),
-    /// An effect cannot be applied to this model.
-    #[error("{0}")]
-    Effect(String),
+    /// No speeds to simulate.
+    #[error("speed grid: no speeds")]
+    NoSpeeds,
+    /// A speed is negative or not finite.
+    #[error("speed grid: speeds must be finite and >= 0 rpm, got {0}")]
+    Speed(f64),
+    /// A runout names a bearing the model does not have.
+    #[error("runout on bearing {bearing}: the model has {n_bearings} bearings")]
+    RunoutBearing {
+        /// The bearing (1-based).
+        bearing: usize,
+        /// Bearings of the model.
+        n_bearings: usize,
+    },
     /// A model-changing effect cannot be applied.
     #[error("{0}")]
     Extension(#[from] ExtensionError),
@@ -51,7 +59,10 @@ pub enum SimulateError {
     Noise(f64),
     /// The finite-element solve failed.
     #[error("finite-element response: {0}")]
-    Solver(String),
+    Solver(#[from] FeError),
+    /// A response solver returned the wrong number of speeds or channels.
+    #[error("finite-element response: the response has the wrong number of speeds or channels")]
+    ResponseShape,
 }
 
 /// What to simulate.
@@ -71,11 +82,10 @@ pub struct SimOptions {
 pub fn add_runout(m: &mut Measurements, runout: &[Runout]) -> Result<(), SimulateError> {
     for r in runout {
         if r.channel.bearing >= m.n_bearings {
-            return Err(SimulateError::Effect(format!(
-                "runout on bearing {}: the model has {} bearings",
-                r.channel.bearing + 1,
-                m.n_bearings
-            )));
+            return Err(SimulateError::RunoutBearing {
+                bearing: r.channel.bearing + 1,
+                n_bearings: m.n_bearings,
+            });
         }
         let z = r.phasor();
         for s in &mut m.samples {
@@ -131,16 +141,14 @@ pub fn simulate_with(
         return Err(SimulateError::Noise(opts.noise));
     }
     if opts.speeds_rpm.is_empty() {
-        return Err(SimulateError::Grid("no speeds".into()));
+        return Err(SimulateError::NoSpeeds);
     }
     if let Some(r) = opts
         .speeds_rpm
         .iter()
         .find(|r| !(r.is_finite() && **r >= 0.0))
     {
-        return Err(SimulateError::Grid(format!(
-            "speeds must be finite and >= 0 rpm, got {r}"
-        )));
+        return Err(SimulateError::Speed(*r));
     }
     let m = apply_effects(model, &opts.effects)?;
     let mut unbalance = m.unbalance.clone();
@@ -149,9 +157,7 @@ pub fn simulate_with(
     let responses = solve(&m, &unbalance, m.bow.as_ref(), &omegas)?;
     let n_b = m.bearings.len();
     if responses.len() != omegas.len() || responses.iter().any(|q| q.len() != 2 * n_b) {
-        return Err(SimulateError::Solver(
-            "response has the wrong number of speeds or channels".into(),
-        ));
+        return Err(SimulateError::ResponseShape);
     }
     let mut comments = vec![
         format!("source: rotorid simulate, model {}", model.name),
@@ -190,13 +196,12 @@ fn fe_bearing_response(
     bow: Option<&ShaftBow>,
     omegas: &[f64],
 ) -> Result<Vec<Vec<Complex64>>, SimulateError> {
-    let fe = FeModel::new(model).map_err(|e| SimulateError::Solver(e.to_string()))?;
+    let fe = FeModel::new(model)?;
     let forcing = Forcing {
         unbalance: unbalance.to_vec(),
         bow: bow.cloned(),
     };
-    let responses = unbalance_response(&fe, &forcing, omegas)
-        .map_err(|e| SimulateError::Solver(e.to_string()))?;
+    let responses = unbalance_response(&fe, &forcing, omegas)?;
     Ok(responses.into_iter().map(|r| r.bearings).collect())
 }
 

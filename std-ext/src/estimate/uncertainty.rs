@@ -20,8 +20,8 @@
 //! # Standard deviations
 //!
 //! Every reported stiffness and damping is a linear functional `g . x` of
-//! the scaled weights ([`Parametrization::stiffness_functional`],
-//! [`Parametrization::damping_functional`]), so `var = g^T Cov g`; `m e`
+//! the scaled weights ([`crate::estimate::Parametrization::stiffness_functional`],
+//! [`crate::estimate::Parametrization::damping_functional`]), so `var = g^T Cov g`; `m e`
 //! and the phase are linearised about the estimate. For the complex paper
 //! structure the errors are taken circular (`var Re = var Im = E|.|^2 / 2`).
 

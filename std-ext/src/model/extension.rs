@@ -228,7 +228,8 @@ impl Effects {
 
 /// The model with the model-changing effects applied: shaft modulus scale,
 /// speed-dependent bearing stiffness, pedestals, extra bow points. The
-/// forcing effects (extra unbalance, runout) are applied by [`simulate`].
+/// forcing effects (extra unbalance, runout) are applied by the simulator
+/// (`rotorid::simulate::simulate`).
 pub fn apply_effects(model: &RotorModel, effects: &Effects) -> Result<RotorModel, ExtensionError> {
     let mut m = model.clone();
     if !(effects.e_scale.is_finite() && effects.e_scale > 0.0) {

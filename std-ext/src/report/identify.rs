@@ -170,11 +170,19 @@ pub enum ReportError {
     #[error(transparent)]
     Plot(#[from] crate::report::plot::PlotError),
     /// Creating the folder failed.
-    #[error("{0}")]
-    Io(String),
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The folder.
+        path: std::path::PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The identified rotor is not a valid model.
+    #[error("identified model: {0}")]
+    Model(#[from] crate::model::ModelError),
     /// The Campbell analysis failed.
     #[error("campbell: {0}")]
-    Campbell(String),
+    Campbell(#[from] crate::fe::assembly::FeError),
     /// No history was recorded.
     #[error("no estimates recorded against speed")]
     NoHistory,
@@ -200,7 +208,10 @@ pub fn write_plots(
     if id.history.is_empty() {
         return Err(ReportError::NoHistory);
     }
-    std::fs::create_dir_all(dir).map_err(|e| ReportError::Io(format!("{}: {e}", dir.display())))?;
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let mut files = Vec::new();
     let rpm: Vec<f64> = id.history.iter().map(|h| rad_s_to_rpm(h.omega)).collect();
     for (m, _) in id.last.bearings.iter().enumerate() {
@@ -340,11 +351,9 @@ pub fn write_plots(
         max_frequency: Some(2.0 * crate::units::rpm_to_rad_s(rpm_max)),
         max_modes: 8,
     };
-    let diagram = |m: &RotorModel| {
-        let fe = crate::fe::assembly::FeModel::new(m)
-            .map_err(|e| ReportError::Campbell(e.to_string()))?;
-        crate::fe::campbell::campbell_with(&fe, &speeds, &copts)
-            .map_err(|e| ReportError::Campbell(e.to_string()))
+    let diagram = |m: &RotorModel| -> Result<_, ReportError> {
+        let fe = crate::fe::assembly::FeModel::new(m)?;
+        Ok(crate::fe::campbell::campbell_with(&fe, &speeds, &copts)?)
     };
     let di = diagram(&ident)?;
     let mut series = Vec::new();
