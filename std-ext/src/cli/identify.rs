@@ -14,6 +14,15 @@ pub enum Formulation {
     Paper,
 }
 
+/// Which estimate `identify` reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum EstimatorArg {
+    /// The QRD/RLS estimate refined by the output-error (maximum-likelihood) fit.
+    Oe,
+    /// The QRD/RLS estimate alone (the paper's method).
+    Rls,
+}
+
 /// Arguments of `rotorid identify`.
 #[derive(Debug, Clone, PartialEq, Args)]
 pub struct IdentifyArgs {
@@ -26,6 +35,9 @@ pub struct IdentifyArgs {
     /// Model structure.
     #[arg(long, value_enum, default_value_t = Formulation::Physical)]
     pub formulation: Formulation,
+    /// The estimate reported.
+    #[arg(long, value_enum, default_value_t = EstimatorArg::Oe)]
+    pub estimator: EstimatorArg,
     /// Polynomial order P of the bearing dynamic stiffness in Omega
     /// (1 = Z0 + Omega Z1).
     #[arg(long, default_value_t = 1, value_name = "P")]
@@ -70,7 +82,7 @@ pub struct IdentifyArgs {
 /// optionally writes the JSON of SPEC section 5 and SVG plots.
 pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
     use crate::core::parametrization::{Structure, MAX_ORDER};
-    use crate::estimate::{identify, Options, Precision};
+    use crate::estimate::{identify, Estimator, Options, Precision};
     use crate::report::identify::{report_table, write_plots};
     use std::io::IsTerminal;
 
@@ -108,6 +120,10 @@ pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
         Precision::F64
     };
     opts.record_history = args.plot.is_some();
+    opts.estimator = match args.estimator {
+        EstimatorArg::Oe => Estimator::OutputError,
+        EstimatorArg::Rls => Estimator::Rls,
+    };
     opts.normalise_rows = args.normalise_rows;
     if !(args.steady_rpm >= 0.0 && args.steady_rpm.is_finite()) {
         return Err(CliError::new(format!(
@@ -143,6 +159,11 @@ pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
     let id = result?;
 
     print!("{}", report_table(&id, Some(&model)));
+    if let Some(check) = &id.check {
+        for w in &check.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&id.result())?;
         std::fs::write(path, text + "\n")

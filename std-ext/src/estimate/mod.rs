@@ -7,9 +7,16 @@
 //! * [`rls`]: the equation-error QRD/RLS driver (the paper's method, the
 //!   firmware's kernel on `Vec` buffers).
 //! * [`uncertainty`]: covariance of the weights and standard deviations.
+//! * [`predictor`], [`output_error`], [`noise`]: the output-error
+//!   (maximum-likelihood) fit of the predicted bearing responses to the
+//!   measured ones, its Fisher information, and the model-free noise level.
 //! * [`results`]: typed results in physical units (`serde::Serialize`).
 
+pub mod noise;
+pub mod output_error;
 pub mod parametrization;
+pub mod predictor;
+pub mod refine;
 pub mod results;
 pub mod rls;
 pub mod uncertainty;

@@ -104,6 +104,20 @@ pub struct UnbalanceResult {
 /// The result of `rotorid identify`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct IdentifyResult {
+    /// `"oe"` (refined by the output-error fit) or `"rls"` (QRD/RLS alone).
+    pub estimator: &'static str,
+    /// The relative noise level `s` estimated from the data without the
+    /// model, when the speeds allow it.
+    pub noise_level: Option<f64>,
+    /// The reported estimate's residual noise over `noise_level`, squared
+    /// (1 when the model fits the data).
+    pub chi2_per_dof: Option<f64>,
+    /// The relative RMS misfit of the measured responses against the
+    /// reported estimate's prediction.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub residual: Option<f64>,
+    /// One line each: what must be known before trusting the result.
+    pub warnings: Vec<String>,
     /// `"paper"` or `"physical"`.
     pub structure: &'static str,
     /// Polynomial order of `Z_B` in `Omega`.
@@ -174,7 +188,17 @@ impl Identification {
                 }
             })
             .collect();
+        let check = self.check.as_ref();
         IdentifyResult {
+            estimator: if self.refinement.is_some() {
+                "oe"
+            } else {
+                "rls"
+            },
+            noise_level: check.and_then(|c| c.noise_level),
+            chi2_per_dof: check.and_then(|c| c.chi2_per_dof),
+            residual: check.map(|c| c.residual),
+            warnings: check.map(|c| c.warnings.clone()).unwrap_or_default(),
             structure: match p.structure.formulation {
                 Formulation::Paper => "paper",
                 Formulation::Physical => "physical",

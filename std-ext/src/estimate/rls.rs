@@ -91,6 +91,9 @@ pub enum IdentifyError {
     /// Estimates could not be extracted (singular factor).
     #[error("estimates: {0}")]
     Estimates(CoreError),
+    /// The output-error refinement failed.
+    #[error(transparent)]
+    OutputError(#[from] crate::estimate::output_error::OutputErrorError),
 }
 
 /// Arithmetic of the identification.
@@ -124,12 +127,27 @@ pub struct Options {
     pub steady: SteadyPolicy<f64>,
     /// Keep the estimates after every speed.
     pub record_history: bool,
+    /// The estimate reported: the QRD/RLS alone (the library default, the
+    /// paper's method) or refined by the output-error fit (the default of
+    /// `rotorid identify`).
+    pub estimator: Estimator,
+}
+
+/// Which estimate is reported.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Estimator {
+    /// The equation-error QRD/RLS estimate alone (the paper's method).
+    #[default]
+    Rls,
+    /// The QRD/RLS estimate refined by the output-error (maximum-likelihood)
+    /// fit of [`crate::estimate::output_error`].
+    OutputError,
 }
 
 impl Options {
     /// The SPEC defaults: `lambda = 0.999`, `delta = 1e-7`, f64, automatic
     /// scaling, no row normalisation, the default steady-running guard,
-    /// history recorded.
+    /// history recorded, the QRD/RLS estimate alone.
     pub fn new(structure: Structure) -> Self {
         Options {
             structure,
@@ -140,6 +158,7 @@ impl Options {
             normalise_rows: false,
             steady: SteadyPolicy::default_guard(),
             record_history: true,
+            estimator: Estimator::Rls,
         }
     }
 }
@@ -190,8 +209,14 @@ pub struct Identification {
     /// ([`sandwich_covariance`]; `None` with too few rows, or when more than
     /// 100000 rows still carry weight: the rows are kept in memory until
     /// the end). It describes the scatter due to noise, not the
-    /// errors-in-variables bias of noisy `q_B` in `U`.
+    /// errors-in-variables bias of noisy `q_B` in `U`. After the
+    /// output-error refinement, the covariance of that fit.
     pub covariance: Option<DMatrix<Complex64>>,
+    /// The output-error refinement, when it ran.
+    pub refinement: Option<crate::estimate::refine::Refinement>,
+    /// How well the reported estimate explains the data (noise level,
+    /// misfit, warnings), when checked ([`identify`] always checks).
+    pub check: Option<crate::estimate::refine::FitCheck>,
 }
 
 /// Reference magnitudes for the column scaling from the known part of the
@@ -246,8 +271,10 @@ pub fn identify(
 ) -> Result<Identification, IdentifyError> {
     let fe = crate::fe::assembly::FeModel::new(model)?;
     let reducer = crate::reduce::Reducer::new(&fe, model)?;
+    let mut kept: Vec<TermsAt> = Vec::with_capacity(meas.samples.len());
     let mut terms = |omega: f64| -> Result<TermsAt, IdentifyError> {
         let t = reducer.reduce(omega)?;
+        kept.push((t.a.clone(), t.b.clone()));
         Ok((t.a, t.b))
     };
     let scaling = match options.scaling {
@@ -256,14 +283,19 @@ pub fn identify(
     };
     let mut opts = *options;
     opts.scaling = Some(scaling);
-    identify_with(
+    let mut id = identify_with(
         &model.bearing_nodes(),
         &model.planes,
         meas,
         &opts,
         &mut terms,
         progress,
-    )
+    )?;
+    match options.estimator {
+        Estimator::OutputError => crate::estimate::refine::refine(&mut id, &meas.samples, &kept)?,
+        Estimator::Rls => crate::estimate::refine::check(&mut id, &meas.samples, &kept)?,
+    }
+    Ok(id)
 }
 
 /// Highest speed of a sweep (rad/s), 0 if empty.
@@ -611,6 +643,8 @@ fn run<T: Real, F: IdField<T> + Widen>(
     Ok(Identification {
         options: opts,
         param,
+        refinement: None,
+        check: None,
         history,
         last,
         steps: st.guard.steps,

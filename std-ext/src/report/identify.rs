@@ -29,6 +29,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
     struct Row {
         name: String,
         value: f64,
+        rls: Option<f64>,
         std: Option<f64>,
         model: Option<f64>,
         phase: bool,
@@ -37,6 +38,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
     let omega = id.last.omega;
     let st = id.options.structure;
     let std = id.std();
+    let rls = id.refinement.as_ref().map(|r| &r.rls);
     let _ = writeln!(
         s,
         "structure {} order {}, {} speeds ({} held by the steady-running guard), last speed {:.1} rpm",
@@ -65,6 +67,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             rows.push(Row {
                 name: format!("b{}@{node} k{name}", m + 1),
                 value: b.k[e],
+                rls: rls.map(|r| r.bearings[m].k[e]),
                 std: sd.map(|x| x.0[e]),
                 model: truth.map(|t| t.k[e]),
                 phase: false,
@@ -74,6 +77,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             rows.push(Row {
                 name: format!("b{}@{node} c{name}", m + 1),
                 value: b.c[e],
+                rls: rls.map(|r| r.bearings[m].c[e]),
                 std: sd.map(|x| x.1[e]),
                 model: truth.map(|t| t.c[e]),
                 phase: false,
@@ -87,6 +91,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         rows.push(Row {
             name: format!("n{} me", node + 1),
             value: u.me,
+            rls: rls.map(|r| r.unbalance[k].me),
             std: sd.map(|x| x.0),
             model: truth.map(|t| t.me),
             phase: false,
@@ -94,6 +99,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         rows.push(Row {
             name: format!("n{} phase_deg", node + 1),
             value: u.phase_deg(),
+            rls: rls.map(|r| r.unbalance[k].phase_deg()),
             std: sd.map(|x| x.1),
             model: truth.map(|t| t.phase.to_degrees()),
             phase: true,
@@ -101,8 +107,21 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
     }
     let _ = writeln!(
         s,
-        "{:<14} {:>14} {:>10} {:>14} {:>10}",
-        "quantity", "identified", "std", "model", "error"
+        "{:<14} {:>14} {:>10} {:>14} {:>10}{}",
+        "quantity",
+        if rls.is_some() {
+            "output-error"
+        } else {
+            "identified"
+        },
+        "std",
+        "model",
+        "error",
+        if rls.is_some() {
+            format!(" {:>14} {:>10}", "QRD/RLS", "error")
+        } else {
+            String::new()
+        }
     );
     let num = |x: f64, phase: bool| {
         if phase {
@@ -127,9 +146,20 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             }
             None => ("-".into(), "-".into()),
         };
+        let err_of = |v: f64| match r.model {
+            Some(t) if r.phase => {
+                format!("{:.2e}", ((v - t + 180.0).rem_euclid(360.0) - 180.0).abs())
+            }
+            Some(t) => format!("{:.2e}", rel(v, t)),
+            None => "-".into(),
+        };
+        let side = r
+            .rls
+            .map(|v| format!(" {:>14} {:>10}", num(v, r.phase), err_of(v)))
+            .unwrap_or_default();
         let _ = writeln!(
             s,
-            "{:<14} {:>14} {:>10} {:>14} {:>10}",
+            "{:<14} {:>14} {:>10} {:>14} {:>10}{side}",
             r.name,
             num(r.value, r.phase),
             sd,
@@ -159,6 +189,15 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
                 );
             }
         }
+    }
+    if let Some(c) = &id.check {
+        let _ = writeln!(
+            s,
+            "noise level (from the data, without the model) {}; misfit {:.3e}; chi2/dof {}",
+            c.noise_level.map_or("-".into(), |x| format!("{x:.3e}")),
+            c.residual,
+            c.chi2_per_dof.map_or("-".into(), |x| format!("{x:.2}"))
+        );
     }
     s
 }

@@ -1,0 +1,320 @@
+//! The output-error (maximum-likelihood) estimate against the Cramér-Rao
+//! bound computed from the Fisher information at the true parameters.
+
+use num_complex::Complex64;
+use rotorid::core::parametrization::Structure;
+use rotorid::estimate::output_error::{fisher_information, fit_output_error, OutputErrorOptions};
+use rotorid::estimate::predictor::{Predictor, Terms};
+use rotorid::estimate::{auto_scaling, identify_with, Options, Parametrization};
+use rotorid::fe::assembly::FeModel;
+use rotorid::io::measurement::Measurements;
+use rotorid::model::RotorModel;
+use rotorid::reduce::Reducer;
+use rotorid::simulate::{add_noise, simulate, SimOptions};
+use rotorid::tables::grid::uniform_rpm;
+use rotorid::units::rpm_to_rad_s;
+
+struct Case {
+    model: RotorModel,
+    clean: Measurements,
+    terms: Vec<Terms>,
+    predictor: Predictor,
+    truth: Vec<f64>,
+}
+
+/// The true scaled weights of the physical structure of `order` for a
+/// model whose bearings are polynomial (or constant) in speed.
+fn truth_weights(p: &Parametrization, model: &RotorModel) -> Vec<Complex64> {
+    use rotorid::core::parametrization::{BearingTerm, UnbalancePart, Unknown};
+    use rotorid::model::BearingLaw;
+    (0..p.n_unknowns())
+        .map(|j| {
+            let s = p.scale(j);
+            let v = match p.unknown(j).unwrap() {
+                Unknown::Bearing {
+                    bearing,
+                    row,
+                    col,
+                    term,
+                } => {
+                    let e = 2 * row + col;
+                    let (k, c) = match &model.bearings[bearing].law {
+                        BearingLaw::Constant(co) => (vec![co.k], vec![co.c]),
+                        BearingLaw::Polynomial { k, c } => (k.clone(), c.clone()),
+                        other => panic!("{other:?}"),
+                    };
+                    match term {
+                        BearingTerm::K { power } => k.get(power).map_or(0.0, |r| r[e]),
+                        BearingTerm::C { power } => c.get(power).map_or(0.0, |r| r[e]),
+                        BearingTerm::Z { .. } => unreachable!(),
+                    }
+                }
+                Unknown::Unbalance { plane, part } => {
+                    let node = p.plane_nodes[plane];
+                    let u = model.unbalance.iter().find(|u| u.node == node).unwrap();
+                    let a = Complex64::from_polar(u.me, u.phase);
+                    match part {
+                        UnbalancePart::Re => a.re,
+                        UnbalancePart::Im => a.im,
+                        UnbalancePart::Phasor => unreachable!(),
+                    }
+                }
+            };
+            Complex64::new(v / s, 0.0)
+        })
+        .collect()
+}
+
+fn case(model: RotorModel, order: usize, rpm: Vec<f64>) -> Case {
+    let clean = simulate(
+        &model,
+        &SimOptions {
+            speeds_rpm: rpm,
+            noise: 0.0,
+            seed: 0,
+            effects: Default::default(),
+        },
+    )
+    .unwrap();
+    let fe = FeModel::new(&model).unwrap();
+    let reducer = Reducer::new(&fe, &model).unwrap();
+    let terms: Vec<Terms> = clean
+        .samples
+        .iter()
+        .map(|s| {
+            let t = reducer.reduce(s.omega).unwrap();
+            (t.a, t.b)
+        })
+        .collect();
+    let omega_max = clean.samples.iter().map(|s| s.omega).fold(0.0, f64::max);
+    let param = Parametrization {
+        structure: Structure::physical(order),
+        scaling: auto_scaling(&model, omega_max),
+        bearing_nodes: model.bearing_nodes(),
+        plane_nodes: model.planes.clone(),
+    };
+    let predictor = Predictor::new(param.clone());
+    let truth = predictor.theta(&truth_weights(&param, &model));
+    Case {
+        model,
+        clean,
+        terms,
+        predictor,
+        truth,
+    }
+}
+
+struct MonteCarlo {
+    /// Worst over parameters of RMS error / CRB.
+    worst_rms: f64,
+    /// Worst |bias| / CRB.
+    worst_bias: f64,
+    /// Worst |reported std / MC spread - 1|.
+    worst_std: f64,
+    /// Worst |reported std / CRB - 1|.
+    worst_std_crb: f64,
+    /// `sqrt(mean((error / reported std)^2))` over every seed and parameter.
+    pooled_z: f64,
+    median_rms: f64,
+}
+
+fn monte_carlo(c: &Case, noise: f64, seeds: std::ops::Range<u64>, lambda: f64) -> MonteCarlo {
+    let pr = &c.predictor;
+    let np = pr.n_params();
+    let f1 = fisher_information(pr, &c.clean.samples, &c.terms, &c.truth, 1e-6).unwrap();
+    let crb_cov = f1.clone().cholesky().unwrap().inverse() * (noise * noise);
+    let crb: Vec<f64> = (0..np).map(|i| crb_cov[(i, i)].sqrt()).collect();
+    let n = (seeds.end - seeds.start) as f64;
+    let mut err = vec![Vec::new(); np];
+    let mut std = vec![Vec::new(); np];
+    for seed in seeds {
+        let mut m = c.clean.clone();
+        add_noise(&mut m, noise, seed).unwrap();
+        let mut opts = Options::new(pr.param.structure);
+        opts.lambda = lambda;
+        opts.scaling = Some(pr.param.scaling);
+        opts.record_history = false;
+        opts.steady.min_speed_step = 0.0;
+        let lookup: std::collections::HashMap<u64, Terms> = m
+            .samples
+            .iter()
+            .zip(&c.terms)
+            .map(|(s, t)| (s.omega.to_bits(), t.clone()))
+            .collect();
+        let mut src = |w: f64| Ok(lookup[&w.to_bits()].clone());
+        let t0 = std::time::Instant::now();
+        let rls = identify_with(
+            &c.model.bearing_nodes(),
+            &c.model.planes,
+            &m,
+            &opts,
+            &mut src,
+            None,
+        )
+        .unwrap();
+        let t1 = std::time::Instant::now();
+        let fit = fit_output_error(
+            pr,
+            &m.samples,
+            &c.terms,
+            &rls.scaled_weights,
+            &OutputErrorOptions::default(),
+        )
+        .unwrap();
+        let _ = (t0, t1);
+        for i in 0..np {
+            err[i].push(fit.theta[i] - c.truth[i]);
+            std[i].push(fit.covariance[(i, i)].sqrt());
+        }
+    }
+    let mut rms_ratio = Vec::new();
+    let (mut worst_rms, mut worst_bias, mut worst_std) = (0.0f64, 0.0f64, 0.0f64);
+    let mut worst_std_crb = 0.0f64;
+    let mut z2 = 0.0;
+    for i in 0..np {
+        let mean = err[i].iter().sum::<f64>() / n;
+        let rms = (err[i].iter().map(|e| e * e).sum::<f64>() / n).sqrt();
+        let spread = (err[i].iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let rep = std[i].iter().sum::<f64>() / n;
+        println!(
+            "{:>10}: crb {:.3e} rms/crb {:.2} bias/crb {:+.2} std/spread {:.2}",
+            pr.param.name(pr.params[i].unknown),
+            crb[i],
+            rms / crb[i],
+            mean / crb[i],
+            rep / spread
+        );
+        rms_ratio.push(rms / crb[i]);
+        worst_rms = worst_rms.max(rms / crb[i]);
+        worst_bias = worst_bias.max((mean / crb[i]).abs());
+        worst_std = worst_std.max((rep / spread - 1.0).abs());
+        worst_std_crb = worst_std_crb.max((rep / crb[i] - 1.0).abs());
+        z2 += err[i]
+            .iter()
+            .zip(&std[i])
+            .map(|(e, s)| (e / s).powi(2))
+            .sum::<f64>();
+    }
+    rms_ratio.sort_by(f64::total_cmp);
+    MonteCarlo {
+        worst_rms,
+        worst_bias,
+        worst_std,
+        worst_std_crb,
+        pooled_z: (z2 / (n * np as f64)).sqrt(),
+        median_rms: rms_ratio[np / 2],
+    }
+}
+
+#[test]
+#[ignore]
+fn explore_case_4_1() {
+    let c = case(
+        RotorModel::paper(),
+        1,
+        uniform_rpm(5.0, 15000.0, 5.0).unwrap(),
+    );
+    let t = std::time::Instant::now();
+    let mc = monte_carlo(&c, 0.01, 1..6, 0.999);
+    println!(
+        "worst rms/crb {:.2} bias {:.2} std {:.2} median {:.2} ({:?})",
+        mc.worst_rms,
+        mc.worst_bias,
+        mc.worst_std,
+        mc.median_rms,
+        t.elapsed()
+    );
+    let _ = rpm_to_rad_s(1.0);
+}
+
+#[test]
+#[ignore]
+fn explore_case_4_2() {
+    let c = case(
+        RotorModel::paper_speed_dependent(),
+        3,
+        uniform_rpm(5.0, 15000.0, 5.0).unwrap(),
+    );
+    let t = std::time::Instant::now();
+    let mc = monte_carlo(&c, 0.001, 1..6, 1.0);
+    println!(
+        "worst rms/crb {:.2} bias {:.2} std {:.2} median {:.2} ({:?})",
+        mc.worst_rms,
+        mc.worst_bias,
+        mc.worst_std,
+        mc.median_rms,
+        t.elapsed()
+    );
+}
+
+/// Case 4.1 (constant bearings), 3000 speeds 5..15000 rpm, physical
+/// structure of order 1, 30 seeds at 1 % noise and 30 other seeds at
+/// 0.1 %: every parameter's RMS error within 1.5 CRB and its bias within
+/// 0.5 CRB; the reported standard deviations honest: the errors divided by
+/// them have an RMS within 30 % of 1 pooled over every seed and parameter,
+/// and each is within 10 % of its CRB. (A per-parameter comparison with
+/// the spread of 30 seeds cannot resolve 30 %: that spread has a relative
+/// standard error of 13 %; `case_4_1_std_against_the_spread_100_seeds`
+/// makes it with 100 seeds.)
+#[test]
+fn case_4_1_reaches_the_cramer_rao_bound() {
+    let c = case(
+        RotorModel::paper(),
+        1,
+        uniform_rpm(5.0, 15000.0, 5.0).unwrap(),
+    );
+    for (noise, seeds) in [(0.01, 100..130), (0.001, 200..230)] {
+        let mc = monte_carlo(&c, noise, seeds, 0.999);
+        println!(
+            "case 4.1, noise {noise}: RMS/CRB worst {:.2} median {:.2}; |bias|/CRB worst {:.2}; |std/spread - 1| worst {:.2}; |std/CRB - 1| worst {:.3}; pooled z {:.3}",
+            mc.worst_rms, mc.median_rms, mc.worst_bias, mc.worst_std, mc.worst_std_crb, mc.pooled_z
+        );
+        assert!(mc.worst_rms <= 1.5, "{}", mc.worst_rms);
+        assert!(mc.worst_bias < 0.5, "{}", mc.worst_bias);
+        assert!((mc.pooled_z - 1.0).abs() <= 0.3, "{}", mc.pooled_z);
+        assert!(mc.worst_std_crb <= 0.1, "{}", mc.worst_std_crb);
+    }
+}
+
+/// The per-parameter criterion with enough seeds to resolve it:
+/// every reported standard deviation within 30 % of the Monte Carlo
+/// spread over 100 seeds (relative standard error of that spread 7 %).
+#[test]
+#[ignore]
+fn case_4_1_std_against_the_spread_100_seeds() {
+    let c = case(
+        RotorModel::paper(),
+        1,
+        uniform_rpm(5.0, 15000.0, 5.0).unwrap(),
+    );
+    for (noise, seeds) in [(0.01, 1000..1100), (0.001, 2000..2100)] {
+        let mc = monte_carlo(&c, noise, seeds, 0.999);
+        println!(
+            "case 4.1, noise {noise}, 100 seeds: RMS/CRB worst {:.2}; |bias|/CRB worst {:.2}; |std/spread - 1| worst {:.2}",
+            mc.worst_rms, mc.worst_bias, mc.worst_std
+        );
+        assert!(mc.worst_rms <= 1.5 && mc.worst_bias < 0.5 && mc.worst_std <= 0.3);
+    }
+}
+
+/// Case 4.2 (stiffness as in Eq. 49), 0.1 % noise, physical order 3 (which
+/// represents stiffness proportional to Omega^2), 30 seeds: the same bounds
+/// against this structure's own CRB.
+#[test]
+#[ignore]
+fn case_4_2_reaches_the_cramer_rao_bound() {
+    let c = case(
+        RotorModel::paper_speed_dependent(),
+        3,
+        uniform_rpm(5.0, 15000.0, 5.0).unwrap(),
+    );
+    let mc = monte_carlo(&c, 0.001, 300..330, 1.0);
+    println!(
+        "case 4.2, noise 0.001: RMS/CRB worst {:.2} median {:.2}; |bias|/CRB worst {:.2}; |std/CRB - 1| worst {:.3}; pooled z {:.3}",
+        mc.worst_rms, mc.median_rms, mc.worst_bias, mc.worst_std_crb, mc.pooled_z
+    );
+    assert!(mc.worst_rms <= 1.5, "{}", mc.worst_rms);
+    assert!(mc.worst_bias < 0.5, "{}", mc.worst_bias);
+    assert!((mc.pooled_z - 1.0).abs() <= 0.3, "{}", mc.pooled_z);
+    assert!(mc.worst_std_crb <= 0.1, "{}", mc.worst_std_crb);
+}
