@@ -62,7 +62,7 @@ use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use thiserror::Error;
 
-use crate::estimate::predictor::{PredictError, Predictor, Terms};
+use crate::estimate::predictor::{Entry, PredictError, Predictor, Terms};
 use crate::io::measurement::Sample;
 
 /// Options of the output-error fit.
@@ -148,6 +148,11 @@ struct Pass {
     cost: f64,
 }
 
+/// The parameters' entries at every sample's speed.
+fn speed_entries(pr: &Predictor, samples: &[Sample]) -> Vec<Vec<Entry>> {
+    samples.iter().map(|s| pr.entries(s.omega)).collect()
+}
+
 /// Per-channel weight floors.
 fn floors(samples: &[Sample], floor: f64) -> Vec<f64> {
     let nq = samples.first().map_or(0, |s| s.q.len());
@@ -167,12 +172,104 @@ enum WeightsFrom<'a> {
     Prediction(&'a [f64]),
 }
 
+/// `out[i][k] += Re(Ga_i^H M Gb_k)` for the sparse columns `G` of the
+/// parameters (see [`pass`]): `ga`, `gb` hold each parameter's scalar
+/// (`-dz q_col` or `da`), `m = H^-H D^2 H^-1`, `mb = M B`,
+/// `bmb = B^H M B`; only `k >= i` when `upper`.
+#[allow(clippy::too_many_arguments)]
+fn add_products(
+    out: &mut DMatrix<f64>,
+    entries: &[Entry],
+    ga: &[Complex64],
+    gb: &[Complex64],
+    m: &DMatrix<Complex64>,
+    mb: &DMatrix<Complex64>,
+    bmb: &DMatrix<Complex64>,
+    upper: bool,
+) {
+    let np = entries.len();
+    for i in 0..np {
+        let gi = ga[i].conj();
+        let from = if upper { i } else { 0 };
+        for k in from..np {
+            let mik = match (entries[i], entries[k]) {
+                (Entry::Bearing { row: ri, .. }, Entry::Bearing { row: rk, .. }) => m[(ri, rk)],
+                (Entry::Bearing { row: ri, .. }, Entry::Unbalance { plane, .. }) => mb[(ri, plane)],
+                (Entry::Unbalance { plane, .. }, Entry::Bearing { row: rk, .. }) => {
+                    mb[(rk, plane)].conj()
+                }
+                (Entry::Unbalance { plane: pi, .. }, Entry::Unbalance { plane: pk, .. }) => {
+                    bmb[(pi, pk)]
+                }
+            };
+            out[(i, k)] += (gi * mik * gb[k]).re;
+        }
+    }
+}
+
+/// `-Re(G_i^H v)` for every parameter, with `bv = B^H v`.
+fn add_gradient(
+    out: &mut DVector<f64>,
+    entries: &[Entry],
+    g: &[Complex64],
+    v: &DVector<Complex64>,
+    bv: &DVector<Complex64>,
+) {
+    for (i, en) in entries.iter().enumerate() {
+        let x = match *en {
+            Entry::Bearing { row, .. } => v[row],
+            Entry::Unbalance { plane, .. } => bv[plane],
+        };
+        out[i] -= (g[i].conj() * x).re;
+    }
+}
+
+/// The scalars of the sparse columns `G` at a speed, with `q` multiplying
+/// the bearing terms.
+fn column_scalars(entries: &[Entry], q: &DVector<Complex64>) -> Vec<Complex64> {
+    entries
+        .iter()
+        .map(|en| match *en {
+            Entry::Bearing { col, dz, .. } => -(dz * q[col]),
+            Entry::Unbalance { da, .. } => da,
+        })
+        .collect()
+}
+
+/// `M = H^-H D^2 H^-1`, `M B`, `B^H M B` for weights `w`.
+fn weighted_products(
+    h_inv: &DMatrix<Complex64>,
+    b: &DMatrix<Complex64>,
+    w: &[f64],
+) -> (DMatrix<Complex64>, DMatrix<Complex64>, DMatrix<Complex64>) {
+    let mut dh = h_inv.clone();
+    for (c, wc) in w.iter().enumerate() {
+        let d2 = 1.0 / (wc * wc);
+        for k in 0..dh.ncols() {
+            dh[(c, k)] *= d2;
+        }
+    }
+    let m = h_inv.adjoint() * dh;
+    let mb = &m * b;
+    let bmb = b.adjoint() * &mb;
+    (m, mb, bmb)
+}
+
 /// `S`, and with `jacobian` the normal equations, at `theta`; returns the
 /// weights used.
+///
+/// The normal equations are formed without the Jacobian: with
+/// `dq/dtheta = H^-1 G` (`G` one entry `-dz q_col` in row `row` for a
+/// bearing parameter, the column `B e_k da` for an unbalance parameter) and
+/// `D = diag(1/w)`, `Re(J^H D^2 J) = Re(G^H M G)` with the small Hermitian
+/// `M = H^-H D^2 H^-1`, and the gradient is `-Re(G^H v)`,
+/// `v = H^-H D^2 (q_meas - q)`: every entry costs O(1) once `M`, `M B`
+/// and `B^H M B` are known (checked against the Jacobian in the tests).
 fn pass(
     pr: &Predictor,
     samples: &[Sample],
     terms: &[Terms],
+    entries: &[Vec<Entry>],
     weights: WeightsFrom<'_>,
     theta: &[f64],
     jacobian: bool,
@@ -184,9 +281,8 @@ fn pass(
         cost: 0.0,
     };
     let mut used = Vec::with_capacity(samples.len());
-    let mut row = vec![Complex64::new(0.0, 0.0); np];
-    for (n, (s, t)) in samples.iter().zip(terms).enumerate() {
-        let p = pr.predict(s.omega, t, theta, jacobian)?;
+    for (n, ((s, t), en)) in samples.iter().zip(terms).zip(entries).enumerate() {
+        let p = pr.predict_with(s.omega, t, en, theta, false)?;
         let wn: Vec<f64> = match weights {
             WeightsFrom::Given(w) => w[n].clone(),
             WeightsFrom::Prediction(floors) => {
@@ -196,26 +292,22 @@ fn pass(
                     .collect()
             }
         };
-        for (c, wc) in wn.iter().enumerate() {
-            let r = (s.q[c] - p.q[c]) / *wc;
-            out.cost += r.norm_sqr();
-            let Some(jac) = &p.jacobian else {
-                continue;
-            };
-            // Residual r = (q_m - q) / w, dr/dtheta = -J / w.
-            for (i, x) in row.iter_mut().enumerate() {
-                *x = -jac[(c, i)] / *wc;
-            }
-            for i in 0..np {
-                let ri = row[i].conj();
-                if ri == Complex64::new(0.0, 0.0) {
-                    continue;
-                }
-                out.gradient[i] += (ri * r).re;
-                for (k, rk) in row.iter().enumerate().skip(i) {
-                    out.normal[(i, k)] += (ri * rk).re;
-                }
-            }
+        let nq = wn.len();
+        let mut e = DVector::<Complex64>::zeros(nq);
+        for c in 0..nq {
+            let d2 = 1.0 / (wn[c] * wn[c]);
+            let ec = s.q[c] - p.q[c];
+            out.cost += ec.norm_sqr() * d2;
+            e[c] = ec * d2;
+        }
+        if jacobian {
+            let b = &t.1;
+            let v = p.h_inv.adjoint() * e;
+            let bv = b.adjoint() * &v;
+            let (m, mb, bmb) = weighted_products(&p.h_inv, b, &wn);
+            let g = column_scalars(en, &p.q);
+            add_gradient(&mut out.gradient, en, &g, &v, &bv);
+            add_products(&mut out.normal, en, &g, &g, &m, &mb, &bmb, true);
         }
         used.push(wn);
     }
@@ -232,34 +324,36 @@ fn iv_pass(
     pr: &Predictor,
     samples: &[Sample],
     terms: &[Terms],
+    entries: &[Vec<Entry>],
     floors: &[f64],
     theta: &[f64],
 ) -> Result<Vec<f64>, OutputErrorError> {
     let np = pr.n_params();
     let mut m = DMatrix::<f64>::zeros(np, np);
     let mut v = DVector::<f64>::zeros(np);
-    for (s, t) in samples.iter().zip(terms) {
+    for ((s, t), entries) in samples.iter().zip(terms).zip(entries) {
         let (a, b) = t;
-        let p = pr.predict(s.omega, t, theta, true)?;
-        let z = p.jacobian.as_ref().ok_or(OutputErrorError::Dimension)?;
+        let p = pr.predict_with(s.omega, t, entries, theta, false)?;
         let qm = DVector::from_column_slice(&s.q);
-        // X = -(columns with q_meas); y0 = H^-1 A q_meas.
-        let x = pr.jacobian_with(s.omega, &p.h_inv, b, &qm);
+        let w: Vec<f64> =
+            p.q.iter()
+                .zip(floors)
+                .map(|(q, f)| q.norm().max(*f))
+                .collect();
+        // Instruments from the prediction, regressors from the measurement.
+        let gz = column_scalars(entries, &p.q);
+        let gx = column_scalars(entries, &qm);
+        let (mm, mb, bmb) = weighted_products(&p.h_inv, b, &w);
+        add_products(&mut m, entries, &gz, &gx, &mm, &mb, &bmb, false);
+        // v_i = Re(Z_i^H D^2 y0) = -Re(Gz_i^H H^-H D^2 H^-1 A q_meas).
         let y0 = &p.h_inv * (a * &qm);
-        for c in 0..qm.len() {
-            let wc = p.q[c].norm().max(floors[c]);
-            let w2 = wc * wc;
-            for i in 0..np {
-                let zi = -z[(c, i)].conj();
-                if zi == Complex64::new(0.0, 0.0) {
-                    continue;
-                }
-                v[i] += (zi * y0[c]).re / w2;
-                for k in 0..np {
-                    m[(i, k)] += (zi * -x[(c, k)]).re / w2;
-                }
-            }
+        let mut dy = y0;
+        for (c, wc) in w.iter().enumerate() {
+            dy[c] /= wc * wc;
         }
+        let v0 = p.h_inv.adjoint() * dy;
+        let bv0 = b.adjoint() * &v0;
+        add_gradient(&mut v, entries, &gz, &v0, &bv0);
     }
     let sol = m.lu().solve(&(-v)).ok_or(OutputErrorError::Singular)?;
     if sol.iter().all(|x| x.is_finite()) {
@@ -275,6 +369,7 @@ fn levenberg_marquardt(
     pr: &Predictor,
     samples: &[Sample],
     terms: &[Terms],
+    entries: &[Vec<Entry>],
     w: &[Vec<f64>],
     start: (Vec<f64>, Pass),
     opts: &OutputErrorOptions,
@@ -300,7 +395,15 @@ fn levenberg_marquardt(
         };
         let delta = chol.solve(&(-&cur.gradient));
         let trial: Vec<f64> = theta.iter().zip(delta.iter()).map(|(t, d)| t + d).collect();
-        let next = match pass(pr, samples, terms, WeightsFrom::Given(w), &trial, true) {
+        let next = match pass(
+            pr,
+            samples,
+            terms,
+            entries,
+            WeightsFrom::Given(w),
+            &trial,
+            true,
+        ) {
             Ok((p, _)) => p,
             Err(_) => {
                 mu *= nu;
@@ -361,9 +464,10 @@ pub fn fit_output_error(
         });
     }
     let floors = floors(samples, opts.floor);
+    let entries = speed_entries(pr, samples);
     let mut theta = pr.theta(start);
     for _ in 0..opts.iv_passes {
-        match iv_pass(pr, samples, terms, &floors, &theta) {
+        match iv_pass(pr, samples, terms, &entries, &floors, &theta) {
             Ok(t) => theta = t,
             Err(OutputErrorError::Predict(_)) | Err(OutputErrorError::Singular) => break,
             Err(e) => return Err(e),
@@ -376,11 +480,13 @@ pub fn fit_output_error(
             pr,
             samples,
             terms,
+            &entries,
             WeightsFrom::Prediction(&floors),
             &theta,
             true,
         )?;
-        let (t, it, ok) = levenberg_marquardt(pr, samples, terms, &w, (theta, cur), opts)?;
+        let (t, it, ok) =
+            levenberg_marquardt(pr, samples, terms, &entries, &w, (theta, cur), opts)?;
         theta = t;
         iterations += it;
         converged = ok;
@@ -389,6 +495,7 @@ pub fn fit_output_error(
         pr,
         samples,
         terms,
+        &entries,
         WeightsFrom::Prediction(&floors),
         &theta,
         true,
@@ -429,10 +536,12 @@ pub fn fisher_information(
         return Err(OutputErrorError::Dimension);
     }
     let floors = floors(samples, floor);
+    let entries = speed_entries(pr, samples);
     let (p, _) = pass(
         pr,
         samples,
         terms,
+        &entries,
         WeightsFrom::Prediction(&floors),
         theta,
         true,
@@ -454,11 +563,13 @@ pub fn misfit(
         return Err(OutputErrorError::Dimension);
     }
     let floors = floors(samples, floor);
+    let entries = speed_entries(pr, samples);
     let theta = pr.theta(w);
     let (p, _) = pass(
         pr,
         samples,
         terms,
+        &entries,
         WeightsFrom::Prediction(&floors),
         &theta,
         false,
@@ -466,4 +577,90 @@ pub fn misfit(
     let n = (samples.len() * samples[0].q.len()) as f64;
     let dof = (n - pr.n_params() as f64 / 2.0).max(1.0);
     Ok(((p.cost / n).sqrt(), (p.cost / dof).sqrt()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::parametrization::Parametrization;
+    use rotorid_core::parametrization::Structure;
+    use rotorid_core::scaling::ColumnScaling;
+
+    #[test]
+    fn normal_equations_equal_those_of_the_jacobian() {
+        for st in [Structure::physical(2), Structure::paper(1)] {
+            let pr = Predictor::new(Parametrization {
+                structure: st,
+                scaling: ColumnScaling::new(3e7, 1500.0, 1e-3).unwrap(),
+                bearing_nodes: vec![0, 10],
+                plane_nodes: vec![3, 6, 8],
+            });
+            let theta: Vec<f64> = (0..pr.n_params())
+                .map(|i| 0.7 + 0.05 * (i % 7) as f64)
+                .collect();
+            let mut samples = Vec::new();
+            let mut terms = Vec::new();
+            for n in 1..=5 {
+                let omega = 300.0 * n as f64;
+                let a = DMatrix::from_fn(4, 4, |i, j| {
+                    Complex64::new(
+                        2e7 * ((i * 3 + j) as f64 * 0.41).cos()
+                            - 3.0 * omega * omega * (i == j) as u8 as f64,
+                        50.0 * omega * ((i + j) as f64).sin(),
+                    )
+                });
+                let b = DMatrix::from_fn(4, 3, |i, k| {
+                    Complex64::new(
+                        omega * omega * (0.3 + 0.1 * (i + k) as f64),
+                        0.05 * omega * omega,
+                    )
+                });
+                let t = (a, b);
+                let q = pr.predict(omega, &t, &theta, false).unwrap().q;
+                let qm: Vec<Complex64> = q
+                    .iter()
+                    .enumerate()
+                    .map(|(c, z)| z * Complex64::new(1.0 + 0.01 * c as f64, -0.02))
+                    .collect();
+                samples.push(Sample { omega, q: qm });
+                terms.push(t);
+            }
+            let floors = floors(&samples, 1e-6);
+            let entries = speed_entries(&pr, &samples);
+            let (fast, w) = pass(
+                &pr,
+                &samples,
+                &terms,
+                &entries,
+                WeightsFrom::Prediction(&floors),
+                &theta,
+                true,
+            )
+            .unwrap();
+            // Reference: explicit Jacobian rows -J / w.
+            let np = pr.n_params();
+            let mut normal = DMatrix::<f64>::zeros(np, np);
+            let mut gradient = DVector::<f64>::zeros(np);
+            for ((s, t), wn) in samples.iter().zip(&terms).zip(&w) {
+                let p = pr.predict(s.omega, t, &theta, true).unwrap();
+                let jac = p.jacobian.unwrap();
+                for c in 0..4 {
+                    let r = (s.q[c] - p.q[c]) / wn[c];
+                    for i in 0..np {
+                        let ri = (-jac[(c, i)] / wn[c]).conj();
+                        gradient[i] += (ri * r).re;
+                        for k in 0..np {
+                            normal[(i, k)] += (ri * (-jac[(c, k)] / wn[c])).re;
+                        }
+                    }
+                }
+            }
+            let scale = normal.amax();
+            assert!((&fast.normal - &normal).amax() <= 1e-12 * scale, "{st:?}");
+            assert!(
+                (&fast.gradient - &gradient).amax() <= 1e-12 * gradient.amax().max(1e-300),
+                "{st:?}"
+            );
+        }
+    }
 }

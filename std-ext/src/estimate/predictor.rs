@@ -152,6 +152,13 @@ impl Predictor {
     /// parameter `(row index of Z_B, column index, factor)` with
     /// `dZ_B[row][col] = factor`, for an unbalance parameter
     /// `(plane, factor)` with `da_plane = factor` (kg m per unit).
+    /// How every parameter enters at `omega`, in parameter order.
+    pub fn entries(&self, omega: f64) -> Vec<Entry> {
+        (0..self.n_params())
+            .filter_map(|i| self.entry(i, omega))
+            .collect()
+    }
+
     fn entry(&self, i: usize, omega: f64) -> Option<Entry> {
         let p = self.params.get(i)?;
         let iota = if p.imaginary {
@@ -185,24 +192,36 @@ impl Predictor {
         theta: &[f64],
         jacobian: bool,
     ) -> Result<Prediction, PredictError> {
+        self.predict_with(omega, terms, &self.entries(omega), theta, jacobian)
+    }
+
+    /// [`Predictor::predict`] with the parameters' [`Entry`]s at `omega`
+    /// given (they depend on the speed only: a fit computes them once).
+    pub fn predict_with(
+        &self,
+        omega: f64,
+        terms: &Terms,
+        entries: &[Entry],
+        theta: &[f64],
+        jacobian: bool,
+    ) -> Result<Prediction, PredictError> {
         let (a, b) = terms;
         let nq = 2 * self.param.n_bearings();
         let np = self.param.n_planes();
         if a.nrows() != nq || a.ncols() != nq || b.nrows() != nq || b.ncols() != np {
             return Err(PredictError::Dimension);
         }
-        if theta.len() != self.n_params() {
+        if theta.len() != self.n_params() || entries.len() != self.n_params() {
             return Err(PredictError::Dimension);
         }
         // Z_B and a are linear in theta: H = A + sum_i theta_i dZ_i,
         // f = B sum_i theta_i da_i.
         let mut h = a.clone();
         let mut ak = vec![Complex64::new(0.0, 0.0); np];
-        for (i, &t) in theta.iter().enumerate() {
-            match self.entry(i, omega) {
-                Some(Entry::Bearing { row, col, dz }) => h[(row, col)] += dz * t,
-                Some(Entry::Unbalance { plane, da }) => ak[plane] += da * t,
-                None => return Err(PredictError::Dimension),
+        for (en, &t) in entries.iter().zip(theta) {
+            match *en {
+                Entry::Bearing { row, col, dz } => h[(row, col)] += dz * t,
+                Entry::Unbalance { plane, da } => ak[plane] += da * t,
             }
         }
         let mut f = DVector::<Complex64>::zeros(nq);
@@ -258,14 +277,23 @@ impl Predictor {
     }
 }
 
-enum Entry {
+/// How one fit parameter enters at a speed (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Entry {
+    /// `dZ_B[row][col] / dtheta = dz` (N/m per unit).
     Bearing {
+        /// Row of `Z_B` (channel index).
         row: usize,
+        /// Column of `Z_B` (channel index).
         col: usize,
+        /// The derivative.
         dz: Complex64,
     },
+    /// `da_plane / dtheta = da` (kg m per unit).
     Unbalance {
+        /// The plane.
         plane: usize,
+        /// The derivative.
         da: Complex64,
     },
 }

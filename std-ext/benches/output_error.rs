@@ -1,0 +1,127 @@
+//! The output-error fit of a 3000-speed sweep (case 4.1, 5..15000 rpm in
+//! 5 rpm steps, 1 % noise, physical structure of order 1: 22 parameters)
+//! against the QRD/RLS sweep over the same data in the same run, and the
+//! parts of the fit: one prediction pass with the Jacobian and normal
+//! equations, and the model-free noise level.
+//!
+//! `cargo bench --bench output_error -- --warm-up-time 1 --measurement-time 5`
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use rotorid::core::parametrization::Structure;
+use rotorid::estimate::noise::relative_noise_level;
+use rotorid::estimate::output_error::{fisher_information, fit_output_error, OutputErrorOptions};
+use rotorid::estimate::predictor::{Predictor, Terms};
+use rotorid::estimate::{auto_scaling, identify_with, Options, Parametrization};
+use rotorid::fe::assembly::FeModel;
+use rotorid::io::measurement::Measurements;
+use rotorid::model::RotorModel;
+use rotorid::reduce::Reducer;
+use rotorid::simulate::{simulate, SimOptions};
+use rotorid::tables::grid::uniform_rpm;
+use std::hint::black_box;
+
+struct Setup {
+    model: RotorModel,
+    meas: Measurements,
+    terms: Vec<Terms>,
+    predictor: Predictor,
+    options: Options,
+}
+
+fn setup() -> Setup {
+    let model = RotorModel::paper();
+    let meas = simulate(
+        &model,
+        &SimOptions {
+            speeds_rpm: uniform_rpm(5.0, 15000.0, 5.0).expect("grid"),
+            noise: 0.01,
+            seed: 1,
+            effects: Default::default(),
+        },
+    )
+    .expect("simulate");
+    let fe = FeModel::new(&model).expect("model");
+    let reducer = Reducer::new(&fe, &model).expect("reducer");
+    let terms: Vec<Terms> = meas
+        .samples
+        .iter()
+        .map(|s| {
+            let t = reducer.reduce(s.omega).expect("terms");
+            (t.a, t.b)
+        })
+        .collect();
+    let omega_max = meas.samples.iter().map(|s| s.omega).fold(0.0, f64::max);
+    let param = Parametrization {
+        structure: Structure::physical(1),
+        scaling: auto_scaling(&model, omega_max),
+        bearing_nodes: model.bearing_nodes(),
+        plane_nodes: model.planes.clone(),
+    };
+    let mut options = Options::new(param.structure);
+    options.scaling = Some(param.scaling);
+    options.record_history = false;
+    options.steady.min_speed_step = 0.0;
+    Setup {
+        model,
+        meas,
+        terms,
+        predictor: Predictor::new(param),
+        options,
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let s = setup();
+    let rls = |s: &Setup| {
+        let mut i = 0;
+        let mut src = |_w: f64| {
+            i += 1;
+            Ok(s.terms[i - 1].clone())
+        };
+        identify_with(
+            &s.model.bearing_nodes(),
+            &s.model.planes,
+            &s.meas,
+            &s.options,
+            &mut src,
+            None,
+        )
+        .expect("rls")
+    };
+    let start = rls(&s).scaled_weights;
+    let mut g = c.benchmark_group("3000 speeds, 22 parameters");
+    g.sample_size(10);
+    g.bench_function("QRD/RLS sweep (baseline)", |b| {
+        b.iter(|| black_box(rls(&s)))
+    });
+    g.bench_function("output-error fit", |b| {
+        b.iter(|| {
+            black_box(
+                fit_output_error(
+                    &s.predictor,
+                    &s.meas.samples,
+                    &s.terms,
+                    &start,
+                    &OutputErrorOptions::default(),
+                )
+                .expect("fit"),
+            )
+        })
+    });
+    let theta = s.predictor.theta(&start);
+    g.bench_function("one pass: predictions, Jacobian, normal equations", |b| {
+        b.iter(|| {
+            black_box(
+                fisher_information(&s.predictor, &s.meas.samples, &s.terms, &theta, 1e-6)
+                    .expect("pass"),
+            )
+        })
+    });
+    g.bench_function("noise level without the model", |b| {
+        b.iter(|| black_box(relative_noise_level(&s.meas.samples)))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
