@@ -1,7 +1,7 @@
 //! The firmware path (core only: f32 table blob, const-generic identifier
 //! set up from the blob's structure and scaling, the `Id` type of a
 //! generated table source) against the desktop path (runtime sizes, f32) on
-//! the same sweep: the same estimates within f32 tolerance.
+//! the same sweep: bit-identical estimates.
 
 mod identify_common;
 use identify_common::*;
@@ -131,7 +131,8 @@ fn firmware_and_desktop_paths_agree_in_f32() {
         let diff = max_rel_diff(&fw, &desk.last);
         let e_desk = errors(&model, &desk.last);
         println!("{structure:?}: firmware vs desktop (f32) worst relative difference {diff:.2e}; desktop errors {e_desk:?}");
-        assert!(diff < 1e-4, "{diff}");
+        // The same kernel on the same f32 data: bit-identical estimates.
+        assert_eq!(diff, 0.0);
     }
     // Type aliases are the same identifiers.
     let _ = PaperIdentifier::<f32, NQ, NP, 19, 4>::new;
