@@ -1,12 +1,13 @@
-//! The firmware path (core only: f32 table blob, const-generic identifier)
-//! against the desktop path (runtime sizes, f32) on the same sweep: the same
-//! estimates within f32 tolerance.
+//! The firmware path (core only: f32 table blob, const-generic identifier
+//! set up from the blob's structure and scaling, the `Id` type of a
+//! generated table source) against the desktop path (runtime sizes, f32) on
+//! the same sweep: bit-identical estimates.
 
 mod identify_common;
 use identify_common::*;
 use num_complex::Complex;
 use rotorid::core::identify::{
-    Config, IdField, Identifier, PaperIdentifier, PhysicalIdentifier, SteadyPolicy,
+    Config, IdField, Identifier, IdentifyError, PaperIdentifier, PhysicalIdentifier,
 };
 use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
@@ -20,13 +21,20 @@ use rotorid::units::rpm_to_rad_s;
 const NQ: usize = 4;
 const NP: usize = 3;
 
+/// The committed generated source (physical 1): its `Id` type is the
+/// firmware identifier of the first test (the rest of it is unused here).
+#[allow(dead_code)]
+mod generated {
+    include!("data/paper_table_f32.rs");
+}
+
+/// Runs the sweep through `id`, the terms from the blob.
 fn firmware_run<F: IdField<f32>, const M: usize, const N: usize>(
     blob: &[u8],
-    config: Config<f32>,
+    mut id: Identifier<f32, F, NQ, NP, M, N>,
     meas: &rotorid::io::measurement::Measurements,
 ) -> rotorid::core::identify::Estimates<f32, NQ, NP> {
     let view = TableView::<f32>::parse(blob).unwrap();
-    let mut id = Identifier::<f32, F, NQ, NP, M, N>::new(config).unwrap();
     let mut last = 0.0f32;
     for s in &meas.samples {
         let q: [Complex<f32>; NQ] =
@@ -62,6 +70,8 @@ fn firmware_and_desktop_paths_agree_in_f32() {
     let red = DenseReduction::new(&model);
     let table = ModelTable {
         model_name: model.name.clone(),
+        structure: Structure::physical(1),
+        scaling: auto_scaling(&model, rpm_to_rad_s(15000.0)),
         n_nodes: model.n_nodes(),
         bearing_nodes: model.bearing_nodes(),
         plane_nodes: model.planes.clone(),
@@ -74,23 +84,36 @@ fn firmware_and_desktop_paths_agree_in_f32() {
             })
             .collect(),
     };
-    let blob = table.to_blob(Scalar::F32).unwrap();
     let scaling = auto_scaling(&model, rpm_to_rad_s(15000.0));
     let scaling32 =
         ColumnScaling::<f32>::new(scaling.stiffness, scaling.omega_ref, scaling.unbalance).unwrap();
     for structure in [Structure::physical(1), Structure::paper(1)] {
-        let config = Config {
-            structure,
-            lambda: 0.999f32,
-            delta: 1e-7f32,
-            scaling: scaling32,
-            normalise_rows: false,
-            steady: SteadyPolicy::default_guard(),
-        };
+        // The blob carries the structure and the scaling; the firmware sets
+        // its identifier up from the blob alone.
+        let blob = table
+            .clone()
+            .with_structure(structure)
+            .with_scaling(scaling)
+            .to_blob(Scalar::F32)
+            .unwrap();
+        let view = TableView::<f32>::parse(&blob).unwrap();
+        assert_eq!(view.scaling(), scaling32);
         let fw = if structure == Structure::physical(1) {
-            firmware_run::<f32, 22, 8>(&blob, config, &meas)
+            // The type the generated source defines for physical 1.
+            assert_eq!(generated::STRUCTURE, structure);
+            assert_eq!(generated::Id::STRUCTURE, structure);
+            let id = generated::Id::from_table(&view).unwrap();
+            assert_eq!(*id.config(), Config::new(structure, scaling32));
+            // A blob written for another structure is refused at run time.
+            assert!(matches!(
+                PaperIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view),
+                Err(IdentifyError::Structure { .. })
+            ));
+            firmware_run(&blob, id, &meas)
         } else {
-            firmware_run::<Complex<f32>, 19, 4>(&blob, config, &meas)
+            let id = PaperIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view).unwrap();
+            assert_eq!(id.config().structure, Structure::paper(1));
+            firmware_run(&blob, id, &meas)
         };
         let mut opts = Options::new(structure);
         opts.precision = Precision::F32;
@@ -108,11 +131,13 @@ fn firmware_and_desktop_paths_agree_in_f32() {
         let diff = max_rel_diff(&fw, &desk.last);
         let e_desk = errors(&model, &desk.last);
         println!("{structure:?}: firmware vs desktop (f32) worst relative difference {diff:.2e}; desktop errors {e_desk:?}");
-        assert!(diff < 1e-4, "{diff}");
+        // The same kernel on the same f32 data: bit-identical estimates.
+        assert_eq!(diff, 0.0);
     }
     // Type aliases are the same identifiers.
     let _ = PaperIdentifier::<f32, NQ, NP, 19, 4>::new;
-    let _ = PhysicalIdentifier::<f32, NQ, NP, 22, 8>::new;
+    let _: fn(Config<f32>) -> Result<generated::Id, IdentifyError> =
+        PhysicalIdentifier::<f32, NQ, NP, 22, 8>::new;
 }
 
 /// The product paths end to end: `rotorid::tables::build` (banded
@@ -131,16 +156,12 @@ fn product_paths_agree() {
         .unwrap()
         .to_blob(Scalar::F32)
         .unwrap();
-    let config = Config {
-        structure: Structure::physical(1),
-        lambda: 0.999f32,
-        delta: 1e-7f32,
-        scaling: ColumnScaling::<f32>::new(scaling.stiffness, scaling.omega_ref, scaling.unbalance)
-            .unwrap(),
-        normalise_rows: false,
-        steady: SteadyPolicy::default_guard(),
-    };
-    let fw = firmware_run::<f32, 22, 8>(&blob, config, &meas);
+    let config = Config::new(
+        Structure::physical(1),
+        ColumnScaling::<f32>::new(scaling.stiffness, scaling.omega_ref, scaling.unbalance).unwrap(),
+    );
+    let id = PhysicalIdentifier::<f32, NQ, NP, 22, 8>::new(config).unwrap();
+    let fw = firmware_run(&blob, id, &meas);
     let mut opts = Options::new(Structure::physical(1));
     opts.precision = Precision::F32;
     let desk = rotorid::estimate::identify(&model, &meas, &opts, None).unwrap();

@@ -5,7 +5,11 @@
 
 use nalgebra::DMatrix;
 use num_complex::Complex64;
-use rotorid::core::table::{BearingTable, Table, TableError, TableView, Terms};
+use rotorid::core::parametrization::Structure;
+use rotorid::core::scaling::ColumnScaling;
+use rotorid::core::table::{
+    BearingTable, Table, TableError, TableSetup, TableView, Terms, FORMAT_VERSION, HEADER_LEN,
+};
 use rotorid::reduce::PoleSets;
 use rotorid::reduce::ReducedTerms;
 use rotorid::tables::{ModelTable, Scalar};
@@ -40,6 +44,8 @@ fn synthetic(n_s: usize) -> ModelTable {
         .collect();
     ModelTable {
         model_name: "synthetic".into(),
+        structure: Structure::physical(1),
+        scaling: ColumnScaling::new(2.1e7, 325.0, 3.4e-4).unwrap(),
         n_nodes: 27,
         bearing_nodes: vec![0, 26],
         plane_nodes: vec![4, 10, 20],
@@ -192,7 +198,7 @@ fn every_flipped_byte_and_bit_is_rejected() {
             bad[i] = blob[i];
         }
         // Every bit of every 7th byte (and of the whole header).
-        for i in (0..blob.len()).filter(|i| i % 7 == 0 || *i < 40) {
+        for i in (0..blob.len()).filter(|i| i % 7 == 0 || *i < HEADER_LEN + 16) {
             for bit in 0..8 {
                 bad[i] ^= 1 << bit;
                 assert!(TableView::<f64>::parse(&bad).is_err());
@@ -209,7 +215,7 @@ fn every_truncation_and_extension_is_rejected() {
     let blob = synthetic(5).to_blob(Scalar::F64).unwrap();
     for cut in 0..blob.len() {
         let e = TableView::<f64>::parse(&blob[..cut]).unwrap_err();
-        if cut < 24 {
+        if cut < HEADER_LEN {
             assert!(matches!(
                 e,
                 TableError::Truncated { .. } | TableError::BadMagic
@@ -242,25 +248,72 @@ fn value_checks_behind_a_valid_crc() {
     let t = synthetic(5);
     let blob = t.to_blob(Scalar::F64).unwrap();
     let parse = |b: &[u8]| TableView::<f64>::parse(b).map(|_| ());
-    // Layout: header 24, planes 3*2, bearings 2*2 -> poles at 34, speeds at 42,
-    // data at 82.
+    // Layout: header 56, planes 3*2, bearings 2*2 -> poles at 66, speeds at 74,
+    // data at 114.
     let mut b = blob.clone();
     b[0] = b'X';
     assert_eq!(parse(&reseal(b)), Err(TableError::BadMagic));
     let mut b = blob.clone();
-    b[8] = 2;
-    assert_eq!(parse(&reseal(b)), Err(TableError::UnsupportedVersion(2)));
+    b[8] = 3;
+    assert_eq!(
+        parse(&reseal(b)),
+        Err(TableError::UnsupportedVersion {
+            found: 3,
+            expected: 2
+        })
+    );
     let mut b = blob.clone();
     b[11] = 1;
     assert_eq!(parse(&reseal(b)), Err(TableError::Reserved));
+    for i in 26..32 {
+        let mut b = blob.clone();
+        b[i] = 0x40;
+        assert_eq!(parse(&reseal(b)), Err(TableError::Reserved), "byte {i}");
+    }
     let mut b = blob.clone();
     b[10] = 2;
     assert!(matches!(
         parse(&reseal(b)),
         Err(TableError::ScalarType { found: 2, .. })
     ));
+    // Formulation codes other than 1 (paper) and 2 (physical), orders
+    // outside 1..=MAX_ORDER.
+    for (off, val) in [
+        (24usize, 0u8),
+        (24, 3),
+        (24, 255),
+        (25, 0),
+        (25, 9),
+        (25, 255),
+    ] {
+        let mut b = blob.clone();
+        b[off] = val;
+        assert_eq!(
+            parse(&reseal(b)),
+            Err(TableError::BadStructure),
+            "{off} {val}"
+        );
+    }
+    // Scaling: not finite, zero, negative; too large for f32.
+    for off in [32usize, 40, 48] {
+        for x in [f64::NAN, f64::INFINITY, 0.0, -1.0] {
+            let mut b = blob.clone();
+            b[off..off + 8].copy_from_slice(&x.to_le_bytes());
+            assert_eq!(parse(&reseal(b)), Err(TableError::BadScaling), "{off} {x}");
+        }
+    }
+    let b32 = t.to_blob(Scalar::F32).unwrap();
+    for x in [1e300, 1e-300] {
+        let mut b = b32.clone();
+        b[32..40].copy_from_slice(&f64::to_le_bytes(x));
+        let b = reseal(b);
+        assert_eq!(
+            TableView::<f32>::parse(&b).map(|_| ()),
+            Err(TableError::BadScaling)
+        );
+    }
     // Plane node 0, node beyond the shaft, repeated plane, bearings out of order.
-    for (off, val) in [(24usize, 0u16), (24, 28), (26, 5), (30, 27)] {
+    for (off, val) in [(56usize, 0u16), (56, 28), (58, 5), (62, 27)] {
         let mut b = blob.clone();
         b[off..off + 2].copy_from_slice(&val.to_le_bytes());
         assert_eq!(parse(&reseal(b)), Err(TableError::BadNode), "{off} {val}");
@@ -282,16 +335,16 @@ fn value_checks_behind_a_valid_crc() {
     let put =
         |b: &mut Vec<u8>, off: usize, x: f64| b[off..off + 8].copy_from_slice(&x.to_le_bytes());
     let mut b = blob.clone();
-    put(&mut b, 34, -1.0);
+    put(&mut b, 66, -1.0);
     assert_eq!(parse(&reseal(b)), Err(TableError::BadPole));
     let mut b = blob.clone();
-    put(&mut b, 50, f64::NAN);
+    put(&mut b, 82, f64::NAN);
     assert_eq!(parse(&reseal(b)), Err(TableError::NonFinite));
     let mut b = blob.clone();
-    put(&mut b, 50, 90.0);
+    put(&mut b, 82, 90.0);
     assert_eq!(parse(&reseal(b)), Err(TableError::SpeedsNotIncreasing));
     let mut b = blob.clone();
-    put(&mut b, 42, 0.0);
+    put(&mut b, 74, 0.0);
     assert_eq!(parse(&reseal(b)), Err(TableError::SpeedsNotIncreasing));
     for x in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
         let mut b = blob.clone();
@@ -310,12 +363,102 @@ fn value_checks_behind_a_valid_crc() {
     t2.terms[0].a[(0, 0)].re = 1e39;
     assert!(t2.to_blob(Scalar::F32).is_err());
     assert!(t2.to_blob(Scalar::F64).is_ok());
+    let t2 = t.clone().with_structure(Structure::paper(0));
+    assert!(t2.to_blob(Scalar::F64).is_err());
+    assert!(t2.to_rust_source(Scalar::F64).is_err());
+    let mut t2 = t.clone();
+    t2.scaling.unbalance = 1e-60; // fine in f64, 0 in f32
+    assert!(t2.to_blob(Scalar::F64).is_ok());
+    assert!(t2.to_blob(Scalar::F32).is_err());
+    assert!(t2.to_rust_source(Scalar::F32).is_err());
+    t2.scaling.unbalance = -1.0;
+    assert!(t2.to_blob(Scalar::F64).is_err());
+}
+
+/// The same blob in format version 1: without the structure and scaling
+/// (bytes 24..56), version 1, CRC resealed.
+fn as_version_1(v2: &[u8]) -> Vec<u8> {
+    let mut b = v2[..24].to_vec();
+    b[8..10].copy_from_slice(&1u16.to_le_bytes());
+    b.extend_from_slice(&v2[HEADER_LEN..]);
+    reseal(b)
+}
+
+#[test]
+fn version_1_blobs_are_refused_with_a_clear_error() {
+    assert_eq!(FORMAT_VERSION, 2);
+    for scalar in [Scalar::F64, Scalar::F32] {
+        let v1 = as_version_1(&synthetic(5).to_blob(scalar).unwrap());
+        let want = TableError::UnsupportedVersion {
+            found: 1,
+            expected: 2,
+        };
+        assert_eq!(TableView::<f64>::parse(&v1).unwrap_err(), want);
+        assert_eq!(TableView::<f32>::parse(&v1).unwrap_err(), want);
+        // Whatever its length: the version is read before the length checks.
+        assert_eq!(TableView::<f32>::parse(&v1[..12]).unwrap_err(), want);
+        assert_eq!(
+            want.to_string(),
+            "table blob format version 1 is no longer read; rebuild it with `rotorid tables`"
+        );
+        let e = ModelTable::from_blob(&v1).unwrap_err();
+        assert!(
+            e.to_string().contains("rebuild it with `rotorid tables`"),
+            "{e}"
+        );
+    }
+}
+
+#[test]
+fn structure_and_scaling_round_trip_through_the_header() {
+    for structure in [
+        Structure::physical(1),
+        Structure::paper(1),
+        Structure::paper(2),
+        Structure::physical(8),
+    ] {
+        let t = synthetic(3)
+            .with_structure(structure)
+            .with_scaling(ColumnScaling::new(3.7e7, 1571.0, 2.9e-4).unwrap());
+        // f64: exact.
+        let blob = t.to_blob(Scalar::F64).unwrap();
+        assert_eq!(blob[24], if structure.is_complex() { 1 } else { 2 });
+        assert_eq!(blob[25] as usize, structure.order);
+        let view = TableView::<f64>::parse(&blob).unwrap();
+        assert_eq!(view.structure(), structure);
+        assert_eq!(view.scaling(), t.scaling);
+        assert_eq!(TableSetup::scaling(&view), t.scaling);
+        let (back, _) = ModelTable::from_blob(&blob).unwrap();
+        assert_eq!((back.structure, back.scaling), (structure, t.scaling));
+        let own = Table::<f64, 4, 3, 3>::from_view(&view).unwrap();
+        assert_eq!((own.structure, own.scaling), (structure, t.scaling));
+        // f32: the references are stored in f64 and rounded once when read.
+        let blob = t.to_blob(Scalar::F32).unwrap();
+        let view = TableView::<f32>::parse(&blob).unwrap();
+        let want32 = ColumnScaling::<f32>::new(
+            t.scaling.stiffness,
+            t.scaling.omega_ref,
+            t.scaling.unbalance,
+        )
+        .unwrap();
+        assert_eq!(view.structure(), structure);
+        assert_eq!(view.scaling(), want32);
+        assert_eq!(view.stored_scaling(), t.scaling);
+        let (back, sc) = ModelTable::from_blob(&blob).unwrap();
+        assert_eq!(sc, Scalar::F32);
+        assert_eq!((back.structure, back.scaling), (structure, t.scaling));
+        assert_eq!(back.to_blob(Scalar::F32).unwrap(), blob);
+        let own = Table::<f32, 4, 3, 3>::from_view(&view).unwrap();
+        assert_eq!((own.structure, own.scaling), (structure, want32));
+    }
 }
 
 #[test]
 fn owned_table_lookup_never_panics_on_bad_contents() {
     let z = Complex64::new(0.0, 0.0);
     let mut t = Table::<f64, 2, 1, 3> {
+        structure: Structure::physical(1),
+        scaling: ColumnScaling::identity(),
         poles_a: [0.0; 16],
         n_poles_a: 99,
         poles_b: [0.0; 16],

@@ -4,7 +4,10 @@
 use std::path::PathBuf;
 use std::process::Command;
 
+use rotorid::core::identify::PaperIdentifier;
+use rotorid::core::parametrization::Structure;
 use rotorid::core::table::TableView;
+use rotorid::estimate::auto_scaling;
 use rotorid::model::RotorModel;
 use rotorid::tables::grid::uniform_rad_s;
 use rotorid::tables::{build, ModelTable, Scalar};
@@ -88,6 +91,66 @@ fn blob_and_source_from_the_command_line() {
     );
 }
 
+/// `--formulation paper --order 2`: the blob's header and the source's
+/// constants name the structure and the scaling (`auto_scaling` at the top
+/// of the grid), and the source's `Id` is the paper identifier of order 2.
+#[test]
+fn structure_and_scaling_from_the_command_line() {
+    let dir = out_dir("structure");
+    let blob = dir.join("paper2.tbl");
+    let src = dir.join("paper2.rs");
+    for out in [&blob, &src] {
+        let o = rotorid(&[
+            "tables",
+            "--model",
+            "paper",
+            "--out",
+            out.to_str().unwrap(),
+            "--rpm-min",
+            "6000",
+            "--rpm-max",
+            "7500",
+            "--rpm-step",
+            "500",
+            "--formulation",
+            "paper",
+            "--order",
+            "2",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("paper 2"));
+    }
+    let model = RotorModel::paper();
+    let speeds = uniform_rad_s(6000.0, 7500.0, 500.0).unwrap();
+    let scaling = auto_scaling(&model, *speeds.last().unwrap());
+    let bytes = std::fs::read(&blob).unwrap();
+    let view = TableView::<f64>::parse(&bytes).unwrap();
+    assert_eq!(view.structure(), Structure::paper(2));
+    assert_eq!(view.scaling(), scaling);
+    let lib = build(&model, &speeds)
+        .unwrap()
+        .with_structure(Structure::paper(2));
+    assert_eq!(lib.to_blob(Scalar::F64).unwrap(), bytes);
+    let text = std::fs::read_to_string(&src).unwrap();
+    assert_eq!(text, lib.to_rust_source(Scalar::F64).unwrap());
+    for line in [
+        "pub const STRUCTURE: rotorid_core::parametrization::Structure = rotorid_core::parametrization::Structure::paper(2);".to_string(),
+        format!(
+            "pub const SCALING: rotorid_core::scaling::ColumnScaling<f64> = rotorid_core::scaling::ColumnScaling {{ stiffness: {:?}, omega_ref: {:?}, unbalance: {:?} }};",
+            scaling.stiffness, scaling.omega_ref, scaling.unbalance
+        ),
+        "pub const M: usize = STRUCTURE.n_unknowns(NQ / 2, NP);".to_string(),
+        "pub type Id = rotorid_core::identify::PaperIdentifier<f64, NQ, NP, M, N>;".to_string(),
+    ] {
+        assert!(text.lines().any(|l| l == line), "missing: {line}");
+    }
+    // The type the source names for paper 2 (M = 4 (P+1) N_b + N_p = 27)
+    // takes its set-up from the blob.
+    let id = PaperIdentifier::<f64, 4, 3, 27, 4>::from_table(&view).unwrap();
+    assert_eq!(PaperIdentifier::<f64, 4, 3, 27, 4>::ORDER, 2);
+    assert_eq!(id.config().scaling, scaling);
+}
+
 #[test]
 fn adaptive_grid_from_the_command_line() {
     let dir = out_dir("adaptive");
@@ -150,6 +213,17 @@ fn bad_input_exits_2_with_one_line() {
             "paper",
             "--out",
             "/nonexistent-dir/x.tbl",
+        ],
+        vec!["tables", "--model", "paper", "--out", out, "--order", "0"],
+        vec!["tables", "--model", "paper", "--out", out, "--order", "9"],
+        vec![
+            "tables",
+            "--model",
+            "paper",
+            "--out",
+            out,
+            "--formulation",
+            "complex",
         ],
     ] {
         let o = rotorid(&args);

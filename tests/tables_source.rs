@@ -8,7 +8,10 @@
 //! `cargo run -- tables --model paper --rpm-min 6000 --rpm-max 7500 --rpm-step 500 --out tests/data/paper_table.rs`
 //! (and `--f32 --out tests/data/paper_table_f32.rs`).
 
+use rotorid::core::parametrization::Structure;
+use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::{BearingTable, TableView, Terms};
+use rotorid::estimate::auto_scaling;
 use rotorid::model::RotorModel;
 use rotorid::tables::grid::uniform_rad_s;
 use rotorid::tables::{build, ModelTable, Scalar};
@@ -68,6 +71,34 @@ fn included_tables_equal_the_blob_bit_for_bit() {
     assert_eq!(paper32::N_NODES, paper64::N_NODES);
     paper64::TABLE.validate().unwrap();
     paper32::TABLE.validate().unwrap();
+    // The identification set-up: the default structure, the scaling at the
+    // top of the grid, the identifier type and its sizes.
+    let top = *t.speeds().last().unwrap();
+    let scaling = auto_scaling(&RotorModel::paper(), top);
+    assert_eq!(t.scaling, scaling);
+    assert_eq!(paper64::STRUCTURE, Structure::physical(1));
+    assert_eq!(paper32::STRUCTURE, Structure::physical(1));
+    assert_eq!(paper64::SCALING, scaling);
+    assert_eq!(
+        paper32::SCALING,
+        ColumnScaling::<f32>::new(scaling.stiffness, scaling.omega_ref, scaling.unbalance).unwrap()
+    );
+    assert_eq!(paper64::TABLE.structure, paper64::STRUCTURE);
+    assert_eq!(paper32::TABLE.scaling, paper32::SCALING);
+    assert_eq!(
+        (
+            paper64::NQ,
+            paper64::NP,
+            paper64::NS,
+            paper64::M,
+            paper64::N
+        ),
+        (4, 3, 4, 22, 8)
+    );
+    assert_eq!(paper32::Id::STRUCTURE, paper32::STRUCTURE);
+    assert_eq!(paper64::Id::ORDER, 1);
+    let id = paper32::Id::from_table(&paper32::TABLE).unwrap();
+    assert_eq!(id.config().scaling, paper32::SCALING);
     assert_eq!(paper64::TABLE.n_poles_a, t.poles.a.len());
     assert_eq!(paper64::TABLE.n_poles_b, t.poles.b.len());
     assert!(

@@ -43,13 +43,13 @@
 
 use crate::parametrization::{
     bearing_estimate, unbalance_estimate, BearingEstimate, Formulation, ParamError, Structure,
-    UnbalanceEstimate,
+    UnbalanceEstimate, MAX_ORDER,
 };
 use crate::qrdrls::{self, FilterError};
 use crate::regressor::{self, Equations, RegressorError};
 use crate::scalar::Real;
 use crate::scaling::ColumnScaling;
-use crate::table::{BearingTable, TableError};
+use crate::table::{BearingTable, TableError, TableSetup};
 use core::fmt;
 use nalgebra::ComplexField;
 use num_complex::Complex;
@@ -62,6 +62,14 @@ pub enum IdentifyError {
     /// Sizes (`M`, `N`, buffers, bearing or plane index) do not match the
     /// structure, or the field type does not match the formulation.
     Dimension,
+    /// The configuration's structure is not the one the identifier's type
+    /// determines ([`Identifier::STRUCTURE`]).
+    Structure {
+        /// The structure of the type (from `F`, `NQ`, `NP`, `M`).
+        expected: Structure,
+        /// The structure asked for.
+        found: Structure,
+    },
     /// Polynomial order outside `1..=MAX_ORDER`.
     InvalidOrder,
     /// Negative speed.
@@ -81,6 +89,11 @@ impl fmt::Display for IdentifyError {
             IdentifyError::Dimension => {
                 f.write_str("sizes do not match the model structure (M, N, bearings, planes)")
             }
+            IdentifyError::Structure { expected, found } => write!(
+                f,
+                "structure {:?} order {} asked for, but the identifier's type is {:?} order {}",
+                found.formulation, found.order, expected.formulation, expected.order
+            ),
             IdentifyError::InvalidOrder => f.write_str("polynomial order out of range"),
             IdentifyError::InvalidSpeed => f.write_str("speed must be >= 0"),
             IdentifyError::InvalidConfig => {
@@ -197,6 +210,63 @@ pub struct Config<T> {
 }
 
 impl<T: Real> Config<T> {
+    /// The defaults for `structure` and `scaling`: `lambda = 0.999`,
+    /// `delta = 1e-7` (the SPEC's), no row normalisation, the default
+    /// steady-running guard ([`SteadyPolicy::default_guard`]). Change them
+    /// with the `with_*` methods:
+    ///
+    /// ```
+    /// use rotorid_core::identify::{Config, SteadyPolicy};
+    /// use rotorid_core::parametrization::Structure;
+    /// use rotorid_core::scaling::ColumnScaling;
+    ///
+    /// let c = Config::<f32>::new(Structure::physical(1), ColumnScaling::identity())
+    ///     .with_lambda(0.99)
+    ///     .with_steady(SteadyPolicy::off());
+    /// assert_eq!((c.lambda, c.delta, c.normalise_rows), (0.99, 1e-7, false));
+    /// assert!(c.validate().is_ok());
+    /// ```
+    pub fn new(structure: Structure, scaling: ColumnScaling<T>) -> Self {
+        Config {
+            structure,
+            lambda: T::lit(0.999),
+            delta: T::lit(1e-7),
+            scaling,
+            normalise_rows: false,
+            steady: SteadyPolicy::default_guard(),
+        }
+    }
+
+    /// With forgetting factor `lambda` (in `(0, 1]`, checked by [`Self::validate`]).
+    pub fn with_lambda(mut self, lambda: T) -> Self {
+        self.lambda = lambda;
+        self
+    }
+
+    /// With regularisation `delta` (`R(0) = sqrt(delta) I`, finite and > 0).
+    pub fn with_delta(mut self, delta: T) -> Self {
+        self.delta = delta;
+        self
+    }
+
+    /// With another column scaling.
+    pub fn with_scaling(mut self, scaling: ColumnScaling<T>) -> Self {
+        self.scaling = scaling;
+        self
+    }
+
+    /// With row normalisation on or off (see [`Config::normalise_rows`]).
+    pub fn with_normalise_rows(mut self, normalise_rows: bool) -> Self {
+        self.normalise_rows = normalise_rows;
+        self
+    }
+
+    /// With another steady-running guard.
+    pub fn with_steady(mut self, steady: SteadyPolicy<T>) -> Self {
+        self.steady = steady;
+        self
+    }
+
     /// Checks `lambda`, `delta`, the order and the guard thresholds.
     pub fn validate(&self) -> Result<(), IdentifyError> {
         self.structure.validate()?;
@@ -485,8 +555,72 @@ pub struct Estimates<T, const NQ: usize, const NP: usize> {
 /// The firmware identifier: `NQ = 2 N_b` channels, `NP` planes, `M`
 /// unknowns, `N` rows per update, all fixed at compile time, inline storage.
 /// `F = Complex<T>` for the paper structure ([`PaperIdentifier`]), `F = T`
-/// for the physical one ([`PhysicalIdentifier`]); [`Identifier::new`]
-/// checks at run time that `M` and `N` match the chosen structure.
+/// for the physical one ([`PhysicalIdentifier`]).
+///
+/// The type determines the structure: the formulation comes from `F`, and
+/// `M = per_bearing NQ/2 + per_plane NP` fixes the order
+/// ([`Self::STRUCTURE`], [`Self::ORDER`]). A type whose `NQ` is odd or
+/// zero, whose `N` is not `NQ` (paper) or `2 NQ` (physical), or whose `M`
+/// fits no order in `1..=MAX_ORDER` does not compile. `rotorid tables`
+/// writes the right type as `type Id` into the generated Rust source.
+///
+/// # Firmware in four lines
+///
+/// With a table generated by `rotorid tables --out paper_table_f32.rs --f32`
+/// (it defines `TABLE`, `STRUCTURE`, `SCALING` and `type Id`):
+///
+/// ```
+/// # use rotorid_core::identify::{Config, IdentifyError};
+/// # use rotorid_core::Complex;
+/// # mod generated { include!("../../tests/data/paper_table_f32.rs"); }
+/// # use generated::{Id, SCALING, STRUCTURE, TABLE};
+/// # fn main() -> Result<(), IdentifyError> {
+/// # let (omega, q) = (700.0f32, [Complex::new(1e-6f32, 2e-7); 4]);
+/// let mut id = Id::new(Config::new(STRUCTURE, SCALING))?; // or Id::from_table(&TABLE)
+/// id.update(&TABLE, omega, &q)?;
+/// let est = id.estimates(omega)?;
+/// # let _ = (est.bearings[0].k, est.unbalance[2].me);
+/// # assert_eq!(Id::STRUCTURE, STRUCTURE);
+/// # assert_eq!(Id::from_table(&TABLE)?.config(), id.config());
+/// # Ok(())
+/// # }
+/// ```
+///
+/// Written out (`include!` the generated file into a module of its own):
+///
+/// ```
+/// use rotorid_core::identify::{Config, IdentifyError};
+/// use rotorid_core::Complex;
+///
+/// mod table {
+///     // TABLE, STRUCTURE, SCALING, type Id
+///     include!("../../tests/data/paper_table_f32.rs");
+/// }
+/// use table::{Id, SCALING, STRUCTURE, TABLE};
+///
+/// fn main() -> Result<(), IdentifyError> {
+///     let mut id = Id::new(Config::new(STRUCTURE, SCALING))?;
+///     let (omega, q) = (700.0f32, [Complex::new(1e-6f32, 2e-7); 4]); // rad/s, m
+///     id.update(&TABLE, omega, &q)?;
+///     let est = id.estimates(omega)?;
+///     let (k_yy, me) = (est.bearings[0].k[0], est.unbalance[0].me);
+///     # let _ = (k_yy, me);
+///     assert_eq!(Id::ORDER, 1); // the table was written for `physical` 1
+///     Ok(())
+/// }
+/// ```
+///
+/// A wrong `M` (22 is `physical` 1 for 2 bearings and 3 planes) is a
+/// compile error, not a run-time one:
+///
+/// ```compile_fail
+/// use rotorid_core::identify::{Config, PhysicalIdentifier};
+/// use rotorid_core::parametrization::Structure;
+/// use rotorid_core::scaling::ColumnScaling;
+///
+/// let config = Config::<f32>::new(Structure::physical(1), ColumnScaling::identity());
+/// let id = PhysicalIdentifier::<f32, 4, 3, 21, 8>::new(config);
+/// ```
 #[derive(Debug, Clone)]
 pub struct Identifier<T, F, const NQ: usize, const NP: usize, const M: usize, const N: usize> {
     config: Config<T>,
@@ -503,15 +637,71 @@ pub type PaperIdentifier<T, const NQ: usize, const NP: usize, const M: usize, co
 pub type PhysicalIdentifier<T, const NQ: usize, const NP: usize, const M: usize, const N: usize> =
     Identifier<T, T, NQ, NP, M, N>;
 
+/// The structure of formulation `formulation` with `m` unknowns and `n`
+/// rows for `nq` channels and `np` planes; a compile-time error (in a const
+/// context) if there is none. Used by [`Identifier::STRUCTURE`].
+const fn structure_of(
+    formulation: Formulation,
+    nq: usize,
+    np: usize,
+    m: usize,
+    n: usize,
+) -> Structure {
+    assert!(
+        nq > 0 && nq % 2 == 0,
+        "Identifier: NQ = 2 N_b must be even and > 0"
+    );
+    let nb = nq / 2;
+    let mut order = 1;
+    let mut found = 0;
+    while order <= MAX_ORDER {
+        if (Structure { formulation, order }).n_unknowns(nb, np) == m {
+            found = order;
+        }
+        order += 1;
+    }
+    assert!(
+        found != 0,
+        "Identifier: M must be per_bearing * NQ/2 + per_plane * NP for an order in 1..=MAX_ORDER \
+         (paper: 4 (P+1) N_b + N_p; physical: 8 P N_b + 2 N_p)"
+    );
+    let s = Structure {
+        formulation,
+        order: found,
+    };
+    assert!(
+        n == s.n_rows(nb),
+        "Identifier: N must be NQ (paper, complex rows) or 2 NQ (physical, real rows)"
+    );
+    s
+}
+
 impl<T: Real, F: IdField<T>, const NQ: usize, const NP: usize, const M: usize, const N: usize>
     Identifier<T, F, NQ, NP, M, N>
 {
-    /// A fresh identifier. Errors: `Dimension` if `M`, `N` or the field do
-    /// not match `config.structure` for `NQ`, `NP`; `InvalidConfig`,
-    /// `InvalidOrder`.
+    /// The model structure the type determines: the formulation of `F`
+    /// ([`IdField::FORMULATION`]) and the order that gives `M` unknowns for
+    /// `NQ / 2` bearings and `NP` planes. Evaluating it (every constructor
+    /// does) fails to compile unless `NQ` is even and > 0, `M` fits an order
+    /// in `1..=MAX_ORDER` and `N` is the structure's number of rows.
+    pub const STRUCTURE: Structure = structure_of(F::FORMULATION, NQ, NP, M, N);
+
+    /// The polynomial order `P` of the bearing model (from `M`).
+    pub const ORDER: usize = Self::STRUCTURE.order;
+
+    /// A fresh identifier. The sizes are checked at compile time (see
+    /// [`Self::STRUCTURE`]); at run time `config.structure` must be
+    /// [`Self::STRUCTURE`] (else [`IdentifyError::Structure`]) and `lambda`,
+    /// `delta` and the guard in range ([`IdentifyError::InvalidConfig`]).
     pub fn new(config: Config<T>) -> Result<Self, IdentifyError> {
+        let structure = const { Self::STRUCTURE };
+        if config.structure != structure {
+            return Err(IdentifyError::Structure {
+                expected: structure,
+                found: config.structure,
+            });
+        }
         config.validate()?;
-        check_sizes::<T, F>(&config.structure, NQ, NP, M, N)?;
         let mut s = Identifier {
             config,
             r: [[F::zero(); M]; M],
@@ -520,6 +710,21 @@ impl<T: Real, F: IdField<T>, const NQ: usize, const NP: usize, const M: usize, c
         };
         s.kernel().init()?;
         Ok(s)
+    }
+
+    /// A fresh identifier with the default configuration
+    /// ([`Config::new`]) for the structure of the type and `scaling`.
+    pub fn with_scaling(scaling: ColumnScaling<T>) -> Result<Self, IdentifyError> {
+        Self::new(Config::new(const { Self::STRUCTURE }, scaling))
+    }
+
+    /// A fresh identifier with the default configuration for the structure
+    /// and scaling the table was written for ([`TableSetup`]: a generated
+    /// `TABLE` or a parsed [`crate::table::TableView`]);
+    /// [`IdentifyError::Structure`] if the table was written for another
+    /// structure than the type's.
+    pub fn from_table(table: &impl TableSetup<T>) -> Result<Self, IdentifyError> {
+        Self::new(Config::new(table.structure(), table.scaling()))
     }
 
     fn kernel(&mut self) -> Kernel<'_, T, F> {
@@ -809,16 +1014,32 @@ mod tests {
     }
 
     #[test]
-    fn sizes_and_field_are_checked() {
+    fn sizes_determine_the_structure_and_the_config_must_agree() {
+        // Wrong `M`, `N` or `NQ` do not compile (see the `compile_fail`
+        // doctest of `Identifier`); the type names its structure.
+        assert_eq!(
+            PaperIdentifier::<f64, NQ, NP, 19, 4>::STRUCTURE,
+            Structure::paper(1)
+        );
+        assert_eq!(PaperIdentifier::<f64, NQ, NP, 27, 4>::ORDER, 2);
+        assert_eq!(
+            PhysicalIdentifier::<f32, NQ, NP, 54, 8>::STRUCTURE,
+            Structure::physical(3)
+        );
+        assert_eq!(PhysicalIdentifier::<f32, 2, 0, 64, 4>::ORDER, 8);
+        assert_eq!(PaperIdentifier::<f32, 2, 0, 8, 2>::ORDER, 1);
         let c = config::<f64>(Structure::paper(1), 0.99, 1e-3);
         assert_eq!(
-            PaperIdentifier::<f64, NQ, NP, 18, 4>::new(c).err(),
-            Some(IdentifyError::Dimension)
+            PaperIdentifier::<f64, NQ, NP, 27, 4>::new(c).err(),
+            Some(IdentifyError::Structure {
+                expected: Structure::paper(2),
+                found: Structure::paper(1)
+            })
         );
-        assert_eq!(
-            PhysicalIdentifier::<f64, NQ, NP, 19, 4>::new(c).err(),
-            Some(IdentifyError::Dimension)
-        );
+        assert!(matches!(
+            PhysicalIdentifier::<f64, NQ, NP, 22, 8>::new(c),
+            Err(IdentifyError::Structure { .. })
+        ));
         let mut bad = c;
         bad.lambda = 1.5;
         assert_eq!(
@@ -837,6 +1058,42 @@ mod tests {
             1e-3
         ))
         .is_ok());
+        // The defaults of `Config::new` and `with_scaling`.
+        let sc = ColumnScaling::<f32>::new(5e7, 1600.0, 1e-3).unwrap();
+        let id = PhysicalIdentifier::<f32, NQ, NP, 22, 8>::with_scaling(sc).unwrap();
+        assert_eq!(
+            *id.config(),
+            Config {
+                structure: Structure::physical(1),
+                lambda: 0.999,
+                delta: 1e-7,
+                scaling: sc,
+                normalise_rows: false,
+                steady: SteadyPolicy::default_guard(),
+            }
+        );
+        let c = Config::new(Structure::paper(1), sc)
+            .with_lambda(0.9)
+            .with_delta(1e-3)
+            .with_normalise_rows(true)
+            .with_steady(SteadyPolicy::off())
+            .with_scaling(ColumnScaling::identity());
+        assert_eq!(
+            (c.lambda, c.delta, c.normalise_rows, c.steady, c.scaling),
+            (
+                0.9,
+                1e-3,
+                true,
+                SteadyPolicy::off(),
+                ColumnScaling::identity()
+            )
+        );
+        assert_eq!(
+            Config::new(Structure::paper(1), sc)
+                .with_lambda(0.0)
+                .validate(),
+            Err(IdentifyError::InvalidConfig)
+        );
     }
 
     #[test]

@@ -690,6 +690,27 @@ pub struct UpdateInfo<F: ComplexField, const N: usize> {
 ///
 /// `Clone` and `PartialEq` compare the whole state (factor, right-hand
 /// side, prior weights, `lambda`, `delta`).
+///
+/// Set up, fold in one block of `N` rows, read the weights:
+///
+/// ```
+/// use rotorid_core::qrdrls::VectorQrdRls;
+///
+/// // Two real unknowns, two equations per step (lambda 1, delta 1e-12).
+/// let mut filter = VectorQrdRls::<f64, 2, 2>::new(1.0, 1e-12).unwrap();
+/// let u = [[1.0, 0.5], [0.0, 3.0]];
+/// let d = [1.5, -3.0]; // u w for w = [2, -1]
+/// let info = filter.update(&u, &d).unwrap();
+/// let w = filter.weights().unwrap();
+/// assert!((w[0] - 2.0).abs() < 1e-9 && (w[1] + 1.0).abs() < 1e-9);
+/// assert!(info.xi.iter().all(|e| e.abs() < 1e-9)); // a-posteriori errors
+/// ```
+///
+/// `M = 0` does not compile:
+///
+/// ```compile_fail
+/// let f = rotorid_core::qrdrls::VectorQrdRls::<f64, 0, 1>::new(1.0, 1.0);
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct VectorQrdRls<F: ComplexField, const M: usize, const N: usize> {
     r: [[F; M]; M],
@@ -707,7 +728,7 @@ where
     /// A fresh filter with zero prior weights: `R = sqrt(delta) I`, `p = 0`.
     ///
     /// Errors: `InvalidLambda` (`lambda` not in `(0, 1]`), `InvalidDelta`
-    /// (`delta` not finite and positive), `Dimension` (`M = 0`).
+    /// (`delta` not finite and positive). `M = 0` is a compile error.
     pub fn new(lambda: T, delta: T) -> Result<Self, FilterError> {
         Self::with_weights(lambda, delta, &[F::zero(); M])
     }
@@ -717,6 +738,7 @@ where
     ///
     /// Errors: as [`VectorQrdRls::new`], and `NonFinite` for `w0`.
     pub fn with_weights(lambda: T, delta: T, w0: &[F; M]) -> Result<Self, FilterError> {
+        const { assert!(M > 0, "VectorQrdRls: M (unknowns) must be > 0") };
         validate_lambda(lambda)?;
         let mut s = Self {
             r: [[F::zero(); M]; M],
@@ -901,10 +923,6 @@ mod tests {
         assert_eq!(
             VectorQrdRls::<f32, 2, 1>::new(1.0, f32::INFINITY).unwrap_err(),
             FilterError::InvalidDelta
-        );
-        assert_eq!(
-            VectorQrdRls::<f32, 0, 1>::new(1.0, 1.0).unwrap_err(),
-            FilterError::Dimension
         );
         assert_eq!(
             VectorQrdRls::<f32, 2, 1>::with_weights(1.0, 1.0, &[f32::NAN, 0.0]).unwrap_err(),

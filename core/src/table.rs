@@ -70,14 +70,19 @@
 //! speeds and within [`POLE_GUARD`] (relative) of a pole is
 //! [`TableError::Pole`].
 //!
-//! # Binary blob (format version 1), little-endian, byte by byte
+//! # Binary blob (format version 2), little-endian, byte by byte
 //!
-//! `w` is the scalar width (4 for f32, 8 for f64), `NQ = 2 N_b`.
+//! `w` is the scalar width (4 for f32, 8 for f64), `NQ = 2 N_b`. Besides the
+//! reduced model a blob carries the identification it was written for: the
+//! model structure ([`Structure`]: formulation and order) and the column
+//! scaling ([`ColumnScaling`]: three reference magnitudes, always stored as
+//! f64 and rounded once to the reader's `T`), so that firmware sets up its
+//! identifier from the blob alone ([`TableSetup`]).
 //!
 //! | offset | size | field |
 //! |---|---|---|
 //! | 0 | 8 | magic `b"ROTORTBL"` |
-//! | 8 | 2 | format version, u16 = 1 |
+//! | 8 | 2 | format version, u16 = 2 |
 //! | 10 | 1 | scalar type, u8: 4 = f32, 8 = f64 (its width in bytes) |
 //! | 11 | 1 | reserved, u8 = 0 |
 //! | 12 | 2 | number of shaft nodes of the model, u16 (>= 2) |
@@ -86,13 +91,24 @@
 //! | 18 | 1 | N_ka, number of poles of `A`, u8 (0..=[`MAX_POLES`]) |
 //! | 19 | 1 | N_kb, number of poles of `B`, u8 (0..=[`MAX_POLES`]) |
 //! | 20 | 4 | N_s, number of speeds, u32 (>= 1) |
-//! | 24 | 2 N_p | plane nodes, u16 each, 1-based, distinct |
-//! | 24 + 2 N_p | 2 N_b | bearing nodes, u16 each, 1-based, strictly increasing |
-//! | P = 24 + 2 (N_p + N_b) | w N_ka | poles of `A` (rad/s), finite, > 0, strictly increasing |
+//! | 24 | 1 | formulation, u8: 1 = paper (complex `Z_p`), 2 = physical (real `K_p`, `C_p`) |
+//! | 25 | 1 | order `P`, u8 (1..=[`MAX_ORDER`]) |
+//! | 26 | 6 | reserved, 0 |
+//! | 32 | 8 | scaling: reference stiffness `s_K` (N/m), f64, finite, > 0 |
+//! | 40 | 8 | scaling: reference speed `Omega_r` (rad/s), f64, finite, > 0 |
+//! | 48 | 8 | scaling: reference unbalance `s_a` (kg m), f64, finite, > 0 |
+//! | 56 | 2 N_p | plane nodes, u16 each, 1-based, distinct |
+//! | 56 + 2 N_p | 2 N_b | bearing nodes, u16 each, 1-based, strictly increasing |
+//! | P = 56 + 2 (N_p + N_b) | w N_ka | poles of `A` (rad/s), finite, > 0, strictly increasing |
 //! | P + w N_ka | w N_kb | poles of `B` (rad/s), finite, > 0, strictly increasing |
 //! | S = P + w (N_ka + N_kb) | w N_s | speeds (rad/s), finite, > 0, strictly increasing |
 //! | D = S + w N_s | N_s R | per speed: `A` row-major (NQ x NQ), then `B` row-major (NQ x N_p), each entry `re` then `im`; `R = 2 w (NQ^2 + NQ N_p)` |
 //! | D + N_s R | 4 | CRC-32 (IEEE, [`crate::crc32`]) of every byte before it, u32 |
+//!
+//! The scaling must also be finite and > 0 once rounded to the reader's
+//! `T` ([`ColumnScaling::new`]). Version 1 (the same without bytes 24..56)
+//! is refused with [`TableError::UnsupportedVersion`]; rebuild such a blob
+//! with `rotorid tables`.
 //!
 //! The total length is exactly `D + N_s R + 4`; anything else is rejected.
 //! Every matrix entry must be finite.
@@ -107,14 +123,37 @@ use core::marker::PhantomData;
 use num_complex::Complex;
 
 use crate::crc32::crc32;
+use crate::parametrization::{Formulation, Structure, MAX_ORDER};
+use crate::scaling::ColumnScaling;
 use crate::Real;
 
 /// Magic bytes at offset 0 of a table blob.
 pub const MAGIC: [u8; 8] = *b"ROTORTBL";
-/// The blob format version this reader understands.
-pub const FORMAT_VERSION: u16 = 1;
+/// The blob format version this reader understands (and the writer writes).
+pub const FORMAT_VERSION: u16 = 2;
 /// Length of the fixed header (bytes), before the node lists.
-pub const HEADER_LEN: usize = 24;
+pub const HEADER_LEN: usize = 56;
+/// Formulation code of [`Formulation::Paper`] at byte 24.
+pub const FORMULATION_PAPER: u8 = 1;
+/// Formulation code of [`Formulation::Physical`] at byte 24.
+pub const FORMULATION_PHYSICAL: u8 = 2;
+
+/// The blob code of a formulation (byte 24).
+pub const fn formulation_code(f: Formulation) -> u8 {
+    match f {
+        Formulation::Paper => FORMULATION_PAPER,
+        Formulation::Physical => FORMULATION_PHYSICAL,
+    }
+}
+
+/// The formulation of a blob code, `None` for an unknown code.
+pub const fn formulation_from_code(code: u8) -> Option<Formulation> {
+    match code {
+        FORMULATION_PAPER => Some(Formulation::Paper),
+        FORMULATION_PHYSICAL => Some(Formulation::Physical),
+        _ => None,
+    }
+}
 /// Largest number of poles a table may carry.
 pub const MAX_POLES: usize = 16;
 /// Relative half-width of the band around each pole where a lookup returns
@@ -140,8 +179,14 @@ pub enum TableError {
     },
     /// The first 8 bytes are not [`MAGIC`].
     BadMagic,
-    /// A format version this reader does not know.
-    UnsupportedVersion(u16),
+    /// A format version this reader does not read (version 1 blobs carry
+    /// no structure and scaling: rebuild them with `rotorid tables`).
+    UnsupportedVersion {
+        /// Version found in the blob.
+        found: u16,
+        /// The version this reader reads ([`FORMAT_VERSION`]).
+        expected: u16,
+    },
     /// The blob's scalar type (byte 10) is not the reader's `T`
     /// (or is neither 4 nor 8).
     ScalarType {
@@ -152,6 +197,12 @@ pub enum TableError {
     },
     /// A reserved byte is not zero.
     Reserved,
+    /// The model structure (formulation code, order) is unknown or out of
+    /// range.
+    BadStructure,
+    /// A reference magnitude of the column scaling is not finite and > 0
+    /// (in f64, or once rounded to the reader's scalar type).
+    BadScaling,
     /// A count is zero where it must not be, above its limit, or the sizes
     /// overflow.
     BadSize,
@@ -200,12 +251,31 @@ impl fmt::Display for TableError {
                 )
             }
             TableError::BadMagic => write!(f, "not a rotorid table (bad magic)"),
-            TableError::UnsupportedVersion(v) => write!(f, "unsupported table format version {v}"),
+            TableError::UnsupportedVersion { found, expected } => {
+                if *found < *expected {
+                    write!(
+                        f,
+                        "table blob format version {found} is no longer read; rebuild it with `rotorid tables`"
+                    )
+                } else {
+                    write!(
+                        f,
+                        "table blob format version {found} is not known to this reader (it reads version {expected})"
+                    )
+                }
+            }
             TableError::ScalarType { expected, found } => write!(
                 f,
                 "table scalar type code {found}, reader expects {expected} (4 = f32, 8 = f64)"
             ),
             TableError::Reserved => write!(f, "reserved header byte is not zero"),
+            TableError::BadStructure => write!(
+                f,
+                "table model structure invalid (formulation code 1 = paper, 2 = physical; order 1..={MAX_ORDER})"
+            ),
+            TableError::BadScaling => {
+                write!(f, "table column scaling not finite and > 0 in the reader's type")
+            }
             TableError::BadSize => write!(f, "table sizes out of range"),
             TableError::Length { expected, found } => {
                 write!(f, "table blob has {found} bytes, header implies {expected}")
@@ -289,6 +359,17 @@ pub trait BearingTable<T, const NQ: usize, const NP: usize> {
     fn terms(&self, omega: T) -> Result<Terms<T, NQ, NP>, TableError>;
     /// First and last grid speed (rad/s).
     fn speed_range(&self) -> (T, T);
+}
+
+/// What a table says about the identification it was written for: the
+/// model structure and the column scaling (`rotorid tables --formulation
+/// .. --order ..` writes both). [`crate::identify::Identifier::from_table`]
+/// sets an identifier up from it.
+pub trait TableSetup<T> {
+    /// The model structure (formulation and order).
+    fn structure(&self) -> Structure;
+    /// The column scaling (reference stiffness, speed, unbalance).
+    fn scaling(&self) -> ColumnScaling<T>;
 }
 
 /// Where a speed falls on a grid.
@@ -486,6 +567,9 @@ fn increasing_positive<T: Real>(n: usize, get: impl Fn(usize) -> Option<T>) -> O
 #[derive(Debug, Clone, Copy)]
 pub struct TableView<'a, T> {
     bytes: &'a [u8],
+    structure: Structure,
+    scaling: ColumnScaling<T>,
+    stored_scaling: ColumnScaling<f64>,
     n_nodes: u16,
     n_b: usize,
     n_p: usize,
@@ -566,24 +650,83 @@ impl<'a, T: TableScalar> TableView<'a, T> {
     /// version, scalar type equal to `T`, reserved byte, counts within their
     /// limits, exact length, CRC, node numbers (1..=nodes, bearings strictly
     /// increasing, planes distinct), poles and speeds finite, > 0 and
-    /// strictly increasing, every matrix entry finite.
+    /// strictly increasing, every matrix entry finite, and the header's
+    /// structure (formulation code, order) and scaling (finite, > 0 in f64
+    /// and in `T`). A blob of another format version is
+    /// [`TableError::UnsupportedVersion`] whatever its length.
+    ///
+    /// ```
+    /// use rotorid_core::table::{BearingTable, TableError, TableView, Terms};
+    /// use rotorid_core::Structure;
+    ///
+    /// // A tiny f64 blob: 2 shaft nodes, 1 bearing at node 1 (2 channels),
+    /// // no planes, no poles, 2 speeds; written for `physical` 1.
+    /// let mut b = Vec::new();
+    /// b.extend_from_slice(b"ROTORTBL");
+    /// b.extend_from_slice(&2u16.to_le_bytes()); // format version
+    /// b.extend_from_slice(&[8, 0]); // f64, reserved
+    /// for v in [2u16, 1, 0] {
+    ///     b.extend_from_slice(&v.to_le_bytes()); // nodes, N_b, N_p
+    /// }
+    /// b.extend_from_slice(&[0, 0]); // poles of A, of B
+    /// b.extend_from_slice(&2u32.to_le_bytes()); // N_s
+    /// b.extend_from_slice(&[2, 1, 0, 0, 0, 0, 0, 0]); // physical, order 1, reserved
+    /// for x in [2.1e7f64, 200.0, 3.4e-4] {
+    ///     b.extend_from_slice(&x.to_le_bytes()); // scaling: N/m, rad/s, kg m
+    /// }
+    /// b.extend_from_slice(&1u16.to_le_bytes()); // bearing node
+    /// for w in [100.0f64, 200.0] {
+    ///     b.extend_from_slice(&w.to_le_bytes()); // speeds (rad/s)
+    /// }
+    /// for w in [100.0f64, 200.0] {
+    ///     // A = -w^2 m I of a rigid mass m = 2 kg, row-major, re then im
+    ///     for (r, c) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+    ///         let a = if r == c { -2.0 * w * w } else { 0.0 };
+    ///         b.extend_from_slice(&a.to_le_bytes());
+    ///         b.extend_from_slice(&0f64.to_le_bytes());
+    ///     }
+    /// }
+    /// let crc = rotorid_core::crc32::crc32(&b);
+    /// b.extend_from_slice(&crc.to_le_bytes());
+    ///
+    /// let view = TableView::<f64>::parse(&b)?;
+    /// assert_eq!((view.n_bearings(), view.n_planes(), view.n_speeds()), (1, 0, 2));
+    /// assert_eq!(view.structure(), Structure::physical(1));
+    /// assert_eq!(view.scaling().omega_ref, 200.0);
+    /// // Between grid speeds: pole-factored linear in A / w^2, exact here.
+    /// let t: Terms<f64, 2, 0> = view.terms(150.0)?;
+    /// assert!((t.a[0][0].re + 2.0 * 150.0 * 150.0).abs() < 1e-9);
+    /// // Damage is a typed error, never a panic.
+    /// b[60] ^= 1;
+    /// assert!(matches!(TableView::<f64>::parse(&b), Err(TableError::Crc { .. })));
+    /// b[8] = 1;
+    /// assert_eq!(
+    ///     TableView::<f64>::parse(&b).unwrap_err().to_string(),
+    ///     "table blob format version 1 is no longer read; rebuild it with `rotorid tables`"
+    /// );
+    /// # Ok::<(), TableError>(())
+    /// ```
     pub fn parse(bytes: &'a [u8]) -> Result<Self, TableError> {
-        if bytes.len() < HEADER_LEN {
-            return Err(TableError::Truncated {
-                needed: HEADER_LEN,
-                found: bytes.len(),
-            });
-        }
         let hdr = TableError::Truncated {
             needed: HEADER_LEN,
             found: bytes.len(),
         };
-        if bytes.get(0..8) != Some(&MAGIC[..]) {
+        // Magic and version first (as far as present), so that a blob of
+        // another version is named as such whatever its length.
+        let n_magic = bytes.len().min(MAGIC.len());
+        if bytes.get(..n_magic) != MAGIC.get(..n_magic) {
             return Err(TableError::BadMagic);
         }
-        let version = read_u16(bytes, 8).ok_or(hdr)?;
-        if version != FORMAT_VERSION {
-            return Err(TableError::UnsupportedVersion(version));
+        if let Some(version) = read_u16(bytes, 8) {
+            if version != FORMAT_VERSION {
+                return Err(TableError::UnsupportedVersion {
+                    found: version,
+                    expected: FORMAT_VERSION,
+                });
+            }
+        }
+        if bytes.len() < HEADER_LEN {
+            return Err(hdr);
         }
         let scalar = *bytes.get(10).ok_or(hdr)?;
         if scalar != T::TYPE_CODE {
@@ -592,9 +735,29 @@ impl<'a, T: TableScalar> TableView<'a, T> {
                 found: scalar,
             });
         }
-        if *bytes.get(11).ok_or(hdr)? != 0 {
+        if *bytes.get(11).ok_or(hdr)? != 0 || bytes.get(26..32).ok_or(hdr)?.iter().any(|&b| b != 0)
+        {
             return Err(TableError::Reserved);
         }
+        let formulation =
+            formulation_from_code(*bytes.get(24).ok_or(hdr)?).ok_or(TableError::BadStructure)?;
+        let structure = Structure {
+            formulation,
+            order: *bytes.get(25).ok_or(hdr)? as usize,
+        };
+        structure.validate().map_err(|_| TableError::BadStructure)?;
+        let reference = |off: usize| read_t::<f64>(bytes, off).ok_or(hdr);
+        let stored_scaling = ColumnScaling::<f64> {
+            stiffness: reference(32)?,
+            omega_ref: reference(40)?,
+            unbalance: reference(48)?,
+        };
+        let scaling = ColumnScaling::<T>::new(
+            stored_scaling.stiffness,
+            stored_scaling.omega_ref,
+            stored_scaling.unbalance,
+        )
+        .map_err(|_| TableError::BadScaling)?;
         let n_nodes = read_u16(bytes, 12).ok_or(hdr)?;
         let n_b = read_u16(bytes, 14).ok_or(hdr)? as usize;
         let n_p = read_u16(bytes, 16).ok_or(hdr)? as usize;
@@ -627,6 +790,9 @@ impl<'a, T: TableScalar> TableView<'a, T> {
         }
         let view = TableView {
             bytes,
+            structure,
+            scaling,
+            stored_scaling,
             n_nodes,
             n_b,
             n_p,
@@ -697,6 +863,19 @@ impl<'a, T: TableScalar> TableView<'a, T> {
         Ok(())
     }
 
+    /// The model structure the table was written for (header bytes 24, 25).
+    pub fn structure(&self) -> Structure {
+        self.structure
+    }
+    /// The column scaling the table was written for (header bytes 32..56),
+    /// rounded once to `T`.
+    pub fn scaling(&self) -> ColumnScaling<T> {
+        self.scaling
+    }
+    /// The column scaling as stored in the blob (f64, before rounding to `T`).
+    pub fn stored_scaling(&self) -> ColumnScaling<f64> {
+        self.stored_scaling
+    }
     /// Number of bearings N_b.
     pub fn n_bearings(&self) -> usize {
         self.n_b
@@ -846,6 +1025,15 @@ impl<T: TableScalar, const NQ: usize, const NP: usize> BearingTable<T, NQ, NP>
     }
 }
 
+impl<T: TableScalar> TableSetup<T> for TableView<'_, T> {
+    fn structure(&self) -> Structure {
+        self.structure
+    }
+    fn scaling(&self) -> ColumnScaling<T> {
+        self.scaling
+    }
+}
+
 /// An owned table with compile-time sizes: `NQ = 2 N_b` channels, `NP`
 /// planes, `NS` speeds. This is what a generated Rust source file defines
 /// (as a `static`, for `include!` in firmware); [`Table::from_view`] copies a
@@ -853,6 +1041,10 @@ impl<T: TableScalar, const NQ: usize, const NP: usize> BearingTable<T, NQ, NP>
 /// large ones as `static`s, not on a small stack.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table<T, const NQ: usize, const NP: usize, const NS: usize> {
+    /// The model structure the table was written for.
+    pub structure: Structure,
+    /// The column scaling the table was written for.
+    pub scaling: ColumnScaling<T>,
     /// Poles of `A` (rad/s); the first `n_poles_a` are used, the rest are zero.
     pub poles_a: [T; MAX_POLES],
     /// Number of poles of `A` in use.
@@ -870,12 +1062,34 @@ pub struct Table<T, const NQ: usize, const NP: usize, const NS: usize> {
 }
 
 impl<T: Real, const NQ: usize, const NP: usize, const NS: usize> Table<T, NQ, NP, NS> {
-    /// Checks what [`TableView::parse`] checks of the values: `NQ` even and
-    /// non-zero, `NS >= 1`, poles and speeds finite, > 0, strictly
-    /// increasing, every entry finite.
+    /// `NQ` even and > 0, `NS >= 1`: checked at compile time wherever the
+    /// sizes matter.
+    const SIZES: () = {
+        assert!(
+            NQ > 0 && NQ % 2 == 0,
+            "Table: NQ = 2 N_b must be even and > 0"
+        );
+        assert!(NS > 0, "Table: NS must be > 0");
+    };
+
+    /// Checks what [`TableView::parse`] checks of the values: structure and
+    /// scaling valid, poles and speeds finite, > 0, strictly increasing,
+    /// every entry finite. (`NQ` even and non-zero and `NS >= 1` are
+    /// compile-time checks.)
     pub fn validate(&self) -> Result<(), TableError> {
-        if NQ == 0 || NQ % 2 != 0 || NS == 0 {
-            return Err(TableError::Dimension);
+        const { Self::SIZES };
+        self.structure
+            .validate()
+            .map_err(|_| TableError::BadStructure)?;
+        let sc = &self.scaling;
+        if !(sc.stiffness.is_finite()
+            && sc.stiffness > T::zero()
+            && sc.omega_ref.is_finite()
+            && sc.omega_ref > T::zero()
+            && sc.unbalance.is_finite()
+            && sc.unbalance > T::zero())
+        {
+            return Err(TableError::BadScaling);
         }
         for (poles, n) in [
             (&self.poles_a, self.n_poles_a),
@@ -912,11 +1126,14 @@ impl<T: Real, const NQ: usize, const NP: usize, const NS: usize> Table<T, NQ, NP
     where
         T: TableScalar,
     {
+        const { Self::SIZES };
         if NQ != view.n_channels() || NP != view.n_planes() || NS != view.n_speeds() {
             return Err(TableError::Dimension);
         }
         let z = Complex::new(T::zero(), T::zero());
         let mut t = Table {
+            structure: view.structure(),
+            scaling: view.scaling(),
             poles_a: view.poles_a(),
             n_poles_a: view.n_poles_a(),
             poles_b: view.poles_b(),
@@ -946,10 +1163,22 @@ impl<T: Real, const NQ: usize, const NP: usize, const NS: usize> Table<T, NQ, NP
     }
 }
 
+impl<T: Copy, const NQ: usize, const NP: usize, const NS: usize> TableSetup<T>
+    for Table<T, NQ, NP, NS>
+{
+    fn structure(&self) -> Structure {
+        self.structure
+    }
+    fn scaling(&self) -> ColumnScaling<T> {
+        self.scaling
+    }
+}
+
 impl<T: Real, const NQ: usize, const NP: usize, const NS: usize> BearingTable<T, NQ, NP>
     for Table<T, NQ, NP, NS>
 {
     fn terms(&self, omega: T) -> Result<Terms<T, NQ, NP>, TableError> {
+        const { Self::SIZES };
         lookup(
             NS,
             |i| self.speeds.get(i).copied(),

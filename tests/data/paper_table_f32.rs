@@ -8,9 +8,28 @@ pub const N_NODES: u16 = 27;
 pub const BEARING_NODES: [u16; 2] = [1, 27];
 /// Unbalance plane nodes (1-based), the columns of B.
 pub const PLANE_NODES: [u16; 3] = [5, 11, 21];
+/// Channels `NQ = 2 N_b`, unbalance planes `NP`, grid speeds `NS`.
+pub const NQ: usize = 4;
+/// Unbalance planes.
+pub const NP: usize = 3;
+/// Grid speeds.
+pub const NS: usize = 4;
+/// The model structure the table was written for (`--formulation physical --order 1`).
+pub const STRUCTURE: rotorid_core::parametrization::Structure = rotorid_core::parametrization::Structure::physical(1);
+/// Column scaling: reference stiffness (N/m), speed (rad/s), unbalance (kg m).
+#[allow(clippy::approx_constant, clippy::excessive_precision, clippy::unreadable_literal)]
+pub const SCALING: rotorid_core::scaling::ColumnScaling<f32> = rotorid_core::scaling::ColumnScaling { stiffness: 21449198.0, omega_ref: 785.3982, unbalance: 0.0006712524 };
+/// Unknowns `M` of the structure.
+pub const M: usize = STRUCTURE.n_unknowns(NQ / 2, NP);
+/// Rows `N` per update of the structure.
+pub const N: usize = STRUCTURE.n_rows(NQ / 2);
+/// The firmware identifier for this table: `Id::new(Config::new(STRUCTURE, SCALING))`.
+pub type Id = rotorid_core::identify::PhysicalIdentifier<f32, NQ, NP, M, N>;
 /// A (N/m) and B (1/s^2) per speed (rad/s), with the poles (rad/s) of the reduced model.
 #[allow(clippy::approx_constant, clippy::excessive_precision, clippy::unreadable_literal)]
-pub static TABLE: rotorid_core::table::Table<f32, 4, 3, 4> = rotorid_core::table::Table {
+pub static TABLE: rotorid_core::table::Table<f32, NQ, NP, NS> = rotorid_core::table::Table {
+    structure: STRUCTURE,
+    scaling: SCALING,
     poles_a: [712.9574, 718.3894, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
     n_poles_a: 2,
     poles_b: [718.3894, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],

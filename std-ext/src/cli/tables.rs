@@ -4,6 +4,7 @@
 //!
 //! ```text
 //! rotorid tables --model MODEL --out FILE [--rpm-min 50] [--rpm-max 15000] [--rpm-step 50] [--f32] [--adaptive TOL]
+//!                [--formulation physical|paper] [--order 1]
 //! ```
 //!
 //! * The output format follows the extension of `--out`: `.rs` writes Rust
@@ -15,12 +16,17 @@
 //!   `[rpm-min, rpm-max]` whose worst relative interpolation error of `A`
 //!   and `B`, on a 10x finer check grid, is at most `TOL` (`--rpm-step` is
 //!   then unused); the achieved error is printed.
+//! * `--formulation`, `--order` name the model structure the firmware will
+//!   identify (default `physical` 1). Blob and source carry it, with the
+//!   column scaling `rotorid::estimate::auto_scaling(model, top of the
+//!   grid)`; the source also defines the identifier type `Id`.
 //!
 //! One summary line goes to stdout.
 
 use clap::Args;
 
-use super::{load_model, CliError, RpmGridArgs};
+use super::{load_model, CliError, Formulation, RpmGridArgs};
+use crate::core::parametrization::{Structure, MAX_ORDER};
 use crate::tables::grid::AdaptiveOptions;
 use crate::tables::{build, build_adaptive, Scalar};
 use crate::units::{rad_s_to_rpm, rpm_to_rad_s};
@@ -44,10 +50,26 @@ pub struct TablesArgs {
     /// tolerance (checked on a 10x finer grid) instead of the uniform grid.
     #[arg(long, value_name = "TOL")]
     pub adaptive: Option<f64>,
+    /// Model structure the firmware identifies with (carried by the table).
+    #[arg(long, value_enum, default_value_t = Formulation::Physical)]
+    pub formulation: Formulation,
+    /// Polynomial order P of the bearing dynamic stiffness in Omega.
+    #[arg(long, default_value_t = 1, value_name = "P")]
+    pub order: usize,
 }
 
 /// Runs `rotorid tables`.
 pub fn run(args: &TablesArgs) -> Result<(), CliError> {
+    if !(1..=MAX_ORDER).contains(&args.order) {
+        return Err(CliError::new(format!(
+            "tables: --order must be in 1..={MAX_ORDER}, got {}",
+            args.order
+        )));
+    }
+    let structure = match args.formulation {
+        Formulation::Physical => Structure::physical(args.order),
+        Formulation::Paper => Structure::paper(args.order),
+    };
     let model = load_model(&args.model)?.model;
     let scalar = if args.f32 { Scalar::F32 } else { Scalar::F64 };
     let (table, note) = match args.adaptive {
@@ -84,6 +106,8 @@ pub fn run(args: &TablesArgs) -> Result<(), CliError> {
             (t, note)
         }
     };
+    // The scaling is the default's: auto_scaling at the top of the grid.
+    let table = table.with_structure(structure);
     let is_rust = args
         .out
         .extension()
@@ -96,11 +120,16 @@ pub fn run(args: &TablesArgs) -> Result<(), CliError> {
     std::fs::write(&args.out, &bytes)
         .map_err(|e| CliError::new(format!("cannot write {}: {e}", args.out.display())))?;
     println!(
-        "wrote {} ({} bytes, {}, {}): {} speeds {:.1}..{:.1} rpm, {} bearings, {} planes, poles of A at {:?} rpm, of B at {:?} rpm{note}",
+        "wrote {} ({} bytes, {}, {}, {} {}): {} speeds {:.1}..{:.1} rpm, {} bearings, {} planes, poles of A at {:?} rpm, of B at {:?} rpm{note}",
         args.out.display(),
         bytes.len(),
         if is_rust { "Rust source" } else { "blob" },
         scalar.rust_name(),
+        match structure.formulation {
+            crate::core::Formulation::Physical => "physical",
+            crate::core::Formulation::Paper => "paper",
+        },
+        structure.order,
         table.terms.len(),
         rad_s_to_rpm(table.terms.first().map_or(0.0, |t| t.omega)),
         rad_s_to_rpm(table.terms.last().map_or(0.0, |t| t.omega)),

@@ -219,43 +219,10 @@ pub struct Identification {
     pub check: Option<crate::estimate::refine::FitCheck>,
 }
 
-/// Reference magnitudes for the column scaling from the known part of the
-/// model (the shaft), never from the unknown bearings:
-///
-/// * stiffness `s_K = 48 E I / L^3`, the midspan stiffness of the shaft as a
-///   simply supported beam (length-weighted mean `E I`, total length `L`);
-/// * `omega_ref` = the given highest speed (rad/s);
-/// * unbalance `s_a = m_rotor * G / omega_ref` with the ISO 1940 balance
-///   grade `G = 6.3 mm/s` and `m_rotor` = shaft + disk mass.
-///
-/// For the paper rotor: `s_K` = 2.1e7 N/m, `s_a` = 3.4e-4 kg m at 15000 rpm.
-pub fn auto_scaling(model: &RotorModel, omega_ref: f64) -> ColumnScaling<f64> {
-    let mut len = 0.0;
-    let mut ei_l = 0.0;
-    let mut mass = 0.0;
-    for e in &model.shaft {
-        let (d_o, d_i) = (e.outer_diameter, e.inner_diameter);
-        let i = core::f64::consts::PI * (d_o.powi(4) - d_i.powi(4)) / 64.0;
-        let area = core::f64::consts::PI * (d_o * d_o - d_i * d_i) / 4.0;
-        len += e.length;
-        ei_l += e.material.e * i * e.length;
-        mass += e.material.rho * area * e.length;
-    }
-    mass += model.disks.iter().map(|d| d.mass).sum::<f64>();
-    let omega_ref = if omega_ref.is_finite() && omega_ref > 0.0 {
-        omega_ref
-    } else {
-        1.0
-    };
-    let stiffness = if len > 0.0 {
-        48.0 * (ei_l / len) / len.powi(3)
-    } else {
-        1.0
-    };
-    let unbalance = mass * 6.3e-3 / omega_ref;
-    ColumnScaling::new(stiffness, omega_ref, unbalance)
-        .unwrap_or_else(|_| ColumnScaling::identity())
-}
+/// Reference magnitudes for the column scaling from the model's shaft (see
+/// [`crate::tables::auto_scaling`], where it lives so that the tables can
+/// carry it).
+pub use crate::tables::auto_scaling;
 
 /// The reduced terms at one speed: `A` (`2N_b x 2N_b`), `B` (`2N_b x N_p`).
 pub type TermsAt = (DMatrix<Complex64>, DMatrix<Complex64>);

@@ -11,7 +11,11 @@
 //!
 //! Both carry the poles of the reduced model (speeds where the shaft with
 //! its bearing points held fixed resonates) that the firmware's
-//! pole-factored interpolation needs.
+//! pole-factored interpolation needs, and the identification the table is
+//! written for: the model structure (formulation, order) and the column
+//! scaling ([`auto_scaling`] at the top of the grid), so that firmware sets
+//! up its identifier from the table alone (the Rust source also defines
+//! `STRUCTURE`, `SCALING` and the identifier type `Id`).
 
 pub mod grid;
 
@@ -19,9 +23,11 @@ use std::fmt::Write as _;
 
 use num_complex::Complex64;
 use rotorid_core::crc32::crc32;
+use rotorid_core::parametrization::{Formulation, Structure};
+use rotorid_core::scaling::ColumnScaling;
 use rotorid_core::table::{
-    Layout, TableError, TableScalar, TableView, FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_BEARINGS,
-    MAX_PLANES, MAX_POLES,
+    formulation_code, Layout, TableError, TableScalar, TableView, FORMAT_VERSION, HEADER_LEN,
+    MAGIC, MAX_BEARINGS, MAX_PLANES, MAX_POLES,
 };
 use thiserror::Error;
 
@@ -51,9 +57,54 @@ pub enum TablesError {
 /// Poles are kept up to this multiple of the highest grid speed.
 pub const POLE_RANGE_FACTOR: f64 = 2.0;
 
+/// The structure a table is written for unless told otherwise
+/// ([`ModelTable::with_structure`]): `physical` 1, as `rotorid identify`.
+pub const DEFAULT_STRUCTURE: Structure = Structure::physical(1);
+
+/// Reference magnitudes for the column scaling from the known part of the
+/// model (the shaft), never from the unknown bearings:
+///
+/// * stiffness `s_K = 48 E I / L^3`, the midspan stiffness of the shaft as a
+///   simply supported beam (length-weighted mean `E I`, total length `L`);
+/// * `omega_ref` = the given highest speed (rad/s);
+/// * unbalance `s_a = m_rotor * G / omega_ref` with the ISO 1940 balance
+///   grade `G = 6.3 mm/s` and `m_rotor` = shaft + disk mass.
+///
+/// For the paper rotor: `s_K` = 2.1e7 N/m, `s_a` = 3.4e-4 kg m at 15000 rpm.
+pub fn auto_scaling(model: &RotorModel, omega_ref: f64) -> ColumnScaling<f64> {
+    let mut len = 0.0;
+    let mut ei_l = 0.0;
+    let mut mass = 0.0;
+    for e in &model.shaft {
+        let (d_o, d_i) = (e.outer_diameter, e.inner_diameter);
+        let i = core::f64::consts::PI * (d_o.powi(4) - d_i.powi(4)) / 64.0;
+        let area = core::f64::consts::PI * (d_o * d_o - d_i * d_i) / 4.0;
+        len += e.length;
+        ei_l += e.material.e * i * e.length;
+        mass += e.material.rho * area * e.length;
+    }
+    mass += model.disks.iter().map(|d| d.mass).sum::<f64>();
+    let omega_ref = if omega_ref.is_finite() && omega_ref > 0.0 {
+        omega_ref
+    } else {
+        1.0
+    };
+    let stiffness = if len > 0.0 {
+        48.0 * (ei_l / len) / len.powi(3)
+    } else {
+        1.0
+    };
+    let unbalance = mass * 6.3e-3 / omega_ref;
+    ColumnScaling::new(stiffness, omega_ref, unbalance)
+        .unwrap_or_else(|_| ColumnScaling::identity())
+}
+
 fn model_table(model: &RotorModel, poles: PoleSets, terms: Vec<ReducedTerms>) -> ModelTable {
+    let top = terms.iter().map(|t| t.omega).fold(0.0, f64::max);
     ModelTable {
         model_name: model.name.clone(),
+        structure: DEFAULT_STRUCTURE,
+        scaling: auto_scaling(model, top),
         n_nodes: model.n_nodes(),
         bearing_nodes: model.bearing_nodes(),
         plane_nodes: model.planes.clone(),
@@ -65,7 +116,8 @@ fn model_table(model: &RotorModel, poles: PoleSets, terms: Vec<ReducedTerms>) ->
 /// The table of `model` on the given speeds (rad/s, > 0, strictly
 /// increasing): one banded reduction per speed ([`Reducer`]), plus the poles
 /// up to [`POLE_RANGE_FACTOR`] times the highest speed (at most
-/// [`MAX_POLES`]).
+/// [`MAX_POLES`]), for the [`DEFAULT_STRUCTURE`] and the
+/// [`auto_scaling`] at the highest speed.
 pub fn build(model: &RotorModel, speeds: &[f64]) -> Result<ModelTable, TablesError> {
     let fe = FeModel::new(model).map_err(ReductionError::from)?;
     let reducer = Reducer::new(&fe, model)?;
@@ -152,6 +204,12 @@ impl Scalar {
 pub struct ModelTable {
     /// Name of the model, for the Rust source header comment.
     pub model_name: String,
+    /// The model structure the identification will use (written to the
+    /// blob header and as `STRUCTURE` into the Rust source).
+    pub structure: Structure,
+    /// The column scaling the identification will use (written to the blob
+    /// header and as `SCALING` into the Rust source).
+    pub scaling: ColumnScaling<f64>,
     /// Number of shaft nodes of the model.
     pub n_nodes: usize,
     /// Bearing nodes (0-based), increasing: channel `2 m` is bearing `m`'s
@@ -167,6 +225,18 @@ pub struct ModelTable {
 }
 
 impl ModelTable {
+    /// The same table for another model structure.
+    pub fn with_structure(mut self, structure: Structure) -> Self {
+        self.structure = structure;
+        self
+    }
+
+    /// The same table with another column scaling.
+    pub fn with_scaling(mut self, scaling: ColumnScaling<f64>) -> Self {
+        self.scaling = scaling;
+        self
+    }
+
     /// Grid speeds (rad/s).
     pub fn speeds(&self) -> Vec<f64> {
         self.terms.iter().map(|t| t.omega).collect()
@@ -177,11 +247,19 @@ impl ModelTable {
         grid::interpolate(&self.terms, &self.poles, omega)
     }
 
-    /// Checks that the table can be written: counts within the format's
-    /// limits, nodes valid, poles and speeds finite, > 0, strictly
-    /// increasing, matrices of the right shape with finite entries.
+    /// Checks that the table can be written: structure valid, scaling
+    /// finite and > 0, counts within the format's limits, nodes valid, poles
+    /// and speeds finite, > 0, strictly increasing, matrices of the right
+    /// shape with finite entries.
     pub fn validate(&self) -> Result<(), TablesError> {
         let bad = |s: String| Err(TablesError::Invalid(s));
+        if self.structure.validate().is_err() {
+            return bad(format!("order {} out of range", self.structure.order));
+        }
+        let sc = &self.scaling;
+        if ColumnScaling::<f64>::new(sc.stiffness, sc.omega_ref, sc.unbalance).is_err() {
+            return bad(format!("column scaling {sc:?} not finite and > 0"));
+        }
         let (n_b, n_p) = (self.bearing_nodes.len(), self.plane_nodes.len());
         if self.n_nodes < 2 || self.n_nodes > u16::MAX as usize {
             return bad(format!("{} nodes (must be 2..=65535)", self.n_nodes));
@@ -240,9 +318,10 @@ impl ModelTable {
         Ok(())
     }
 
-    /// The binary blob (format version 1, layout in [`rotorid_core::table`]).
+    /// The binary blob (format version 2, layout in [`rotorid_core::table`]).
     /// In f32 every value is rounded to nearest; a value that overflows f32
-    /// is an error.
+    /// is an error. The scaling is stored in f64 whatever the scalar type
+    /// (and must not round to 0 or infinity in f32).
     pub fn to_blob(&self, scalar: Scalar) -> Result<Vec<u8>, TablesError> {
         self.validate()?;
         let (n_b, n_p, n_ka, n_kb, n_s) = (
@@ -273,6 +352,15 @@ impl ModelTable {
         out.push(n_ka as u8);
         out.push(n_kb as u8);
         out.extend_from_slice(&(n_s as u32).to_le_bytes());
+        // The order was range-checked by validate() (1..=MAX_ORDER < 256).
+        out.push(formulation_code(self.structure.formulation));
+        out.push(self.structure.order as u8);
+        out.extend_from_slice(&[0; 6]);
+        let sc = &self.scaling;
+        for x in [sc.stiffness, sc.omega_ref, sc.unbalance] {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+        self.check_scaling_fits(scalar)?;
         debug_assert_eq!(out.len(), HEADER_LEN);
         for &n in self.plane_nodes.iter().chain(&self.bearing_nodes) {
             out.extend_from_slice(&((n + 1) as u16).to_le_bytes());
@@ -307,6 +395,19 @@ impl ModelTable {
         out.extend_from_slice(&crc.to_le_bytes());
         debug_assert_eq!(out.len(), lay.total);
         Ok(out)
+    }
+
+    /// The scaling must stay finite and > 0 once rounded to the scalar type.
+    fn check_scaling_fits(&self, scalar: Scalar) -> Result<(), TablesError> {
+        let sc = &self.scaling;
+        if scalar == Scalar::F32
+            && ColumnScaling::<f32>::new(sc.stiffness, sc.omega_ref, sc.unbalance).is_err()
+        {
+            return Err(TablesError::Invalid(
+                "the column scaling does not fit f32; write the table in f64".into(),
+            ));
+        }
+        Ok(())
     }
 
     /// Reads a blob (either scalar type) through the firmware parser, which
@@ -361,6 +462,8 @@ impl ModelTable {
         };
         Ok(ModelTable {
             model_name: String::new(),
+            structure: v.structure(),
+            scaling: v.stored_scaling(),
             n_nodes: v.n_nodes() as usize,
             bearing_nodes: (0..v.n_bearings())
                 .map(|i| node(v.bearing_node(i)))
@@ -379,14 +482,24 @@ impl ModelTable {
     /// pub const N_NODES: u16 = ..;
     /// pub const BEARING_NODES: [u16; N_b] = [..];   // 1-based
     /// pub const PLANE_NODES: [u16; N_p] = [..];     // 1-based
+    /// pub const NQ: usize = 2 N_b;  pub const NP: usize = N_p;  pub const NS: usize = ..;
+    /// pub const STRUCTURE: rotorid_core::parametrization::Structure = Structure::physical(1);
+    /// pub const SCALING: rotorid_core::scaling::ColumnScaling<T> = ColumnScaling { .. };
+    /// pub const M: usize = STRUCTURE.n_unknowns(NQ / 2, NP);
+    /// pub const N: usize = STRUCTURE.n_rows(NQ / 2);
+    /// pub type Id = rotorid_core::identify::PhysicalIdentifier<T, NQ, NP, M, N>; // or PaperIdentifier
     /// pub static TABLE: rotorid_core::table::Table<T, NQ, NP, NS> = ..;
     /// ```
+    ///
+    /// so that the firmware's whole set-up is
+    /// `Id::new(Config::new(STRUCTURE, SCALING))` (or `Id::from_table(&TABLE)`).
     ///
     /// Values are written with Rust's shortest round-trip formatting of the
     /// chosen scalar type, so the included table equals the blob bit for
     /// bit. The output is deterministic (no dates or versions in it).
     pub fn to_rust_source(&self, scalar: Scalar) -> Result<String, TablesError> {
         self.validate()?;
+        self.check_scaling_fits(scalar)?;
         let fmt = |x: f64| -> Result<String, TablesError> {
             let s = match scalar {
                 Scalar::F32 => {
@@ -450,6 +563,56 @@ impl ModelTable {
             "pub const PLANE_NODES: [u16; {n_p}] = [{}];",
             list(&self.plane_nodes)
         );
+        let (ctor, id_alias) = match self.structure.formulation {
+            Formulation::Physical => ("physical", "PhysicalIdentifier"),
+            Formulation::Paper => ("paper", "PaperIdentifier"),
+        };
+        let order = self.structure.order;
+        let _ = writeln!(
+            w,
+            "/// Channels `NQ = 2 N_b`, unbalance planes `NP`, grid speeds `NS`."
+        );
+        let _ = writeln!(w, "pub const NQ: usize = {nq};");
+        let _ = writeln!(w, "/// Unbalance planes.");
+        let _ = writeln!(w, "pub const NP: usize = {n_p};");
+        let _ = writeln!(w, "/// Grid speeds.");
+        let _ = writeln!(w, "pub const NS: usize = {n_s};");
+        let _ = writeln!(
+            w,
+            "/// The model structure the table was written for (`--formulation {ctor} --order {order}`)."
+        );
+        let _ = writeln!(
+            w,
+            "pub const STRUCTURE: rotorid_core::parametrization::Structure = rotorid_core::parametrization::Structure::{ctor}({order});"
+        );
+        let _ = writeln!(
+            w,
+            "/// Column scaling: reference stiffness (N/m), speed (rad/s), unbalance (kg m)."
+        );
+        let _ = writeln!(
+            w,
+            "#[allow(clippy::approx_constant, clippy::excessive_precision, clippy::unreadable_literal)]"
+        );
+        let sc = &self.scaling;
+        let _ = writeln!(
+            w,
+            "pub const SCALING: rotorid_core::scaling::ColumnScaling<{ty}> = rotorid_core::scaling::ColumnScaling {{ stiffness: {}, omega_ref: {}, unbalance: {} }};",
+            fmt(sc.stiffness)?,
+            fmt(sc.omega_ref)?,
+            fmt(sc.unbalance)?
+        );
+        let _ = writeln!(w, "/// Unknowns `M` of the structure.");
+        let _ = writeln!(w, "pub const M: usize = STRUCTURE.n_unknowns(NQ / 2, NP);");
+        let _ = writeln!(w, "/// Rows `N` per update of the structure.");
+        let _ = writeln!(w, "pub const N: usize = STRUCTURE.n_rows(NQ / 2);");
+        let _ = writeln!(
+            w,
+            "/// The firmware identifier for this table: `Id::new(Config::new(STRUCTURE, SCALING))`."
+        );
+        let _ = writeln!(
+            w,
+            "pub type Id = rotorid_core::identify::{id_alias}<{ty}, NQ, NP, M, N>;"
+        );
         let _ = writeln!(w, "/// A (N/m) and B (1/s^2) per speed (rad/s), with the poles (rad/s) of the reduced model.");
         let _ = writeln!(
             w,
@@ -457,8 +620,10 @@ impl ModelTable {
         );
         let _ = writeln!(
             w,
-            "pub static TABLE: rotorid_core::table::Table<{ty}, {nq}, {n_p}, {n_s}> = rotorid_core::table::Table {{"
+            "pub static TABLE: rotorid_core::table::Table<{ty}, NQ, NP, NS> = rotorid_core::table::Table {{"
         );
+        let _ = writeln!(w, "    structure: STRUCTURE,");
+        let _ = writeln!(w, "    scaling: SCALING,");
         for (name, list) in [("a", &self.poles.a), ("b", &self.poles.b)] {
             let mut poles = Vec::with_capacity(MAX_POLES);
             for i in 0..MAX_POLES {
