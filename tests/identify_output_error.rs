@@ -360,7 +360,7 @@ fn converges_from_a_start_twenty_percent_off() {
 fn a_model_that_does_not_fit_is_reported() {
     use rotorid::estimate::{identify, Estimator};
     let model = RotorModel::paper_speed_dependent();
-    let mut m = simulate(
+    let m = simulate(
         &model,
         &SimOptions {
             speeds_rpm: uniform_rpm(10.0, 15000.0, 10.0).unwrap(),
