@@ -127,6 +127,7 @@ fn monte_carlo(c: &Case, noise: f64, seeds: std::ops::Range<u64>, lambda: f64) -
     let n = (seeds.end - seeds.start) as f64;
     let mut err = vec![Vec::new(); np];
     let mut std = vec![Vec::new(); np];
+    let mut rls_err = vec![Vec::new(); np];
     for seed in seeds {
         let mut m = c.clean.clone();
         add_noise(&mut m, noise, seed).unwrap();
@@ -162,10 +163,29 @@ fn monte_carlo(c: &Case, noise: f64, seeds: std::ops::Range<u64>, lambda: f64) -
         )
         .unwrap();
         let _ = (t0, t1);
+        let rls_theta = pr.theta(&rls.scaled_weights);
         for i in 0..np {
+            rls_err[i].push(rls_theta[i] - c.truth[i]);
             err[i].push(fit.theta[i] - c.truth[i]);
             std[i].push(fit.covariance[(i, i)].sqrt());
         }
+    }
+    println!("| parameter | true | CRB std | output-error bias | output-error std | QRD/RLS RMS error |");
+    println!("|---|---|---|---|---|---|");
+    for i in 0..np {
+        let sc = pr.param.scale(pr.params[i].unknown);
+        let mean = err[i].iter().sum::<f64>() / n;
+        let sd = (err[i].iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let rr = (rls_err[i].iter().map(|e| e * e).sum::<f64>() / n).sqrt();
+        println!(
+            "| {} | {:.4e} | {:.2e} | {:+.2e} | {:.2e} | {:.2e} |",
+            pr.param.name(pr.params[i].unknown),
+            c.truth[i] * sc,
+            crb[i] * sc,
+            mean * sc,
+            sd * sc,
+            rr * sc
+        );
     }
     let mut rms_ratio = Vec::new();
     let (mut worst_rms, mut worst_bias, mut worst_std) = (0.0f64, 0.0f64, 0.0f64);
