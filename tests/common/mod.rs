@@ -1,4 +1,4 @@
-//! Shared pieces of the identification tests: simulation, an independent
+//! Shared pieces of the integration tests: simulation, an independent
 //! dense reduction, noise, error measures.
 #![allow(dead_code)]
 

@@ -3,8 +3,7 @@
 //! This only measures (the numbers are in the README); the assertions are
 //! loose sanity bounds.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::core::regressor::Structure;
 use rotorid::estimate::{auto_scaling, identify_with, Options, TermsAt};
 use rotorid::model::RotorModel;

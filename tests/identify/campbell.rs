@@ -2,8 +2,7 @@
 //! (the paper's Fig. 6): the identified bearing laws put back into the FE
 //! model, Campbell diagram at speeds up to 15000 rpm.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::core::regressor::Structure;
 use rotorid::estimate::{auto_scaling, identify_with, Identification, Options};
 use rotorid::fe::assembly::FeModel;

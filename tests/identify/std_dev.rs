@@ -1,8 +1,7 @@
 //! The standard deviations reported with the estimates against the spread
 //! of the estimates over independent noise realisations.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::core::regressor::Structure;
 use rotorid::estimate::{auto_scaling, identify_with, Options, TermsAt};
 use rotorid::model::RotorModel;

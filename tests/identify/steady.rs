@@ -3,8 +3,7 @@
 //! decays in the directions the constant speed does not excite and the
 //! estimates wind up; with it they stay where the sweep put them.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::core::identify::{SteadyAction, SteadyPolicy};
 use rotorid::core::regressor::Structure;
 use rotorid::estimate::{

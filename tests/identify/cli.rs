@@ -1,8 +1,7 @@
 //! `rotorid identify` end to end: SPEC flags, the JSON contract, one-line
 //! errors with exit status 2.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::model::RotorModel;
 use std::process::Command;
 

@@ -2,8 +2,7 @@
 //! against the desktop path (runtime sizes, f32) on the same sweep: the same
 //! estimates within f32 tolerance.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use num_complex::Complex;
 use rotorid::core::identify::{
     Config, IdField, Identifier, PaperIdentifier, PhysicalIdentifier, SteadyPolicy,

@@ -84,7 +84,7 @@ fn blob_and_source_from_the_command_line() {
     assert!(o.status.success());
     assert_eq!(
         std::fs::read_to_string(&src).unwrap(),
-        include_str!("data/paper_table.rs")
+        include_str!("../data/paper_table.rs")
     );
 }
 

@@ -2,9 +2,7 @@
 //! (nalgebra SVD in f64 of the exponentially weighted, delta-regularised
 //! stacked system), and its per-row outputs against their definitions.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex;
 use rotorid_core::qrdrls::{self, VectorQrdRls};

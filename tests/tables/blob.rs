@@ -1,7 +1,7 @@
 //! Table blob: round trip in f32 and f64, lookup semantics, and rejection of
 //! every corrupted or truncated blob (an error, never a panic). Uses a
 //! synthetic table so that it checks the format alone; the physics is in
-//! `tables_reduction.rs`.
+//! `tables/reduction.rs`.
 
 use nalgebra::DMatrix;
 use num_complex::Complex64;
