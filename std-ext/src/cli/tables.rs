@@ -20,7 +20,7 @@
 
 use clap::Args;
 
-use super::{load_model, CliError, RpmGridArgs};
+use super::{load_model, CliError, Io, RpmGridArgs};
 use crate::tables::grid::AdaptiveOptions;
 use crate::tables::{build, build_adaptive, Scalar};
 use crate::units::{rad_s_to_rpm, rpm_to_rad_s};
@@ -47,7 +47,7 @@ pub struct TablesArgs {
 }
 
 /// Runs `rotorid tables`.
-pub fn run(args: &TablesArgs) -> Result<(), CliError> {
+pub fn run(args: &TablesArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     let model = load_model(&args.model)?.model;
     let scalar = if args.f32 { Scalar::F32 } else { Scalar::F64 };
     let (table, note) = match args.adaptive {
@@ -95,7 +95,8 @@ pub fn run(args: &TablesArgs) -> Result<(), CliError> {
     };
     std::fs::write(&args.out, &bytes)
         .map_err(|e| CliError::new(format!("cannot write {}: {e}", args.out.display())))?;
-    println!(
+    writeln!(
+        io.out,
         "wrote {} ({} bytes, {}, {}): {} speeds {:.1}..{:.1} rpm, {} bearings, {} planes, poles of A at {:?} rpm, of B at {:?} rpm{note}",
         args.out.display(),
         bytes.len(),
@@ -108,7 +109,7 @@ pub fn run(args: &TablesArgs) -> Result<(), CliError> {
         table.plane_nodes.len(),
         rpm_list(&table.poles.a),
         rpm_list(&table.poles.b),
-    );
+    )?;
     Ok(())
 }
 
