@@ -13,6 +13,7 @@ use rotorid::core::table::TableView;
 use rotorid::estimate::{auto_scaling, identify_with, EstimateSet, Options, Precision};
 use rotorid::model::RotorModel;
 use rotorid::reduce::ReducedTerms;
+use rotorid::simulate::add_noise;
 use rotorid::tables::{ModelTable, Scalar};
 use rotorid::units::rpm_to_rad_s;
 
@@ -56,7 +57,7 @@ fn firmware_and_desktop_paths_agree_in_f32() {
     let model = RotorModel::paper();
     let speeds = sweep(50.0, 15000.0, 50.0);
     let mut meas = simulate(&model, &speeds);
-    add_noise(&mut meas, 0.001, 5);
+    add_noise(&mut meas, 0.001, 5).unwrap();
     // The table on the measurement grid, from the dense reduction.
     let red = DenseReduction::new(&model);
     let table = ModelTable {
@@ -124,7 +125,7 @@ fn product_paths_agree() {
     let model = RotorModel::paper();
     let speeds = sweep(50.0, 15000.0, 50.0);
     let mut meas = simulate(&model, &speeds);
-    add_noise(&mut meas, 0.001, 9);
+    add_noise(&mut meas, 0.001, 9).unwrap();
     let scaling = auto_scaling(&model, rpm_to_rad_s(15000.0));
     let blob = rotorid::tables::build(&model, &speeds)
         .unwrap()

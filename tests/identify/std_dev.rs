@@ -5,6 +5,7 @@ use crate::common::*;
 use rotorid::core::regressor::Structure;
 use rotorid::estimate::{auto_scaling, identify_with, Options, TermsAt};
 use rotorid::model::RotorModel;
+use rotorid::simulate::add_noise;
 use rotorid::units::rpm_to_rad_s;
 use std::collections::HashMap;
 
@@ -31,7 +32,7 @@ fn reported_std_matches_the_spread_over_seeds() {
         let mut std_me = Vec::new();
         for seed in 0..n_seeds {
             let mut meas = clean.clone();
-            add_noise(&mut meas, 0.001, 100 + seed);
+            add_noise(&mut meas, 0.001, 100 + seed).unwrap();
             let mut opts = Options::new(structure);
             opts.lambda = lambda;
             opts.normalise_rows = normalise;

@@ -1,32 +1,16 @@
 //! `rotorid tables` end to end: blob (f64, f32), Rust source, adaptive grid,
 //! and bad input (exit status 2, one line on stderr, no file).
 
-use std::path::PathBuf;
-use std::process::Command;
-
+use crate::common::{cli, tmp};
 use rotorid::core::table::TableView;
 use rotorid::model::RotorModel;
 use rotorid::tables::grid::uniform_rad_s;
 use rotorid::tables::{build, ModelTable, Scalar};
 
-fn out_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rotorid-tables-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn rotorid(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rotorid"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 #[test]
 fn blob_and_source_from_the_command_line() {
-    let dir = out_dir("ok");
-    let blob = dir.join("paper.tbl");
-    let o = rotorid(&[
+    let blob = tmp("paper.tbl");
+    let o = cli([
         "tables",
         "--model",
         "paper",
@@ -39,7 +23,7 @@ fn blob_and_source_from_the_command_line() {
         "--rpm-step",
         "100",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.success(), "{}", o.stderr);
     let bytes = std::fs::read(&blob).unwrap();
     let view = TableView::<f64>::parse(&bytes).unwrap();
     assert_eq!(view.n_speeds(), 30);
@@ -51,8 +35,8 @@ fn blob_and_source_from_the_command_line() {
     .unwrap();
     assert_eq!(lib.to_blob(Scalar::F64).unwrap(), bytes);
 
-    let blob32 = dir.join("paper32.tbl");
-    let o = rotorid(&[
+    let blob32 = tmp("paper32.tbl");
+    let o = cli([
         "tables",
         "--model",
         "paper",
@@ -62,13 +46,13 @@ fn blob_and_source_from_the_command_line() {
         "--rpm-max",
         "1000",
     ]);
-    assert!(o.status.success());
+    assert!(o.success());
     let (t, sc) = ModelTable::from_blob(&std::fs::read(&blob32).unwrap()).unwrap();
     assert_eq!(sc, Scalar::F32);
     assert_eq!(t.terms.len(), 20); // 50, 100, ..., 1000 rpm
 
-    let src = dir.join("paper_table.rs");
-    let o = rotorid(&[
+    let src = tmp("paper_table.rs");
+    let o = cli([
         "tables",
         "--model",
         "paper",
@@ -81,7 +65,7 @@ fn blob_and_source_from_the_command_line() {
         "--rpm-step",
         "500",
     ]);
-    assert!(o.status.success());
+    assert!(o.success());
     assert_eq!(
         std::fs::read_to_string(&src).unwrap(),
         include_str!("../data/paper_table.rs")
@@ -90,9 +74,8 @@ fn blob_and_source_from_the_command_line() {
 
 #[test]
 fn adaptive_grid_from_the_command_line() {
-    let dir = out_dir("adaptive");
-    let blob = dir.join("adaptive.tbl");
-    let o = rotorid(&[
+    let blob = tmp("adaptive.tbl");
+    let o = cli([
         "tables",
         "--model",
         "paper",
@@ -101,8 +84,8 @@ fn adaptive_grid_from_the_command_line() {
         "--adaptive",
         "1e-4",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.success(), "{}", o.stderr);
+    let stdout = &o.stdout;
     assert!(stdout.contains("worst check error"), "{stdout}");
     let (t, _) = ModelTable::from_blob(&std::fs::read(&blob).unwrap()).unwrap();
     assert!(t.terms.len() > 16 && t.terms.len() < 1000);
@@ -111,8 +94,7 @@ fn adaptive_grid_from_the_command_line() {
 
 #[test]
 fn bad_input_exits_2_with_one_line() {
-    let dir = out_dir("bad");
-    let out = dir.join("x.tbl");
+    let out = tmp("x.tbl");
     let out = out.to_str().unwrap();
     for args in [
         vec!["tables", "--model", "nosuchmodel", "--out", out],
@@ -152,9 +134,9 @@ fn bad_input_exits_2_with_one_line() {
             "/nonexistent-dir/x.tbl",
         ],
     ] {
-        let o = rotorid(&args);
-        assert_eq!(o.status.code(), Some(2), "{args:?}");
-        let err = String::from_utf8_lossy(&o.stderr);
+        let o = cli(&args);
+        assert_eq!(o.status, 2, "{args:?}");
+        let err = &o.stderr;
         assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{err}");
     }
