@@ -948,15 +948,8 @@ mod tests {
 #[cfg(test)]
 mod blocking_tests {
     use super::*;
+    use crate::testrng::SplitMix64;
     use num_complex::Complex;
-
-    /// Tiny xorshift for data.
-    fn rng(state: &mut u64) -> f64 {
-        *state ^= *state << 13;
-        *state ^= *state >> 7;
-        *state ^= *state << 17;
-        (*state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
 
     fn run<F, T>(
         m: usize,
