@@ -12,10 +12,10 @@ use rotorid::core::qrdrls::VectorQrdRls;
 use rotorid::core::regressor::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::Real;
-use rotorid::estimate::reduce_terms;
 use rotorid::fe::assembly::FeModel;
 use rotorid::fe::response::{unbalance_response, Forcing};
 use rotorid::model::RotorModel;
+use rotorid::reduce::reduce;
 use rotorid::units::rpm_to_rad_s;
 use std::hint::black_box;
 
@@ -42,7 +42,8 @@ fn data<T: Real>() -> Data<T> {
         q: vec![],
     };
     for (w, r) in speeds.iter().zip(&resp) {
-        let (a, b) = reduce_terms(&fe, &model, *w).expect("terms");
+        let t = reduce(&fe, &model, *w).expect("terms");
+        let (a, b) = (t.a, t.b);
         d.omega.push(T::lit(*w));
         d.a.push(core::array::from_fn(|i| {
             core::array::from_fn(|j| c(a[(i, j)]))
