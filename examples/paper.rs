@@ -2,8 +2,9 @@
 //! rotor (`cargo run --release --example paper`):
 //!
 //! 1. simulate the 1X unbalance response at the bearings, 50..15000 rpm in
-//!    steps of 50 rpm (FE model, noise-free, and with 0.1% / 1% noise of
-//!    the SPEC noise model, seeded);
+//!    steps of 50 rpm, with the library's simulator (`rotorid::simulate`:
+//!    FE model, noise-free, and with 0.1% / 1% noise of the SPEC noise
+//!    model, seeded);
 //! 2. tabulate the reduced shaft model at the measured speeds (an f32 blob
 //!    for the firmware-style run);
 //! 3. identify both cases of section 4 with the paper's structure and
@@ -13,54 +14,42 @@
 //!    figures (SVG, like Figs. 4-6) to `out/paper/`.
 
 use num_complex::Complex;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 use rotorid::core::identify::{Config, PhysicalIdentifier, SteadyPolicy};
 use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::TableView;
 use rotorid::estimate::{auto_scaling, identify, EstimateSet, Identification, Options, Precision};
-use rotorid::fe::assembly::FeModel;
-use rotorid::fe::response::{unbalance_response, Forcing};
-use rotorid::io::measurement::{Measurements, Sample};
+use rotorid::io::measurement::Measurements;
+use rotorid::model::extension::Effects;
 use rotorid::model::RotorModel;
 use rotorid::report::identify::write_plots;
+use rotorid::simulate::{add_noise, simulate, SimOptions};
 use rotorid::units::rpm_to_rad_s;
 use std::error::Error;
 use std::path::Path;
 
 type Res<T> = Result<T, Box<dyn Error>>;
 
-fn simulate(model: &RotorModel, speeds: &[f64]) -> Res<Measurements> {
-    let fe = FeModel::new(model)?;
-    let resp = unbalance_response(&fe, &Forcing::from_model(model), speeds)?;
-    Ok(Measurements {
-        comments: vec![format!("{} simulated", model.name)],
-        n_bearings: model.bearings.len(),
-        samples: resp
-            .into_iter()
-            .map(|r| Sample {
-                omega: r.omega,
-                q: r.bearings,
-            })
-            .collect(),
-    })
+/// The noise-free sweep of `model` at `rpm` by the library's simulator
+/// (no effects: the model as it is).
+fn sweep(model: &RotorModel, rpm: &[f64]) -> Res<Measurements> {
+    Ok(simulate(
+        model,
+        &SimOptions {
+            speeds_rpm: rpm.to_vec(),
+            noise: 0.0,
+            seed: 0,
+            effects: Effects::default(),
+        },
+    )?)
 }
 
-/// SPEC noise model: `q += s |q| eps`, `eps` standard complex Gaussian.
-fn with_noise(meas: &Measurements, s: f64, seed: u64) -> Measurements {
+/// `meas` with the SPEC noise model (the library's [`add_noise`]):
+/// `q += s |q| eps`, `eps` standard complex Gaussian, seeded.
+fn with_noise(meas: &Measurements, s: f64, seed: u64) -> Res<Measurements> {
     let mut out = meas.clone();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let h = std::f64::consts::FRAC_1_SQRT_2;
-    for smp in &mut out.samples {
-        for q in &mut smp.q {
-            let re: f64 = StandardNormal.sample(&mut rng);
-            let im: f64 = StandardNormal.sample(&mut rng);
-            *q += q.norm() * s * Complex::new(re * h, im * h);
-        }
-    }
-    out
+    add_noise(&mut out, s, seed)?;
+    Ok(out)
 }
 
 /// Worst relative errors (k, c, m e) and phase error (deg) against the
@@ -111,11 +100,12 @@ fn main() -> Res<()> {
     let t0 = std::time::Instant::now();
     let out = Path::new("out/paper");
     std::fs::create_dir_all(out)?;
-    let speeds: Vec<f64> = (1..=300).map(|i| rpm_to_rad_s(50.0 * i as f64)).collect();
+    let rpm: Vec<f64> = (1..=300).map(|i| 50.0 * i as f64).collect();
+    let speeds: Vec<f64> = rpm.iter().map(|&r| rpm_to_rad_s(r)).collect();
     let m1 = RotorModel::paper();
     let m2 = RotorModel::paper_speed_dependent();
-    let d1 = simulate(&m1, &speeds)?;
-    let d2 = simulate(&m2, &speeds)?;
+    let d1 = sweep(&m1, &rpm)?;
+    let d2 = sweep(&m2, &rpm)?;
 
     println!("rotorid: the method paper's section 4 on the reference rotor");
     println!("sweep 50..15000 rpm, 300 speeds; errors: worst relative error over all entries at the end of the sweep");
@@ -190,7 +180,7 @@ fn main() -> Res<()> {
         errors(&m1, &ph32.last),
     );
     for s in [0.001, 0.01] {
-        let noisy = with_noise(&d1, s, 1);
+        let noisy = with_noise(&d1, s, 1)?;
         let a = run(&m1, &noisy, Structure::paper(1), 0.999, false, false)?;
         row(
             &format!("4.1 paper, scaled, {:.1}% noise", s * 100.0),

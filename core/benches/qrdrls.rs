@@ -25,17 +25,9 @@ const STEPS: usize = 256;
 const LAMBDA: f64 = 0.999;
 const DELTA: f64 = 1e-3;
 
-struct SplitMix64(u64);
-impl SplitMix64 {
-    fn sym(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        2.0 * ((z >> 11) as f64 / (1u64 << 53) as f64) - 1.0
-    }
-}
+#[path = "../src/testrng.rs"]
+mod testrng;
+use testrng::SplitMix64;
 
 trait BenchField: ComplexField<RealField = Self::R> + Copy {
     type R: Real;
@@ -85,7 +77,7 @@ fn paper_pattern(row: usize, col: usize) -> bool {
 fn stream<F: BenchField, const M: usize, const N: usize>(
     pattern: fn(usize, usize) -> bool,
 ) -> Vec<([[F; M]; N], [F; N])> {
-    let mut rng = SplitMix64(0x5EED);
+    let mut rng = SplitMix64::new(0x5EED);
     let w: [F; M] = core::array::from_fn(|_| F::gen(&mut rng));
     (0..STEPS)
         .map(|_| {

@@ -150,7 +150,7 @@ pub enum SteadyAction {
     /// (errors-in-variables biased) least-squares fit: measured with 1%
     /// noise and 20000 samples at 9000 rpm after a sweep, unbalance errors
     /// grow 2x (physical) to 7x (paper structure), see
-    /// `tests/identify_steady.rs`; without a guard they grow by 100x to 3000x.
+    /// `tests/identify/steady.rs`; without a guard they grow by 100x to 3000x.
     FreezeForgetting,
 }
 

@@ -34,6 +34,10 @@ pub mod scalar;
 pub mod scaling;
 pub mod table;
 
+/// The tests' generator (also included by path into `tests/` and `benches/`).
+#[cfg(test)]
+pub(crate) mod testrng;
+
 pub use num_complex::Complex;
 pub use parametrization::{Formulation, Structure};
 pub use scalar::Real;

@@ -607,71 +607,6 @@ where
     }
 }
 
-/// The slice kernel bundled with its buffers: `r` (`M x M` row-major) and
-/// `p` (`M`) borrowed from the caller (e.g. `Vec`s sized at run time).
-#[derive(Debug)]
-pub struct QrdRlsCore<'a, F> {
-    r: &'a mut [F],
-    p: &'a mut [F],
-    m: usize,
-}
-
-impl<'a, F, T> QrdRlsCore<'a, F>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    /// Borrows the buffers (checks `p.len() = M > 0`, `r.len() = M * M`);
-    /// their contents are used as they are (call [`QrdRlsCore::init`] first
-    /// for a fresh filter).
-    pub fn new(r: &'a mut [F], p: &'a mut [F]) -> Result<Self, FilterError> {
-        let m = dim_of(r.len(), p)?;
-        Ok(Self { r, p, m })
-    }
-
-    /// Number of unknowns `M`.
-    pub fn dim(&self) -> usize {
-        self.m
-    }
-
-    /// See [`init`].
-    pub fn init(&mut self, delta: T, w0: Option<&[F]>) -> Result<(), FilterError> {
-        init(self.r, self.p, delta, w0)
-    }
-
-    /// See [`update_rows`].
-    pub fn update_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        errors_out: &mut [F],
-        gamma_out: &mut [T],
-    ) -> Result<(), FilterError> {
-        update_rows(self.r, self.p, u, d, lambda, errors_out, gamma_out)
-    }
-
-    /// See [`solve_weights`].
-    pub fn solve_weights(&self, w_out: &mut [F]) -> Result<(), FilterError> {
-        solve_weights(self.r, self.p, w_out)
-    }
-
-    /// See [`r_diag_ratio`].
-    pub fn r_diag_ratio(&self) -> T {
-        diag_ratio((0..self.m).map(|i| self.r[i * self.m + i]))
-    }
-
-    /// The factor `R` (`M x M` row-major, upper triangular).
-    pub fn r(&self) -> &[F] {
-        self.r
-    }
-
-    /// The rotated right-hand side `p` (`R w = p`).
-    pub fn p(&self) -> &[F] {
-        self.p
-    }
-}
-
 /// Result of one [`VectorQrdRls`] step: per row `j`, the a-posteriori error
 /// `xi_j = d_j - u_j w^(j)` and the conversion factor
 /// `gamma_j = 1 - u_j P^(j) u_j^H` (see the module documentation;
@@ -966,15 +901,8 @@ mod tests {
 #[cfg(test)]
 mod blocking_tests {
     use super::*;
+    use crate::testrng::SplitMix64;
     use num_complex::Complex;
-
-    /// Tiny xorshift for data.
-    fn rng(state: &mut u64) -> f64 {
-        *state ^= *state << 13;
-        *state ^= *state >> 7;
-        *state ^= *state << 17;
-        (*state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
 
     fn run<F, T>(
         m: usize,
@@ -988,7 +916,7 @@ mod blocking_tests {
         F: ComplexField<RealField = T> + Copy,
         T: Real,
     {
-        let mut st = 0x1234_5678_9abc_def0u64;
+        let mut rng = SplitMix64::new(0x1234_5678_9abc_def0);
         let mut r = [F::zero(); 4096];
         let mut p = [F::zero(); 64];
         init(&mut r[..m * m], &mut p[..m], T::lit(0.1), None).unwrap();
@@ -997,7 +925,7 @@ mod blocking_tests {
         let mut d = [F::zero(); 64];
         for _ in 0..steps {
             for x in u[..n * m].iter_mut() {
-                let (a, b) = (rng(&mut st), rng(&mut st));
+                let (a, b) = (rng.sym(), rng.sym());
                 *x = if zeros && a.abs() < 0.3 {
                     F::zero()
                 } else {
@@ -1005,7 +933,7 @@ mod blocking_tests {
                 };
             }
             for x in d[..n].iter_mut() {
-                *x = mk(rng(&mut st), rng(&mut st));
+                *x = mk(rng.sym(), rng.sym());
             }
             update_rows_impl(
                 &mut r[..m * m],

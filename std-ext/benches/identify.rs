@@ -15,6 +15,7 @@ use rotorid::core::Real;
 use rotorid::fe::assembly::FeModel;
 use rotorid::fe::response::{unbalance_response, Forcing};
 use rotorid::model::RotorModel;
+use rotorid::reduce::reduce;
 use rotorid::units::rpm_to_rad_s;
 use std::hint::black_box;
 
@@ -41,8 +42,8 @@ fn data<T: Real>() -> Data<T> {
         q: vec![],
     };
     for (w, r) in speeds.iter().zip(&resp) {
-        let rotorid::reduce::ReducedTerms { a, b, .. } =
-            rotorid::reduce::reduce(&fe, &model, *w).expect("terms");
+        let t = reduce(&fe, &model, *w).expect("terms");
+        let (a, b) = (t.a, t.b);
         d.omega.push(T::lit(*w));
         d.a.push(core::array::from_fn(|i| {
             core::array::from_fn(|j| c(a[(i, j)]))

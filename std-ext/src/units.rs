@@ -13,11 +13,6 @@ pub fn rad_s_to_rpm(omega: f64) -> f64 {
     omega * 30.0 / PI
 }
 
-/// Hz to rad/s.
-pub fn hz_to_rad_s(f: f64) -> f64 {
-    2.0 * PI * f
-}
-
 /// rad/s to Hz.
 pub fn rad_s_to_hz(omega: f64) -> f64 {
     omega / (2.0 * PI)

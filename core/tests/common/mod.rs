@@ -1,40 +1,17 @@
-//! Test helpers: a deterministic PRNG, field conversions and the
-//! independent batch least-squares reference (nalgebra SVD in f64).
+//! Test helpers: the deterministic generator (core's one, `src/testrng.rs`),
+//! field conversions and the independent batch least-squares reference
+//! (nalgebra SVD in f64).
 #![allow(dead_code)]
 
 use nalgebra::{ComplexField, DMatrix, DVector};
 use num_complex::Complex;
 use rotorid_core::Real;
 
+#[path = "../../src/testrng.rs"]
+mod testrng;
+pub use testrng::SplitMix64;
+
 pub type C64 = Complex<f64>;
-
-/// SplitMix64 (Steele, Lea, Flood 2014): small, fast, deterministic.
-pub struct SplitMix64(u64);
-
-impl SplitMix64 {
-    pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-    /// Uniform in [-1, 1).
-    pub fn sym(&mut self) -> f64 {
-        2.0 * self.uniform() - 1.0
-    }
-    /// Complex with both parts uniform in [-1, 1).
-    pub fn c(&mut self) -> C64 {
-        C64::new(self.sym(), self.sym())
-    }
-}
 
 /// A field the filter runs on, convertible to and from `Complex<f64>`
 /// (real fields drop the imaginary part).

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use clap::Args;
 
-use super::{load_model, CliError};
+use super::{load_model, CliError, Io};
 use crate::fe::assembly::FeModel;
 use crate::fe::campbell::{
     campbell_with, critical_speeds, CampbellDiagram, CampbellOptions, CriticalSpeed, Whirl,
@@ -178,7 +178,7 @@ pub fn diagram_series(diagram: &CampbellDiagram, forward: &[CriticalSpeed]) -> V
 }
 
 /// Runs `rotorid campbell`.
-pub fn run(args: &CampbellArgs) -> Result<(), CliError> {
+pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     let file = load_model(&args.model)?;
     if !(args.rpm_max.is_finite() && args.rpm_max > 0.0) {
         return Err(CliError(format!(
@@ -199,7 +199,7 @@ pub fn run(args: &CampbellArgs) -> Result<(), CliError> {
     let diagram = campbell_with(&fe, &omegas, &opts)?;
     let forward = critical_speeds(&diagram, Whirl::Forward);
     let backward = critical_speeds(&diagram, Whirl::Backward);
-    print!("{}", format_table(&diagram, &forward, &backward));
+    write!(io.out, "{}", format_table(&diagram, &forward, &backward))?;
     if let Some(path) = &args.plot {
         let series = diagram_series(&diagram, &forward);
         // Frequency axis up to the highest mode shown (and the 1X line's end).
@@ -228,7 +228,7 @@ pub fn run(args: &CampbellArgs) -> Result<(), CliError> {
             &series,
             &opts,
         )?;
-        eprintln!("wrote {}", path.display());
+        writeln!(io.err, "wrote {}", path.display())?;
     }
     Ok(())
 }

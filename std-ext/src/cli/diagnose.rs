@@ -2,7 +2,7 @@
 
 use clap::Args;
 
-use super::CliError;
+use super::{CliError, Io};
 
 /// Arguments of `rotorid diagnose`.
 #[derive(Debug, Clone, PartialEq, Args)]
@@ -19,7 +19,7 @@ pub struct DiagnoseArgs {
 }
 
 /// Runs `rotorid diagnose`.
-pub fn run(args: &DiagnoseArgs) -> Result<(), CliError> {
-    let _ = args;
+pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
+    let _ = (args, io);
     Err(CliError::new("diagnose: not yet available in this build"))
 }

@@ -3,7 +3,7 @@
 
 use clap::{Args, ValueEnum};
 
-use super::CliError;
+use super::{CliError, Io};
 
 /// Model structure of the identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -77,14 +77,13 @@ pub struct IdentifyArgs {
 
 /// Runs `rotorid identify`: loads the model and the measurements, reduces
 /// the model at every measured speed, runs the identification (progress bar
-/// on stderr when it is a terminal and the sweep is long), prints the table
+/// on the process's stderr when `io.progress` and the sweep is long), prints the table
 /// of identified values next to the model's with relative errors, and
 /// optionally writes the JSON of SPEC section 5 and SVG plots.
-pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
+pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     use crate::core::parametrization::{Structure, MAX_ORDER};
     use crate::estimate::{identify, Estimator, Options, Precision};
     use crate::report::identify::{report_table, write_plots};
-    use std::io::IsTerminal;
 
     if !(1..=MAX_ORDER).contains(&args.order) {
         return Err(CliError::new(format!(
@@ -137,7 +136,7 @@ pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
     }
 
     let n = meas.samples.len();
-    let bar = if std::io::stderr().is_terminal() && n >= 100 {
+    let bar = if io.progress && n >= 100 {
         let pb = indicatif::ProgressBar::new(n as u64);
         pb.set_style(
             indicatif::ProgressStyle::with_template("identify {bar:40} {pos}/{len} speeds {eta}")
@@ -158,10 +157,10 @@ pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
     }
     let id = result?;
 
-    print!("{}", report_table(&id, Some(&model)));
+    write!(io.out, "{}", report_table(&id, Some(&model)))?;
     if let Some(check) = &id.check {
         for w in &check.warnings {
-            eprintln!("warning: {w}");
+            writeln!(io.err, "warning: {w}")?;
         }
     }
     if let Some(path) = &args.json {
@@ -173,7 +172,7 @@ pub fn run(args: &IdentifyArgs) -> Result<(), CliError> {
         let rpm_max = crate::units::rad_s_to_rpm(crate::estimate::max_speed(&meas.samples));
         let files = write_plots(dir, "", &id, &model, Some(&model), rpm_max.max(1.0))?;
         for f in files {
-            eprintln!("wrote {}", f.display());
+            writeln!(io.err, "wrote {}", f.display())?;
         }
     }
     Ok(())

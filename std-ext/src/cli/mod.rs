@@ -14,8 +14,14 @@
 //! (Eq. 49) or a path to a model file (rotorid TOML or ROSS TOML, detected).
 //! Exit status 0 on success; 2 with a one-line message on stderr for any
 //! error, including command-line usage errors.
+//!
+//! Every command writes through the writers of an [`Io`], so the whole
+//! command line runs in-process on any pair of writers
+//! ([`run_with_io`]); the binary passes the process's stdout and stderr
+//! ([`main_with_args`]).
 
 use std::fmt;
+use std::io::{IsTerminal, Write};
 
 use clap::{Args, Parser, Subcommand};
 
@@ -154,36 +160,69 @@ pub fn load_model(name_or_path: &str) -> Result<ModelFile, CliError> {
     })
 }
 
+/// Where a command writes: its stdout and stderr, and whether it may draw
+/// a progress bar (on the process's stderr, only when that is a terminal).
+pub struct Io<'a> {
+    /// The command's output (tables, summaries).
+    pub out: &'a mut dyn Write,
+    /// Messages (`wrote FILE`) and the one-line error.
+    pub err: &'a mut dyn Write,
+    /// Draw progress bars on the process's stderr.
+    pub progress: bool,
+}
+
 /// Runs a parsed command line.
-pub fn run(cli: &Cli) -> Result<(), CliError> {
+pub fn run(cli: &Cli, io: &mut Io<'_>) -> Result<(), CliError> {
     match &cli.command {
-        Command::Simulate(a) => simulate::run(a),
-        Command::Tables(a) => tables::run(a),
-        Command::Identify(a) => identify::run(a),
-        Command::Diagnose(a) => diagnose::run(a),
-        Command::Campbell(a) => campbell::run(a),
+        Command::Simulate(a) => simulate::run(a, io),
+        Command::Tables(a) => tables::run(a, io),
+        Command::Identify(a) => identify::run(a, io),
+        Command::Diagnose(a) => diagnose::run(a, io),
+        Command::Campbell(a) => campbell::run(a, io),
     }
 }
 
-/// Parses `args` (the first is the program name), runs the command and
-/// returns the exit status: 0 on success (and for `--help`/`--version`),
-/// 2 with a one-line message on stderr on any error.
-pub fn main_with_args<I, T>(args: I) -> i32
+/// Parses `args` (the first is the program name), runs the command with
+/// `stdout` and `stderr` as its output and returns the exit status: 0 on
+/// success (and for `--help`/`--version`), 2 with a one-line message on
+/// `stderr` on any error. No progress bar.
+pub fn run_with_io<I, T>(args: I, stdout: &mut impl Write, stderr: &mut impl Write) -> i32
 where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
+    run_args(
+        args,
+        &mut Io {
+            out: stdout,
+            err: stderr,
+            progress: false,
+        },
+    )
+}
+
+/// [`run_with_io`] on `io`.
+fn run_args<I, T>(args: I, io: &mut Io<'_>) -> i32
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    // A failed write of the error line itself has nowhere else to go: the
+    // status says it.
     let cli = match Cli::try_parse_from(args) {
         Ok(c) => c,
         Err(e) => {
             use clap::error::ErrorKind;
             match e.kind() {
                 ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
-                    let _ = e.print();
-                    return 0;
+                    return match write!(io.out, "{}", e.render()).and_then(|()| io.out.flush()) {
+                        Ok(()) => 0,
+                        Err(_) => EXIT_ERROR,
+                    };
                 }
                 ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
-                    eprintln!(
+                    let _ = writeln!(
+                        io.err,
                         "error: a command is required (simulate, tables, identify, diagnose, campbell); see `rotorid --help`"
                     );
                     return EXIT_ERROR;
@@ -203,24 +242,41 @@ where
                     } else {
                         msg
                     };
-                    eprintln!("{msg} (see `rotorid --help`)");
+                    let _ = writeln!(io.err, "{msg} (see `rotorid --help`)");
                     return EXIT_ERROR;
                 }
             }
         }
     };
-    match run(&cli) {
+    match run(&cli, io).and_then(|()| io.out.flush().map_err(CliError::from)) {
         Ok(()) => 0,
         Err(e) => {
             let msg = e.one_line();
-            if msg.starts_with("error") {
-                eprintln!("{msg}");
+            let _ = if msg.starts_with("error") {
+                writeln!(io.err, "{msg}")
             } else {
-                eprintln!("error: {msg}");
-            }
+                writeln!(io.err, "error: {msg}")
+            };
             EXIT_ERROR
         }
     }
+}
+
+/// [`run_with_io`] on the process's stdout and stderr, with a progress bar
+/// for long runs when stderr is a terminal.
+pub fn main_with_args<I, T>(args: I) -> i32
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    run_args(
+        args,
+        &mut Io {
+            out: &mut std::io::stdout(),
+            err: &mut std::io::stderr(),
+            progress: std::io::stderr().is_terminal(),
+        },
+    )
 }
 
 /// [`main_with_args`] on the process's arguments.

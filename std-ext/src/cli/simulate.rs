@@ -3,7 +3,7 @@
 
 use clap::{Args, ValueEnum};
 
-use super::{load_model, CliError, RpmGridArgs};
+use super::{load_model, CliError, Io, RpmGridArgs};
 use crate::io::measurement::{write_csv, CsvLayout};
 use crate::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
 use crate::model::{BowPoint, Pedestal, Unbalance};
@@ -218,7 +218,7 @@ impl SimulateArgs {
 }
 
 /// Runs `rotorid simulate`.
-pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
+pub fn run(args: &SimulateArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     let file = load_model(&args.model)?;
     let speeds_rpm = args.grid.speeds_rpm()?;
     if !(args.noise.is_finite() && args.noise >= 0.0) {
@@ -245,11 +245,12 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         LayoutArg::AmpPhase => CsvLayout::AmplitudePhase,
     };
     write_csv(&m, &args.out, layout)?;
-    eprintln!(
+    writeln!(
+        io.err,
         "wrote {} speeds x {} channels to {}",
         m.samples.len(),
         2 * m.n_bearings,
         args.out.display()
-    );
+    )?;
     Ok(())
 }

@@ -25,7 +25,7 @@
 
 use clap::Args;
 
-use super::{load_model, CliError, Formulation, RpmGridArgs};
+use super::{load_model, CliError, Formulation, Io, RpmGridArgs};
 use crate::core::parametrization::{Structure, MAX_ORDER};
 use crate::tables::grid::AdaptiveOptions;
 use crate::tables::{build, build_adaptive, Scalar};
@@ -59,7 +59,7 @@ pub struct TablesArgs {
 }
 
 /// Runs `rotorid tables`.
-pub fn run(args: &TablesArgs) -> Result<(), CliError> {
+pub fn run(args: &TablesArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     if !(1..=MAX_ORDER).contains(&args.order) {
         return Err(CliError::new(format!(
             "tables: --order must be in 1..={MAX_ORDER}, got {}",
@@ -119,7 +119,8 @@ pub fn run(args: &TablesArgs) -> Result<(), CliError> {
     };
     std::fs::write(&args.out, &bytes)
         .map_err(|e| CliError::new(format!("cannot write {}: {e}", args.out.display())))?;
-    println!(
+    writeln!(
+        io.out,
         "wrote {} ({} bytes, {}, {}, {} {}): {} speeds {:.1}..{:.1} rpm, {} bearings, {} planes, poles of A at {:?} rpm, of B at {:?} rpm{note}",
         args.out.display(),
         bytes.len(),
@@ -137,7 +138,7 @@ pub fn run(args: &TablesArgs) -> Result<(), CliError> {
         table.plane_nodes.len(),
         rpm_list(&table.poles.a),
         rpm_list(&table.poles.b),
-    );
+    )?;
     Ok(())
 }
 

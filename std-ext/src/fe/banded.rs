@@ -446,6 +446,8 @@ impl BandedLu {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
 
     fn c(re: f64, im: f64) -> Complex64 {
         Complex64::new(re, im)
@@ -455,13 +457,8 @@ mod tests {
     /// pivoting is exercised).
     fn sample(n: usize, kl: usize, ku: usize) -> BandedMatrix {
         let mut a = BandedMatrix::zeros(n, kl, ku);
-        let mut s = 12345u64;
-        let mut rnd = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        let mut rng = ChaCha8Rng::seed_from_u64(12345);
+        let mut rnd = || rng.random_range(-0.5..0.5);
         for j in 0..n {
             for i in j.saturating_sub(ku)..=(j + kl).min(n - 1) {
                 let scale = if i == j { 0.01 } else { 1.0 };

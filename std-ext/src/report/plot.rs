@@ -287,20 +287,15 @@ pub fn line_plot_with(
         reason: e,
     };
     root.fill(&WHITE).map_err(|e| be(e.to_string()))?;
+    let labels = Labels {
+        title,
+        x: x_label,
+        y: y_label,
+    };
     if opts.log_y {
-        draw(
-            &root,
-            title,
-            x_label,
-            y_label,
-            series,
-            opts,
-            x0..x1,
-            (y0..y1).log_scale(),
-        )
-        .map_err(be)?;
+        draw(&root, &labels, series, opts, x0..x1, (y0..y1).log_scale()).map_err(be)?;
     } else {
-        draw(&root, title, x_label, y_label, series, opts, x0..x1, y0..y1).map_err(be)?;
+        draw(&root, &labels, series, opts, x0..x1, y0..y1).map_err(be)?;
     }
     root.present().map_err(|e| be(e.to_string()))?;
     Ok(())
@@ -333,12 +328,16 @@ fn tick_label(v: f64) -> String {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// The texts of a plot: title and axis labels.
+struct Labels<'a> {
+    title: &'a str,
+    x: &'a str,
+    y: &'a str,
+}
+
 fn draw<'a, Y>(
     root: &DrawingArea<SVGBackend<'a>, Shift>,
-    title: &str,
-    x_label: &str,
-    y_label: &str,
+    labels: &Labels<'_>,
     series: &[Series],
     opts: &PlotOptions,
     xr: std::ops::Range<f64>,
@@ -349,7 +348,7 @@ where
     Y::CoordDescType: ValueFormatter<f64>,
 {
     let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 22))
+        .caption(labels.title, ("sans-serif", 22))
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(80)
@@ -357,8 +356,8 @@ where
         .map_err(|e| e.to_string())?;
     chart
         .configure_mesh()
-        .x_desc(x_label)
-        .y_desc(y_label)
+        .x_desc(labels.x)
+        .y_desc(labels.y)
         .x_label_formatter(&|v| tick_label(*v))
         .y_label_formatter(&|v| tick_label(*v))
         .light_line_style(RGBColor(235, 235, 235))

@@ -526,7 +526,7 @@ mod tests {
         assert_eq!(*g.last().unwrap(), 950.0);
         assert_eq!(uniform_rpm(10.0, 10.0, 5.0).unwrap(), vec![10.0]);
         // A grid may start at rest (simulate); the table builder and
-        // `rotorid tables` refuse speed 0 themselves (tests/tables_cli.rs).
+        // `rotorid tables` refuse speed 0 themselves (tests/tables/cli.rs).
         assert_eq!(uniform_rpm(0.0, 10.0, 5.0).unwrap(), vec![0.0, 5.0, 10.0]);
         assert!(uniform_rpm(10.0, 5.0, 5.0).is_err());
         assert!(uniform_rpm(10.0, 50.0, 0.0).is_err());

@@ -2,9 +2,7 @@
 //! bit unchanged; data whose squares overflow or underflow the precision do
 //! not poison the state.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use num_complex::Complex;
 use rotorid_core::qrdrls::{self, FilterError, VectorQrdRls};
 

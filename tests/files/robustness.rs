@@ -1,16 +1,12 @@
 //! Untrusted input: randomly mutated model files (own and ROSS) and
 //! measurement CSVs give an error or a valid result, never a panic.
 
-use rand::{Rng, SeedableRng};
+use crate::common::{example, rng};
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-fn example(name: &str) -> String {
-    std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("examples")
-            .join(name),
-    )
-    .unwrap()
+fn example_text(name: &str) -> String {
+    std::fs::read_to_string(example(name)).unwrap()
 }
 
 /// Random byte-level and token-level edits.
@@ -65,9 +61,9 @@ fn mutate(rng: &mut ChaCha8Rng, text: &str) -> String {
 
 #[test]
 fn mutated_model_files_never_panic() {
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let own = example("paper.toml");
-    let ross = example("paper_ross.toml");
+    let mut rng = rng(11);
+    let own = example_text("paper.toml");
+    let ross = example_text("paper_ross.toml");
     let (mut ok, mut err) = (0, 0);
     for i in 0..3000 {
         let base = if i % 2 == 0 { &own } else { &ross };
@@ -95,7 +91,7 @@ fn mutated_model_files_never_panic() {
 
 #[test]
 fn mutated_csv_never_panics() {
-    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let mut rng = rng(12);
     let mut base = String::from(
         "# c\nspeed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,b2_y_re,b2_y_im,b2_z_re,b2_z_im\n",
     );

@@ -3,11 +3,11 @@
 //! This only measures (the numbers are in the README); the assertions are
 //! loose sanity bounds.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::core::parametrization::Structure;
 use rotorid::estimate::{auto_scaling, identify_with, Options, TermsAt};
 use rotorid::model::RotorModel;
+use rotorid::simulate::add_noise;
 use rotorid::units::rpm_to_rad_s;
 use std::collections::HashMap;
 
@@ -44,7 +44,7 @@ fn noise_sensitivity_of_each_structure() {
                     let mut errs = [vec![], vec![], vec![], vec![]];
                     for seed in 1..=5 {
                         let mut meas = clean.clone();
-                        add_noise(&mut meas, noise, seed);
+                        add_noise(&mut meas, noise, seed).unwrap();
                         let mut opts = Options::new(structure);
                         opts.lambda = lambda;
                         opts.normalise_rows = normalise;

@@ -2,19 +2,19 @@
 //! (the paper's Fig. 6): the identified bearing laws put back into the FE
 //! model, Campbell diagram at speeds up to 15000 rpm.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::core::parametrization::Structure;
 use rotorid::estimate::{auto_scaling, identify_with, Identification, Options};
 use rotorid::fe::assembly::FeModel;
 use rotorid::fe::campbell::{campbell_with, CampbellOptions};
 use rotorid::model::RotorModel;
+use rotorid::simulate::add_noise;
 use rotorid::units::rpm_to_rad_s;
 
 fn identify(model: &RotorModel, structure: Structure, lambda: f64, noise: f64) -> Identification {
     let mut meas = simulate(model, &sweep(50.0, 15000.0, 50.0));
     if noise > 0.0 {
-        add_noise(&mut meas, noise, 3);
+        add_noise(&mut meas, noise, 3).unwrap();
     }
     let red = DenseReduction::new(model);
     let mut opts = Options::new(structure);

@@ -323,7 +323,7 @@ fn bad_bearing_layout_is_an_error() {
 
 /// Workloads of the benchmark (`std-ext/benches/tables.rs`), for instruction
 /// counts under `valgrind --tool=callgrind` on a busy machine:
-/// `valgrind --tool=callgrind target/debug/deps/tables_reduction-* --ignored --exact workload_1000_speeds_banded`.
+/// `valgrind --tool=callgrind target/debug/deps/lib-* --ignored --exact tables::reduction::workload_1000_speeds_banded`.
 fn workload(dense: bool) {
     let model = RotorModel::paper();
     let fe = FeModel::new(&model).unwrap();

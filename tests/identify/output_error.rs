@@ -170,7 +170,9 @@ fn monte_carlo(c: &Case, noise: f64, seeds: std::ops::Range<u64>, lambda: f64) -
             std[i].push(fit.covariance[(i, i)].sqrt());
         }
     }
-    println!("| parameter | true | CRB std | output-error bias | output-error std | QRD/RLS RMS error |");
+    println!(
+        "| parameter | true | CRB std | output-error bias | output-error std | QRD/RLS RMS error |"
+    );
     println!("|---|---|---|---|---|---|");
     for i in 0..np {
         let sc = pr.param.scale(pr.params[i].unknown);

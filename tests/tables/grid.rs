@@ -4,7 +4,7 @@
 //!
 //! The full count of the uniform grid reaching each tolerance (the README's
 //! table) is `#[ignore]`d (a few minutes):
-//! `cargo test --release --test tables_grid -- --ignored --nocapture`.
+//! `cargo test --release --test lib tables::grid -- --ignored --nocapture`.
 
 use rotorid::fe::assembly::FeModel;
 use rotorid::model::RotorModel;
@@ -85,7 +85,7 @@ fn without_the_pole_factor_no_reasonable_grid_works() {
 }
 
 #[test]
-#[ignore = "a few minutes: cargo test --release --test tables_grid -- --ignored --nocapture"]
+#[ignore = "a few minutes: cargo test --release --test lib tables::grid -- --ignored --nocapture"]
 fn uniform_points_needed_for_each_tolerance() {
     let model = RotorModel::paper();
     let fe = FeModel::new(&model).unwrap();

@@ -1,35 +1,20 @@
 //! `rotorid simulate` and `rotorid campbell` on the built-in paper rotor.
 
-use std::process::Command;
-
+use crate::common::{cli, tmp, Output};
 use rotorid::io::measurement::read_csv;
 use rotorid::model::extension::Effects;
 use rotorid::model::RotorModel;
 use rotorid::simulate::{simulate, SimOptions};
 use rotorid::tables::grid::uniform_rpm;
 
-fn tmp(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("rotorid-clisim-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
-
-fn rotorid(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_rotorid"))
-        .args(args)
-        .output()
-        .expect("run rotorid");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 #[test]
 fn simulate_paper_writes_a_valid_csv() {
     let p = tmp("paper.csv");
-    let (code, _, err) = rotorid(&["simulate", "--model", "paper", "--out", p.to_str().unwrap()]);
+    let Output {
+        status: code,
+        stderr: err,
+        ..
+    } = cli(["simulate", "--model", "paper", "--out", p.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     let m = read_csv(&p).unwrap();
     assert_eq!(m.n_bearings, 2);
@@ -95,16 +80,8 @@ fn simulate_with_flags_noise_and_layout() {
         ]
     };
     let run = |out: &std::path::Path| {
-        let o = Command::new(env!("CARGO_BIN_EXE_rotorid"))
-            .args(args(out))
-            .output()
-            .unwrap();
-        assert_eq!(
-            o.status.code(),
-            Some(0),
-            "{}",
-            String::from_utf8_lossy(&o.stderr)
-        );
+        let o = cli(args(out));
+        assert_eq!(o.status, 0, "{}", o.stderr);
     };
     run(&a);
     run(&b);
@@ -125,7 +102,11 @@ fn simulate_with_flags_noise_and_layout() {
         assert!(text.contains(needle), "{needle}: {text}");
     }
     let c = tmp("c.csv");
-    let (code, _, err) = rotorid(&[
+    let Output {
+        status: code,
+        stderr: err,
+        ..
+    } = cli([
         "simulate",
         "--model",
         "paper",
@@ -152,7 +133,11 @@ fn simulate_from_model_files_own_and_ross() {
         ("examples/paper.toml", &a),
         ("examples/paper_ross.toml", &b),
     ] {
-        let (code, _, err) = rotorid(&[
+        let Output {
+            status: code,
+            stderr: err,
+            ..
+        } = cli([
             "simulate",
             "--model",
             root.join(model).to_str().unwrap(),
@@ -179,7 +164,11 @@ fn simulate_from_model_files_own_and_ross() {
 #[test]
 fn campbell_prints_table_and_critical_speeds_and_writes_svg() {
     let p = tmp("campbell.svg");
-    let (code, out, err) = rotorid(&[
+    let Output {
+        status: code,
+        stdout: out,
+        stderr: err,
+    } = cli([
         "campbell",
         "--model",
         "paper",
@@ -211,7 +200,11 @@ fn campbell_prints_table_and_critical_speeds_and_writes_svg() {
     assert!(svg.contains("forward"));
     assert!(svg.contains("backward"));
     // Unwritable plot path: exit 2, one line.
-    let (code, _, err) = rotorid(&[
+    let Output {
+        status: code,
+        stderr: err,
+        ..
+    } = cli([
         "campbell",
         "--model",
         "paper",

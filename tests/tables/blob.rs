@@ -1,10 +1,12 @@
 //! Table blob: round trip in f32 and f64, lookup semantics, and rejection of
 //! every corrupted or truncated blob (an error, never a panic). Uses a
 //! synthetic table so that it checks the format alone; the physics is in
-//! `tables_reduction.rs`.
+//! `tables/reduction.rs`.
 
+use crate::common::rng;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
+use rand::Rng;
 use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::{
@@ -14,30 +16,17 @@ use rotorid::reduce::PoleSets;
 use rotorid::reduce::ReducedTerms;
 use rotorid::tables::{ModelTable, Scalar};
 
-/// Deterministic pseudo-random numbers (xorshift), no dependency on rand's
-/// stream stability.
-struct Xs(u64);
-impl Xs {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-}
-
 /// 2 bearings (nodes 1, 27 of 27), 3 planes, `n_s` speeds, one pole, with
 /// entries of realistic size (A ~ 1e8 N/m, B ~ Omega^2).
 fn synthetic(n_s: usize) -> ModelTable {
-    let mut rng = Xs(0x9E37_79B9_7F4A_7C15);
+    let mut rng = rng(0x9E37_79B9_7F4A_7C15);
+    let mut next = || rng.random_range(-1.0..1.0);
     let terms = (0..n_s)
         .map(|s| {
             let omega = 100.0 + 37.5 * s as f64;
-            let a = DMatrix::from_fn(4, 4, |_, _| {
-                Complex64::new(1e8 * rng.next(), 1e7 * rng.next())
-            });
+            let a = DMatrix::from_fn(4, 4, |_, _| Complex64::new(1e8 * next(), 1e7 * next()));
             let b = DMatrix::from_fn(4, 3, |_, _| {
-                Complex64::new(omega * omega * rng.next(), omega * omega * rng.next())
+                Complex64::new(omega * omega * next(), omega * omega * next())
             });
             ReducedTerms { omega, a, b }
         })

@@ -1,11 +1,11 @@
 //! The standard deviations reported with the estimates against the spread
 //! of the estimates over independent noise realisations.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::core::parametrization::Structure;
 use rotorid::estimate::{auto_scaling, identify_with, Options, TermsAt};
 use rotorid::model::RotorModel;
+use rotorid::simulate::add_noise;
 use rotorid::units::rpm_to_rad_s;
 use std::collections::HashMap;
 
@@ -32,7 +32,7 @@ fn reported_std_matches_the_spread_over_seeds() {
         let mut std_me = Vec::new();
         for seed in 0..n_seeds {
             let mut meas = clean.clone();
-            add_noise(&mut meas, 0.001, 100 + seed);
+            add_noise(&mut meas, 0.001, 100 + seed).unwrap();
             let mut opts = Options::new(structure);
             opts.lambda = lambda;
             opts.normalise_rows = normalise;

@@ -1,16 +1,11 @@
 //! Model files: the shipped examples load to the built-in rotor, and bad
 //! files give an error naming the field.
 
+use crate::common::example;
 use rotorid::io::model_file::{
     load_model, model_by_name_or_path, parse_model_file, ModelFileError,
 };
 use rotorid::model::RotorModel;
-
-fn example(name: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples")
-        .join(name)
-}
 
 #[test]
 fn paper_toml_equals_builtin_paper() {

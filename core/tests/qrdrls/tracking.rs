@@ -1,9 +1,7 @@
 //! Tracking: with lambda < 1 the QRD/RLS follows a parameter vector that
 //! changes mid-stream; with lambda = 1 it does not.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use rotorid_core::qrdrls::VectorQrdRls;
 
 const M: usize = 4;

@@ -1,20 +1,8 @@
 //! `rotorid identify` end to end: SPEC flags, the JSON contract, one-line
 //! errors with exit status 2.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::model::RotorModel;
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_rotorid"))
-}
-
-fn tmp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("rotorid-identify-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
 
 #[test]
 fn identify_writes_the_spec_json() {
@@ -24,20 +12,25 @@ fn identify_writes_the_spec_json() {
     rotorid::io::measurement::write_csv(&meas, &csv, Default::default()).unwrap();
     for (formulation, order) in [("physical", "1"), ("paper", "1"), ("paper", "2")] {
         let json = tmp(&format!("out-{formulation}-{order}.json"));
-        let out = bin()
-            .args(["identify", "--model", "paper", "--measurements"])
-            .arg(&csv)
-            .args(["--formulation", formulation, "--order", order])
-            .args(["--lambda", "0.999", "--delta", "1e-7", "--json"])
-            .arg(&json)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let table = String::from_utf8_lossy(&out.stdout);
+        let out = cli([
+            "identify",
+            "--model",
+            "paper",
+            "--measurements",
+            csv.to_str().unwrap(),
+            "--formulation",
+            formulation,
+            "--order",
+            order,
+            "--lambda",
+            "0.999",
+            "--delta",
+            "1e-7",
+            "--json",
+            json.to_str().unwrap(),
+        ]);
+        assert!(out.success(), "{}", out.stderr);
+        let table = &out.stdout;
         assert!(
             table.contains("b1@1 kyy") && table.contains("n21 phase_deg"),
             "{table}"
@@ -115,20 +108,21 @@ fn identify_bad_input_exits_2_with_one_line() {
         ],
     ];
     for extra in cases {
-        let out = bin()
-            .args(["identify", "--model", "paper"])
-            .args(&extra)
-            .output()
-            .unwrap();
-        assert_eq!(out.status.code(), Some(2), "{extra:?}");
-        let err = String::from_utf8_lossy(&out.stderr);
+        let out = cli(["identify", "--model", "paper"]
+            .iter()
+            .map(|s| s.to_string())
+            .chain(extra.clone()));
+        assert_eq!(out.status, 2, "{extra:?}");
+        let err = &out.stderr;
         assert_eq!(err.trim_end().lines().count(), 1, "{extra:?}: {err}");
     }
     // An unknown model name.
-    let out = bin()
-        .args(["identify", "--model", "no-such-model", "--measurements"])
-        .arg(&csv)
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
+    let out = cli([
+        "identify",
+        "--model",
+        "no-such-model",
+        "--measurements",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status, 2);
 }

@@ -1,30 +1,17 @@
 //! The command line's error contract: exit status 2 and exactly one line on
 //! stderr for bad arguments, missing files, unknown models and bad model
-//! files; never a panic.
+//! files; never a panic. In-process ([`cli`]), and once through the real
+//! binary for its wiring.
 
-use std::process::Command;
-
-fn rotorid(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_rotorid"))
-        .args(args)
-        .output()
-        .expect("run rotorid");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn tmp(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("rotorid-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
+use crate::common::{binary, cli, example, tmp, Output};
 
 /// Asserts exit 2, one stderr line containing `needle`, no panic.
 fn fails(args: &[&str], needle: &str) {
-    let (code, _out, err) = rotorid(args);
+    let Output {
+        status: code,
+        stderr: err,
+        ..
+    } = cli(args);
     assert_eq!(code, 2, "args {args:?}: stderr {err:?}");
     assert!(!err.contains("panicked"), "args {args:?}: {err}");
     assert_eq!(err.trim_end().lines().count(), 1, "args {args:?}: {err:?}");
@@ -107,15 +94,27 @@ fn usage_errors_exit_2_with_one_line() {
 
 #[test]
 fn help_and_version_exit_0() {
-    let (code, out, _) = rotorid(&["--help"]);
+    let Output {
+        status: code,
+        stdout: out,
+        ..
+    } = cli(["--help"]);
     assert_eq!(code, 0);
     for cmd in ["simulate", "tables", "identify", "diagnose", "campbell"] {
         assert!(out.contains(cmd), "{out}");
     }
-    let (code, out, _) = rotorid(&["--version"]);
+    let Output {
+        status: code,
+        stdout: out,
+        ..
+    } = cli(["--version"]);
     assert_eq!(code, 0);
     assert!(out.starts_with("rotorid "));
-    let (code, out, _) = rotorid(&["simulate", "--help"]);
+    let Output {
+        status: code,
+        stdout: out,
+        ..
+    } = cli(["simulate", "--help"]);
     assert_eq!(code, 0);
     for flag in [
         "--rpm-min",
@@ -288,10 +287,7 @@ fn unknown_model_and_missing_files_exit_2() {
 
 #[test]
 fn bad_model_files_exit_2_naming_the_field() {
-    let paper = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/paper.toml"),
-    )
-    .unwrap();
+    let paper = std::fs::read_to_string(example("paper.toml")).unwrap();
     let out = tmp("y.csv");
     let o = out.to_str().unwrap();
     let cases = [
@@ -341,4 +337,66 @@ fn bad_model_files_exit_2_naming_the_field() {
         "model",
     );
     assert!(!out.exists());
+}
+
+/// The binary itself (`main` -> `main_from_env`): exit status and one-line
+/// stderr on errors, help and a real command on success.
+#[test]
+fn the_binary_keeps_the_exit_status_contract() {
+    for (args, needle) in [
+        (vec![], "a command is required"),
+        (vec!["frobnicate"], "unrecognized subcommand"),
+        (
+            vec!["simulate", "--model", "nosuchmodel", "--out", "x.csv"],
+            "unknown model `nosuchmodel`",
+        ),
+        (
+            vec!["diagnose", "--model", "paper", "--measurements", "m.csv"],
+            "",
+        ),
+    ] {
+        let o = binary(&args);
+        assert_eq!(o.status, 2, "args {args:?}: stderr {:?}", o.stderr);
+        assert!(
+            !o.stderr.contains("panicked"),
+            "args {args:?}: {}",
+            o.stderr
+        );
+        assert_eq!(
+            o.stderr.trim_end().lines().count(),
+            1,
+            "{args:?}: {:?}",
+            o.stderr
+        );
+        assert!(o.stderr.contains(needle), "{args:?}: {:?}", o.stderr);
+        assert!(o.stdout.is_empty(), "{args:?}: {:?}", o.stdout);
+    }
+    let o = binary(["--help"]);
+    assert_eq!(o.status, 0);
+    assert!(o.stdout.contains("campbell"), "{}", o.stdout);
+    let csv = tmp("binary.csv");
+    let o = binary([
+        "simulate",
+        "--model",
+        "paper",
+        "--out",
+        csv.to_str().unwrap(),
+        "--rpm-max",
+        "200",
+    ]);
+    assert_eq!(o.status, 0, "{}", o.stderr);
+    assert!(o.stderr.starts_with("wrote 4 speeds"), "{}", o.stderr);
+    // In-process and the binary agree.
+    assert_eq!(
+        cli([
+            "simulate",
+            "--model",
+            "paper",
+            "--out",
+            csv.to_str().unwrap(),
+            "--rpm-max",
+            "200"
+        ]),
+        o
+    );
 }

@@ -5,8 +5,7 @@
 //! README); asserts that the exact-speed table and a tight adaptive grid
 //! meet the f32 tolerances of case 4.1.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use num_complex::Complex;
 use rotorid::core::identify::{Config, PhysicalIdentifier, SteadyPolicy};
 use rotorid::core::parametrization::{BearingEstimate, Structure, UnbalanceEstimate};

@@ -4,7 +4,7 @@
 //! freshly built table.
 //!
 //! Regenerate after an intended change of the FE model or the format with
-//! `ROTORID_BLESS=1 cargo test --test tables_source`, or equivalently
+//! `ROTORID_BLESS=1 cargo test --test lib tables::source`, or equivalently
 //! `cargo run -- tables --model paper --rpm-min 6000 --rpm-max 7500 --rpm-step 500 --out tests/data/paper_table.rs`
 //! (and `--f32 --out tests/data/paper_table_f32.rs`).
 
@@ -17,10 +17,10 @@ use rotorid::tables::grid::uniform_rad_s;
 use rotorid::tables::{build, ModelTable, Scalar};
 
 mod paper64 {
-    include!("data/paper_table.rs");
+    include!("../data/paper_table.rs");
 }
 mod paper32 {
-    include!("data/paper_table_f32.rs");
+    include!("../data/paper_table_f32.rs");
 }
 
 /// The table the committed files were generated from: the paper rotor at
@@ -50,12 +50,12 @@ fn committed_sources_equal_the_generator_output() {
     let t = fresh();
     check_file(
         "paper_table.rs",
-        include_str!("data/paper_table.rs"),
+        include_str!("../data/paper_table.rs"),
         &t.to_rust_source(Scalar::F64).unwrap(),
     );
     check_file(
         "paper_table_f32.rs",
-        include_str!("data/paper_table_f32.rs"),
+        include_str!("../data/paper_table_f32.rs"),
         &t.to_rust_source(Scalar::F32).unwrap(),
     );
 }

@@ -1,15 +1,10 @@
 //! ROSS rotor files: the shipped paper rotor in ROSS format loads to the
 //! built-in rotor, and unsupported content is refused naming the element.
 
+use crate::common::{example, tmp};
 use rotorid::io::model_file::{load_model, ModelFileError};
 use rotorid::io::ross::{parse_ross, RossError};
 use rotorid::model::{BearingLaw, RotorModel};
-
-fn example(name: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("examples")
-        .join(name)
-}
 
 #[test]
 fn paper_ross_equals_builtin_paper_field_by_field() {
@@ -175,9 +170,7 @@ G_s = 76923076923.07692
 
 #[test]
 fn ross_detection_by_key() {
-    let dir = std::env::temp_dir().join(format!("rotorid-ross-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join("r.toml");
+    let p = tmp("r.toml");
     std::fs::write(&p, paper_ross().replace("[\"SealElement", "")).unwrap();
     assert_eq!(load_model(&p).unwrap().shaft, RotorModel::paper().shaft);
     std::fs::write(
@@ -190,7 +183,7 @@ fn ross_detection_by_key() {
         matches!(e, ModelFileError::Ross(RossError::Unsupported { .. })),
         "{e}"
     );
-    std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_file(&p).ok();
 }
 
 #[test]

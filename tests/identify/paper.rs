@@ -3,8 +3,7 @@
 //! (300 speeds), data from the FE unbalance response, terms from an
 //! independent dense reduction of the same FE model.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::estimate::{auto_scaling, identify_with, Identification, Options, Precision, TermsAt};

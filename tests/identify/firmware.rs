@@ -3,8 +3,7 @@
 //! generated table source) against the desktop path (runtime sizes, f32) on
 //! the same sweep: bit-identical estimates.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use num_complex::Complex;
 use rotorid::core::identify::{
     Config, IdField, Identifier, IdentifyError, PaperIdentifier, PhysicalIdentifier,
@@ -15,6 +14,7 @@ use rotorid::core::table::TableView;
 use rotorid::estimate::{auto_scaling, identify_with, EstimateSet, Options, Precision};
 use rotorid::model::RotorModel;
 use rotorid::reduce::ReducedTerms;
+use rotorid::simulate::add_noise;
 use rotorid::tables::{ModelTable, Scalar};
 use rotorid::units::rpm_to_rad_s;
 
@@ -25,7 +25,7 @@ const NP: usize = 3;
 /// firmware identifier of the first test (the rest of it is unused here).
 #[allow(dead_code)]
 mod generated {
-    include!("data/paper_table_f32.rs");
+    include!("../data/paper_table_f32.rs");
 }
 
 /// Runs the sweep through `id`, the terms from the blob.
@@ -65,7 +65,7 @@ fn firmware_and_desktop_paths_agree_in_f32() {
     let model = RotorModel::paper();
     let speeds = sweep(50.0, 15000.0, 50.0);
     let mut meas = simulate(&model, &speeds);
-    add_noise(&mut meas, 0.001, 5);
+    add_noise(&mut meas, 0.001, 5).unwrap();
     // The table on the measurement grid, from the dense reduction.
     let red = DenseReduction::new(&model);
     let table = ModelTable {
@@ -150,7 +150,7 @@ fn product_paths_agree() {
     let model = RotorModel::paper();
     let speeds = sweep(50.0, 15000.0, 50.0);
     let mut meas = simulate(&model, &speeds);
-    add_noise(&mut meas, 0.001, 9);
+    add_noise(&mut meas, 0.001, 9).unwrap();
     let scaling = auto_scaling(&model, rpm_to_rad_s(15000.0));
     let blob = rotorid::tables::build(&model, &speeds)
         .unwrap()

@@ -3,14 +3,14 @@
 //! decays in the directions the constant speed does not excite and the
 //! estimates wind up; with it they stay where the sweep put them.
 
-mod identify_common;
-use identify_common::*;
+use crate::common::*;
 use rotorid::core::identify::{SteadyAction, SteadyPolicy};
 use rotorid::core::parametrization::Structure;
 use rotorid::estimate::{
     auto_scaling, identify_with, EstimateSet, Identification, Options, Precision, TermsAt,
 };
 use rotorid::model::RotorModel;
+use rotorid::simulate::add_noise;
 use rotorid::units::rpm_to_rad_s;
 use std::collections::HashMap;
 
@@ -35,7 +35,7 @@ fn guard_keeps_estimates_through_a_long_constant_speed_stretch() {
         meas.samples
             .push(steady.samples[(i * 7) % jitter.len()].clone());
     }
-    add_noise(&mut meas, 0.01, 11);
+    add_noise(&mut meas, 0.01, 11).unwrap();
     let red = DenseReduction::new(&model);
     let mut terms: HashMap<u64, TermsAt> = HashMap::new();
     for s in &meas.samples {

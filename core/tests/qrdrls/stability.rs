@@ -3,9 +3,7 @@
 //! update, i.e. 3 million rows), against the same filter in f64; and what
 //! the conventional RLS does on the same stream.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use nalgebra::DMatrix;
 use num_complex::Complex;
 use rotorid_core::qrdrls::VectorQrdRls;

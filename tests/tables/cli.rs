@@ -1,9 +1,7 @@
 //! `rotorid tables` end to end: blob (f64, f32), Rust source, adaptive grid,
 //! and bad input (exit status 2, one line on stderr, no file).
 
-use std::path::PathBuf;
-use std::process::Command;
-
+use crate::common::{cli, tmp};
 use rotorid::core::identify::PaperIdentifier;
 use rotorid::core::parametrization::Structure;
 use rotorid::core::table::TableView;
@@ -12,24 +10,10 @@ use rotorid::model::RotorModel;
 use rotorid::tables::grid::uniform_rad_s;
 use rotorid::tables::{build, ModelTable, Scalar};
 
-fn out_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rotorid-tables-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn rotorid(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rotorid"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 #[test]
 fn blob_and_source_from_the_command_line() {
-    let dir = out_dir("ok");
-    let blob = dir.join("paper.tbl");
-    let o = rotorid(&[
+    let blob = tmp("paper.tbl");
+    let o = cli([
         "tables",
         "--model",
         "paper",
@@ -42,7 +26,7 @@ fn blob_and_source_from_the_command_line() {
         "--rpm-step",
         "100",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.success(), "{}", o.stderr);
     let bytes = std::fs::read(&blob).unwrap();
     let view = TableView::<f64>::parse(&bytes).unwrap();
     assert_eq!(view.n_speeds(), 30);
@@ -54,8 +38,8 @@ fn blob_and_source_from_the_command_line() {
     .unwrap();
     assert_eq!(lib.to_blob(Scalar::F64).unwrap(), bytes);
 
-    let blob32 = dir.join("paper32.tbl");
-    let o = rotorid(&[
+    let blob32 = tmp("paper32.tbl");
+    let o = cli([
         "tables",
         "--model",
         "paper",
@@ -65,13 +49,13 @@ fn blob_and_source_from_the_command_line() {
         "--rpm-max",
         "1000",
     ]);
-    assert!(o.status.success());
+    assert!(o.success());
     let (t, sc) = ModelTable::from_blob(&std::fs::read(&blob32).unwrap()).unwrap();
     assert_eq!(sc, Scalar::F32);
     assert_eq!(t.terms.len(), 20); // 50, 100, ..., 1000 rpm
 
-    let src = dir.join("paper_table.rs");
-    let o = rotorid(&[
+    let src = tmp("paper_table.rs");
+    let o = cli([
         "tables",
         "--model",
         "paper",
@@ -84,10 +68,10 @@ fn blob_and_source_from_the_command_line() {
         "--rpm-step",
         "500",
     ]);
-    assert!(o.status.success());
+    assert!(o.success());
     assert_eq!(
         std::fs::read_to_string(&src).unwrap(),
-        include_str!("data/paper_table.rs")
+        include_str!("../data/paper_table.rs")
     );
 }
 
@@ -96,11 +80,10 @@ fn blob_and_source_from_the_command_line() {
 /// of the grid), and the source's `Id` is the paper identifier of order 2.
 #[test]
 fn structure_and_scaling_from_the_command_line() {
-    let dir = out_dir("structure");
-    let blob = dir.join("paper2.tbl");
-    let src = dir.join("paper2.rs");
+    let blob = tmp("paper2.tbl");
+    let src = tmp("paper2.rs");
     for out in [&blob, &src] {
-        let o = rotorid(&[
+        let o = cli([
             "tables",
             "--model",
             "paper",
@@ -117,8 +100,8 @@ fn structure_and_scaling_from_the_command_line() {
             "--order",
             "2",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        assert!(String::from_utf8_lossy(&o.stdout).contains("paper 2"));
+        assert!(o.success(), "{}", o.stderr);
+        assert!(o.stdout.contains("paper 2"), "{}", o.stdout);
     }
     let model = RotorModel::paper();
     let speeds = uniform_rad_s(6000.0, 7500.0, 500.0).unwrap();
@@ -153,9 +136,8 @@ fn structure_and_scaling_from_the_command_line() {
 
 #[test]
 fn adaptive_grid_from_the_command_line() {
-    let dir = out_dir("adaptive");
-    let blob = dir.join("adaptive.tbl");
-    let o = rotorid(&[
+    let blob = tmp("adaptive.tbl");
+    let o = cli([
         "tables",
         "--model",
         "paper",
@@ -164,8 +146,8 @@ fn adaptive_grid_from_the_command_line() {
         "--adaptive",
         "1e-4",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.success(), "{}", o.stderr);
+    let stdout = &o.stdout;
     assert!(stdout.contains("worst check error"), "{stdout}");
     let (t, _) = ModelTable::from_blob(&std::fs::read(&blob).unwrap()).unwrap();
     assert!(t.terms.len() > 16 && t.terms.len() < 1000);
@@ -174,8 +156,7 @@ fn adaptive_grid_from_the_command_line() {
 
 #[test]
 fn bad_input_exits_2_with_one_line() {
-    let dir = out_dir("bad");
-    let out = dir.join("x.tbl");
+    let out = tmp("x.tbl");
     let out = out.to_str().unwrap();
     for args in [
         vec!["tables", "--model", "nosuchmodel", "--out", out],
@@ -226,9 +207,9 @@ fn bad_input_exits_2_with_one_line() {
             "complex",
         ],
     ] {
-        let o = rotorid(&args);
-        assert_eq!(o.status.code(), Some(2), "{args:?}");
-        let err = String::from_utf8_lossy(&o.stderr);
+        let o = cli(&args);
+        assert_eq!(o.status, 2, "{args:?}");
+        let err = &o.stderr;
         assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{err}");
     }

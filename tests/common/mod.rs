@@ -1,18 +1,106 @@
-//! Shared pieces of the identification tests: simulation, an independent
-//! dense reduction, noise, error measures.
+//! Helpers shared by all the integration tests: the one seeded generator,
+//! the in-process command line, scratch paths, and for the identification
+//! tests a noise-free simulation, an independent dense reduction and error
+//! measures.
 #![allow(dead_code)]
+
+use std::ffi::{OsStr, OsString};
+use std::path::PathBuf;
 
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 use rotorid::estimate::{EstimateSet, IdentifyError, TermsAt};
 use rotorid::fe::assembly::FeModel;
 use rotorid::fe::response::{unbalance_response, Forcing};
 use rotorid::io::measurement::{Measurements, Sample};
 use rotorid::model::RotorModel;
 use rotorid::units::rpm_to_rad_s;
+
+/// The one pseudo-random generator of the tests: ChaCha8 seeded with
+/// `seed` (the generator of the library's noise, a fixed stream).
+pub fn rng(seed: u64) -> ChaCha8Rng {
+    ChaCha8Rng::seed_from_u64(seed)
+}
+
+/// What a `rotorid` command line did: exit status, stdout, stderr.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Output {
+    /// Exit status (0 success, 2 any error).
+    pub status: i32,
+    /// Everything written to stdout.
+    pub stdout: String,
+    /// Everything written to stderr.
+    pub stderr: String,
+}
+
+impl Output {
+    /// Exit status 0.
+    pub fn success(&self) -> bool {
+        self.status == 0
+    }
+}
+
+/// Runs `rotorid ARGS...` in this process ([`rotorid::cli::run_with_io`],
+/// the code behind the binary's `main`), collecting stdout and stderr.
+pub fn cli<I, S>(args: I) -> Output
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<OsStr>,
+{
+    let argv = std::iter::once(OsString::from("rotorid"))
+        .chain(args.into_iter().map(|a| a.as_ref().to_os_string()));
+    let (mut out, mut err) = (Vec::new(), Vec::new());
+    let status = rotorid::cli::run_with_io(argv, &mut out, &mut err);
+    Output {
+        status,
+        stdout: String::from_utf8_lossy(&out).into_owned(),
+        stderr: String::from_utf8_lossy(&err).into_owned(),
+    }
+}
+
+/// Runs the real `rotorid` binary with `args` (for the tests of the
+/// binary's own wiring: exit status, stderr).
+pub fn binary<I, S>(args: I) -> Output
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<OsStr>,
+{
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_rotorid"))
+        .args(args)
+        .output()
+        .expect("run the rotorid binary");
+    Output {
+        status: o.status.code().unwrap_or(-1),
+        stdout: String::from_utf8_lossy(&o.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&o.stderr).into_owned(),
+    }
+}
+
+/// The file `name` of the crate's `examples/` (model files).
+pub fn example(name: &str) -> PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(name)
+}
+
+/// A scratch path `name` in a directory of the running test's own:
+/// `<temp>/rotorid-tests-<pid>/<test path>/name` (libtest runs each test on
+/// a thread named after it, so tests running in parallel never share
+/// files). The directory exists; the file is not touched.
+pub fn tmp(name: &str) -> PathBuf {
+    let thread = std::thread::current();
+    let test = match thread.name() {
+        Some(n) => n.replace("::", "-"),
+        None => format!("{:?}", thread.id()),
+    };
+    let dir = std::env::temp_dir()
+        .join(format!("rotorid-tests-{}", std::process::id()))
+        .join(test);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
 
 /// Speeds `rpm_min, rpm_min + step, ..., <= rpm_max` (rad/s).
 pub fn sweep(rpm_min: f64, rpm_max: f64, step: f64) -> Vec<f64> {
@@ -36,20 +124,6 @@ pub fn simulate(model: &RotorModel, speeds: &[f64]) -> Measurements {
                 q: r.bearings,
             })
             .collect(),
-    }
-}
-
-/// The SPEC noise model: each complex sample gets `s |q| eps`, `eps`
-/// standard complex Gaussian (`E|eps|^2 = 1`), seeded.
-pub fn add_noise(meas: &mut Measurements, s: f64, seed: u64) {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let h = std::f64::consts::FRAC_1_SQRT_2;
-    for smp in &mut meas.samples {
-        for q in &mut smp.q {
-            let re: f64 = StandardNormal.sample(&mut rng);
-            let im: f64 = StandardNormal.sample(&mut rng);
-            *q += q.norm() * s * Complex64::new(re * h, im * h);
-        }
     }
 }
 

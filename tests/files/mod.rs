@@ -1,0 +1,8 @@
+//! Files and the simulator: the measurement CSV, rotorid and ROSS model
+//! files, mutated (untrusted) input, the simulated sweep.
+
+mod measurement;
+mod model;
+mod robustness;
+mod ross;
+mod simulate;

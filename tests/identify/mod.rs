@@ -1,0 +1,13 @@
+//! The identification: the paper's section 4, noise, reported standard
+//! deviations, steady running, the firmware path and its table grid, the
+//! identified rotor's natural frequencies, `rotorid identify`.
+
+mod campbell;
+mod cli;
+mod firmware;
+mod noise;
+mod output_error;
+mod paper;
+mod std_dev;
+mod steady;
+mod table_grid;

@@ -1,0 +1,8 @@
+//! The bearing-level tables: the reduction, the blob and Rust-source
+//! formats, speed grids, `rotorid tables`.
+
+mod blob;
+mod cli;
+mod grid;
+mod reduction;
+mod source;
