@@ -153,6 +153,54 @@ fn speed_entries(pr: &Predictor, samples: &[Sample]) -> Vec<Vec<Entry>> {
     samples.iter().map(|s| pr.entries(s.omega)).collect()
 }
 
+/// What every pass reads: the model, the samples, their terms and the
+/// parameters' entries at their speeds, and the weight floors.
+struct Data<'a> {
+    pr: &'a Predictor,
+    samples: &'a [Sample],
+    terms: &'a [Terms],
+    entries: Vec<Vec<Entry>>,
+    floors: Vec<f64>,
+}
+
+impl<'a> Data<'a> {
+    fn new(pr: &'a Predictor, samples: &'a [Sample], terms: &'a [Terms], floor: f64) -> Self {
+        Data {
+            pr,
+            samples,
+            terms,
+            entries: speed_entries(pr, samples),
+            floors: floors(samples, floor),
+        }
+    }
+
+    /// [`pass`] with weights from this pass's own prediction.
+    fn reweighted(
+        &self,
+        theta: &[f64],
+        jacobian: bool,
+    ) -> Result<(Pass, Vec<Vec<f64>>), PredictError> {
+        self.pass(WeightsFrom::Prediction(&self.floors), theta, jacobian)
+    }
+
+    fn pass(
+        &self,
+        weights: WeightsFrom<'_>,
+        theta: &[f64],
+        jacobian: bool,
+    ) -> Result<(Pass, Vec<Vec<f64>>), PredictError> {
+        pass(
+            self.pr,
+            self.samples,
+            self.terms,
+            &self.entries,
+            weights,
+            theta,
+            jacobian,
+        )
+    }
+}
+
 /// Per-channel weight floors.
 fn floors(samples: &[Sample], floor: f64) -> Vec<f64> {
     let nq = samples.first().map_or(0, |s| s.q.len());
@@ -320,18 +368,12 @@ fn pass(
 }
 
 /// One refined-instrumental-variable pass (see the module documentation).
-fn iv_pass(
-    pr: &Predictor,
-    samples: &[Sample],
-    terms: &[Terms],
-    entries: &[Vec<Entry>],
-    floors: &[f64],
-    theta: &[f64],
-) -> Result<Vec<f64>, OutputErrorError> {
+fn iv_pass(data: &Data<'_>, theta: &[f64]) -> Result<Vec<f64>, OutputErrorError> {
+    let (pr, floors) = (data.pr, &data.floors);
     let np = pr.n_params();
     let mut m = DMatrix::<f64>::zeros(np, np);
     let mut v = DVector::<f64>::zeros(np);
-    for ((s, t), entries) in samples.iter().zip(terms).zip(entries) {
+    for ((s, t), entries) in data.samples.iter().zip(data.terms).zip(&data.entries) {
         let (a, b) = t;
         let p = pr.predict_with(s.omega, t, entries, theta, false)?;
         let qm = DVector::from_column_slice(&s.q);
@@ -366,15 +408,12 @@ fn iv_pass(
 /// Levenberg-Marquardt at fixed weights; returns the new `theta`, the
 /// iterations and whether the tolerance was met.
 fn levenberg_marquardt(
-    pr: &Predictor,
-    samples: &[Sample],
-    terms: &[Terms],
-    entries: &[Vec<Entry>],
+    data: &Data<'_>,
     w: &[Vec<f64>],
     start: (Vec<f64>, Pass),
     opts: &OutputErrorOptions,
 ) -> Result<(Vec<f64>, usize, bool), OutputErrorError> {
-    let np = pr.n_params();
+    let np = data.pr.n_params();
     let (mut theta, mut cur) = start;
     let max_diag = (0..np).map(|i| cur.normal[(i, i)]).fold(0.0, f64::max);
     if max_diag.is_nan() || max_diag <= 0.0 {
@@ -395,15 +434,7 @@ fn levenberg_marquardt(
         };
         let delta = chol.solve(&(-&cur.gradient));
         let trial: Vec<f64> = theta.iter().zip(delta.iter()).map(|(t, d)| t + d).collect();
-        let next = match pass(
-            pr,
-            samples,
-            terms,
-            entries,
-            WeightsFrom::Given(w),
-            &trial,
-            true,
-        ) {
+        let next = match data.pass(WeightsFrom::Given(w), &trial, true) {
             Ok((p, _)) => p,
             Err(_) => {
                 mu *= nu;
@@ -463,11 +494,10 @@ pub fn fit_output_error(
             params: np,
         });
     }
-    let floors = floors(samples, opts.floor);
-    let entries = speed_entries(pr, samples);
+    let data = Data::new(pr, samples, terms, opts.floor);
     let mut theta = pr.theta(start);
     for _ in 0..opts.iv_passes {
-        match iv_pass(pr, samples, terms, &entries, &floors, &theta) {
+        match iv_pass(&data, &theta) {
             Ok(t) => theta = t,
             Err(OutputErrorError::Predict(_)) | Err(OutputErrorError::Singular) => break,
             Err(e) => return Err(e),
@@ -476,30 +506,13 @@ pub fn fit_output_error(
     let mut iterations = 0;
     let mut converged = false;
     for _ in 0..opts.reweightings.max(1) {
-        let (cur, w) = pass(
-            pr,
-            samples,
-            terms,
-            &entries,
-            WeightsFrom::Prediction(&floors),
-            &theta,
-            true,
-        )?;
-        let (t, it, ok) =
-            levenberg_marquardt(pr, samples, terms, &entries, &w, (theta, cur), opts)?;
+        let (cur, w) = data.reweighted(&theta, true)?;
+        let (t, it, ok) = levenberg_marquardt(&data, &w, (theta, cur), opts)?;
         theta = t;
         iterations += it;
         converged = ok;
     }
-    let (fin, _) = pass(
-        pr,
-        samples,
-        terms,
-        &entries,
-        WeightsFrom::Prediction(&floors),
-        &theta,
-        true,
-    )?;
+    let (fin, _) = data.reweighted(&theta, true)?;
     let dof = n as f64 - np as f64 / 2.0;
     let residual_noise = (fin.cost / dof).sqrt();
     let inv = fin
@@ -535,17 +548,7 @@ pub fn fisher_information(
     if samples.len() != terms.len() {
         return Err(OutputErrorError::Dimension);
     }
-    let floors = floors(samples, floor);
-    let entries = speed_entries(pr, samples);
-    let (p, _) = pass(
-        pr,
-        samples,
-        terms,
-        &entries,
-        WeightsFrom::Prediction(&floors),
-        theta,
-        true,
-    )?;
+    let (p, _) = Data::new(pr, samples, terms, floor).reweighted(theta, true)?;
     Ok(p.normal * 2.0)
 }
 
@@ -562,18 +565,8 @@ pub fn misfit(
     if samples.len() != terms.len() || samples.is_empty() {
         return Err(OutputErrorError::Dimension);
     }
-    let floors = floors(samples, floor);
-    let entries = speed_entries(pr, samples);
     let theta = pr.theta(w);
-    let (p, _) = pass(
-        pr,
-        samples,
-        terms,
-        &entries,
-        WeightsFrom::Prediction(&floors),
-        &theta,
-        false,
-    )?;
+    let (p, _) = Data::new(pr, samples, terms, floor).reweighted(&theta, false)?;
     let n = (samples.len() * samples[0].q.len()) as f64;
     let dof = (n - pr.n_params() as f64 / 2.0).max(1.0);
     Ok(((p.cost / n).sqrt(), (p.cost / dof).sqrt()))

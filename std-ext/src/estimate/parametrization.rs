@@ -96,11 +96,9 @@ impl Parametrization {
         }
     }
 
-    fn real_weights(&self, w: &[Complex64]) -> Vec<f64> {
-        w.iter().map(|z| z.re).collect()
-    }
-
-    /// `Z_B(Omega)` of bearing `m` (N/m, `yy, yz, zy, zz`).
+    /// `Z_B(Omega)` of bearing `m` (N/m, `yy, yz, zy, zz`). The weights are
+    /// complex for both structures (real unknowns in `re`, `im` ignored by
+    /// the physical structure's reading).
     pub fn bearing_dynamic_stiffness(
         &self,
         w: &[Complex64],
@@ -108,59 +106,20 @@ impl Parametrization {
         omega: f64,
     ) -> Option<[Complex64; 4]> {
         let (nb, np) = (self.n_bearings(), self.n_planes());
-        match self.structure.formulation {
-            Formulation::Paper => {
-                bearing_dynamic_stiffness(&self.structure, &self.scaling, w, nb, np, m, omega)
-            }
-            Formulation::Physical => bearing_dynamic_stiffness(
-                &self.structure,
-                &self.scaling,
-                &self.real_weights(w),
-                nb,
-                np,
-                m,
-                omega,
-            ),
-        }
-        .ok()
+        bearing_dynamic_stiffness(&self.structure, &self.scaling, w, nb, np, m, omega).ok()
     }
 
     /// Stiffness and damping of bearing `m` at `omega`: Eq. 43 read at the
     /// speed, `K = Re Z_B`, `C = Im (Z_B - Z_B(0)) / Omega`.
     pub fn bearing(&self, w: &[Complex64], m: usize, omega: f64) -> Option<BearingEstimate<f64>> {
         let (nb, np) = (self.n_bearings(), self.n_planes());
-        match self.structure.formulation {
-            Formulation::Paper => {
-                bearing_estimate(&self.structure, &self.scaling, w, nb, np, m, omega)
-            }
-            Formulation::Physical => bearing_estimate(
-                &self.structure,
-                &self.scaling,
-                &self.real_weights(w),
-                nb,
-                np,
-                m,
-                omega,
-            ),
-        }
-        .ok()
+        bearing_estimate(&self.structure, &self.scaling, w, nb, np, m, omega).ok()
     }
 
     /// The unbalance of plane `k`.
     pub fn unbalance(&self, w: &[Complex64], k: usize) -> Option<UnbalanceEstimate<f64>> {
         let (nb, np) = (self.n_bearings(), self.n_planes());
-        match self.structure.formulation {
-            Formulation::Paper => unbalance_estimate(&self.structure, &self.scaling, w, nb, np, k),
-            Formulation::Physical => unbalance_estimate(
-                &self.structure,
-                &self.scaling,
-                &self.real_weights(w),
-                nb,
-                np,
-                k,
-            ),
-        }
-        .ok()
+        unbalance_estimate(&self.structure, &self.scaling, w, nb, np, k).ok()
     }
 
     /// The unknowns of entry `e` (`yy, yz, zy, zz`) of bearing `m` with their
