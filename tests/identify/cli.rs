@@ -126,3 +126,75 @@ fn identify_bad_input_exits_2_with_one_line() {
     ]);
     assert_eq!(out.status, 2);
 }
+
+/// Data that cannot determine the parameters is an input error with a
+/// reason, for both estimators: one or two speeds (8 or 16 real equations
+/// for 22 unknowns), many samples at one speed, no signal.
+#[test]
+fn data_that_cannot_determine_the_parameters_exits_2() {
+    let model = RotorModel::paper();
+    let two = simulate(&model, &sweep(3000.0, 3500.0, 500.0));
+    let mut one_speed = simulate(&model, &sweep(3000.0, 3000.0, 500.0));
+    let s0 = one_speed.samples[0].clone();
+    one_speed.samples = vec![s0; 500];
+    let mut zeros = simulate(&model, &sweep(1000.0, 5000.0, 100.0));
+    for s in &mut zeros.samples {
+        for q in &mut s.q {
+            *q = num_complex::Complex64::new(0.0, 0.0);
+        }
+    }
+    for (name, meas, reason) in [
+        ("two.csv", &two, "cannot determine"),
+        ("one-speed.csv", &one_speed, "cannot determine"),
+        ("zeros.csv", &zeros, "no signal"),
+    ] {
+        let csv = tmp(name);
+        rotorid::io::measurement::write_csv(meas, &csv, Default::default()).unwrap();
+        for estimator in ["oe", "rls"] {
+            let out = cli([
+                "identify",
+                "--model",
+                "paper",
+                "--measurements",
+                csv.to_str().unwrap(),
+                "--estimator",
+                estimator,
+            ]);
+            assert_eq!(out.status, 2, "{name} {estimator}: {}", out.stdout);
+            assert_eq!(out.stderr.trim_end().lines().count(), 1, "{}", out.stderr);
+            assert!(out.stderr.contains(reason), "{name}: {}", out.stderr);
+        }
+    }
+}
+
+/// A model that does not fit the data: exit 0, the warning on stderr and
+/// in the JSON.
+#[test]
+fn a_misfit_is_a_warning_not_an_error() {
+    let model = RotorModel::paper_speed_dependent();
+    let meas = simulate(&model, &sweep(50.0, 15000.0, 25.0));
+    let csv = tmp("eq49.csv");
+    rotorid::io::measurement::write_csv(&meas, &csv, Default::default()).unwrap();
+    let json = tmp("eq49.json");
+    let out = cli([
+        "identify",
+        "--model",
+        "paper-speed-dependent",
+        "--measurements",
+        csv.to_str().unwrap(),
+        "--order",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.success(), "{}", out.stderr);
+    assert!(out.stderr.contains("warning: residual"), "{}", out.stderr);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["estimator"], "oe");
+    assert!(v["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|w| w.as_str().unwrap().contains("the model lacks something")));
+}

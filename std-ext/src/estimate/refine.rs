@@ -12,8 +12,9 @@
 //! `s_fit^2 = S / (N - P/2)`. When the model describes the data,
 //! `chi^2 / dof = s_fit^2 / s^2` is 1 within a few percent; a model that
 //! lacks something leaves a systematic residual and a ratio well above 1,
-//! whatever the standard deviations say: above [`MISFIT_CHI2`] the result
-//! carries a warning naming the misfit.
+//! whatever the standard deviations say: above [`MISFIT_CHI2`] (and above
+//! a relative misfit of [`PERFECT_FIT`]) the result carries a warning
+//! naming the misfit.
 
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -26,6 +27,10 @@ use crate::io::measurement::Sample;
 
 /// `chi^2 / dof` above which the model is said not to fit the data.
 pub const MISFIT_CHI2: f64 = 2.0;
+
+/// A relative misfit below this is a fit to round-off, whatever the noise
+/// estimate of noise-free data says.
+pub const PERFECT_FIT: f64 = 1e-6;
 
 /// How well the reported estimate explains the data.
 #[derive(Debug, Clone, PartialEq)]
@@ -51,7 +56,7 @@ impl FitCheck {
             .map(|s| (s_fit / s).powi(2));
         let mut warnings = Vec::new();
         match (noise_level, chi2_per_dof) {
-            (Some(s), Some(chi2)) if chi2 > MISFIT_CHI2 => warnings.push(format!(
+            (Some(s), Some(chi2)) if chi2 > MISFIT_CHI2 && s_fit > PERFECT_FIT => warnings.push(format!(
                 "residual {:.1}x the noise level ({:.2e} against {:.2e}): the model lacks something; `rotorid diagnose` looks for what",
                 chi2.sqrt(),
                 s_fit,

@@ -47,6 +47,20 @@ pub enum IdentifyError {
         /// Bearings in the model.
         model: usize,
     },
+    /// Fewer independent real equations than unknowns: the data cannot
+    /// determine the parameters (too few distinct speeds).
+    #[error("measurements: {speeds} distinct speed(s) give {equations} real equations for {unknowns} unknowns: the data cannot determine the parameters (measure more speeds)")]
+    NotDetermined {
+        /// Distinct speeds.
+        speeds: usize,
+        /// Real equations they give (`4 N_b` per speed).
+        equations: usize,
+        /// Real unknowns of the structure.
+        unknowns: usize,
+    },
+    /// Every response is zero (or not a normal number): no signal.
+    #[error("measurements: every response is zero: no signal to identify from")]
+    NoSignal,
     /// The model is invalid.
     #[error("model: {0}")]
     Model(#[from] ModelError),
@@ -293,6 +307,29 @@ pub fn identify_with(
         return Err(IdentifyError::BearingCount {
             file: meas.n_bearings,
             model: nb,
+        });
+    }
+    if !meas
+        .samples
+        .iter()
+        .flat_map(|s| &s.q)
+        .any(|z| z.norm().is_normal())
+    {
+        return Err(IdentifyError::NoSignal);
+    }
+    // Each distinct speed gives 2 N_b complex (4 N_b real) equations; the
+    // same speed repeated gives the same equations again.
+    let mut speeds: Vec<u64> = meas.samples.iter().map(|s| s.omega.to_bits()).collect();
+    speeds.sort_unstable();
+    speeds.dedup();
+    let real_unknowns = options.structure.n_unknowns(nb, plane_nodes.len())
+        * if options.structure.is_complex() { 2 } else { 1 };
+    let equations = 4 * nb * speeds.len();
+    if equations < real_unknowns {
+        return Err(IdentifyError::NotDetermined {
+            speeds: speeds.len(),
+            equations,
+            unknowns: real_unknowns,
         });
     }
     let scaling = options.scaling.unwrap_or_else(ColumnScaling::identity);
