@@ -49,5 +49,4 @@ pub mod estimate;
 
 pub mod report;
 
-/// The command line (`rotorid`): argument parsing, model loading, errors.
 pub mod cli;

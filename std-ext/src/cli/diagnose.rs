@@ -10,10 +10,10 @@ pub struct DiagnoseArgs {
     /// Model: `paper` or a model file (rotorid or ROSS TOML).
     #[arg(long, value_name = "MODEL")]
     pub model: String,
-    /// Measurement CSV (SPEC section 4).
+    /// Measurement CSV (see the README, "Measurement file").
     #[arg(long, value_name = "FILE.csv")]
     pub measurements: std::path::PathBuf,
-    /// Write the diagnosis as JSON (SPEC section 5).
+    /// Write the diagnosis as JSON.
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<std::path::PathBuf>,
 }

@@ -29,7 +29,7 @@ pub struct IdentifyArgs {
     /// Model: `paper` or a model file (rotorid or ROSS TOML).
     #[arg(long, value_name = "MODEL")]
     pub model: String,
-    /// Measurement CSV (SPEC section 4).
+    /// Measurement CSV (see the README, "Measurement file").
     #[arg(long, value_name = "FILE.csv")]
     pub measurements: std::path::PathBuf,
     /// Model structure.
@@ -51,7 +51,7 @@ pub struct IdentifyArgs {
     /// Run the identification in single precision.
     #[arg(long = "f32")]
     pub f32: bool,
-    /// Write the estimates as JSON (SPEC section 5).
+    /// Write the estimates as JSON (keys in the README, "Identification").
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<std::path::PathBuf>,
     /// Write plots (SVG) into this folder.
@@ -79,7 +79,7 @@ pub struct IdentifyArgs {
 /// the model at every measured speed, runs the identification (progress bar
 /// on the process's stderr when `io.progress` and the sweep is long), prints the table
 /// of identified values next to the model's with relative errors, and
-/// optionally writes the JSON of SPEC section 5 and SVG plots.
+/// optionally writes the JSON and SVG plots.
 pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     use crate::core::parametrization::{Structure, MAX_ORDER};
     use crate::estimate::{identify, Estimator, Options, Precision};

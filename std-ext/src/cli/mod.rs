@@ -1,4 +1,4 @@
-//! The `rotorid` command line (SPEC section 5).
+//! The `rotorid` command line (the contract is in the README).
 //!
 //! ```text
 //! rotorid simulate --model MODEL --out FILE.csv [--rpm-min 50] [--rpm-max 15000] [--rpm-step 50] [--noise 0.01] [--seed 1]
