@@ -9,9 +9,12 @@
 //! * [`uncertainty`]: covariance of the weights and standard deviations.
 //! * [`predictor`], [`output_error`], [`noise`]: the output-error
 //!   (maximum-likelihood) fit of the predicted bearing responses to the
-//!   measured ones, its Fisher information, and the model-free noise level.
+//!   measured ones, its Fisher information, and the model-free noise level;
+//!   [`refine`] runs it after the QRD/RLS and checks the fit; [`design`]
+//!   reads the Fisher information as a design of the test.
 //! * [`results`]: typed results in physical units (`serde::Serialize`).
 
+pub mod design;
 pub mod noise;
 pub mod output_error;
 pub mod parametrization;

@@ -88,6 +88,9 @@ pub struct Refinement {
     pub iterations: usize,
     /// Whether the fit converged.
     pub converged: bool,
+    /// What these speeds determine and what would help
+    /// ([`crate::estimate::design`]).
+    pub design: Option<crate::estimate::design::TestDesign>,
 }
 
 /// Checks the (QRD/RLS) estimate of `id` against `samples` without refining
@@ -150,11 +153,14 @@ pub fn refine(
     );
     let rls_weights = std::mem::replace(&mut id.scaled_weights, fit.weights.clone());
     id.covariance = Some(weight_covariance(&pr, &fit.covariance));
+    let noise = check.noise_level.unwrap_or(fit.residual_noise);
+    let design = crate::estimate::design::analyse(&pr, samples, terms, &fit.theta, noise).ok();
     id.refinement = Some(Refinement {
         rls,
         rls_weights,
         iterations: fit.iterations,
         converged: fit.converged,
+        design,
     });
     id.check = Some(check);
     Ok(())

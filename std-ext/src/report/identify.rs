@@ -190,6 +190,27 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             }
         }
     }
+    if let Some(d) = id.refinement.as_ref().and_then(|r| r.design.as_ref()) {
+        let _ = writeln!(
+            s,
+            "design of the test (Cramer-Rao bounds at the noise level):"
+        );
+        for p in &d.parameters {
+            let _ = writeln!(
+                s,
+                "  {:<14} bound {:.2e} ({:.2e} of {:.3e}), measured between {:.0} and {:.0} rpm",
+                p.name,
+                p.crb,
+                p.crb / p.reference.max(f64::MIN_POSITIVE),
+                p.reference,
+                p.band_rpm.0,
+                p.band_rpm.1
+            );
+        }
+        for n in &d.notes {
+            let _ = writeln!(s, "  {n}");
+        }
+    }
     if let Some(c) = &id.check {
         let _ = writeln!(
             s,
