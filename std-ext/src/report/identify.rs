@@ -190,6 +190,17 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             }
         }
     }
+    if std.is_some() {
+        let _ = writeln!(
+            s,
+            "std: one standard deviation ({}); 95 % interval: value +- 1.96 std",
+            if rls.is_some() {
+                "inverse Fisher information at the estimate"
+            } else {
+                "sandwich covariance of the QRD/RLS estimate"
+            }
+        );
+    }
     if let Some(d) = id.refinement.as_ref().and_then(|r| r.design.as_ref()) {
         let _ = writeln!(
             s,
