@@ -478,6 +478,32 @@ impl<T: Real> UnbalanceEstimate<T> {
     }
 }
 
+/// Calls `f(e, term, w_j)` for every unknown of bearing `m` (entry `e` in
+/// `yy, yz, zy, zz`), after checking the sizes.
+fn for_each_bearing_unknown<T: Real, F: ComplexField<RealField = T> + Copy>(
+    structure: &Structure,
+    w: &[F],
+    nb: usize,
+    np: usize,
+    m: usize,
+    mut f: impl FnMut(usize, BearingTerm, F),
+) -> Result<(), ParamError> {
+    structure.check(nb, np, w.len())?;
+    if m >= nb {
+        return Err(ParamError::Dimension);
+    }
+    for e in 0..4 {
+        for i in 0..structure.terms_per_entry() {
+            let term = structure.entry_term(i);
+            let j = structure
+                .bearing_index(m, e / 2, e % 2, term)
+                .ok_or(ParamError::Dimension)?;
+            f(e, term, w[j]);
+        }
+    }
+    Ok(())
+}
+
 /// `Z_B^(m)(Omega)` (N/m, `yy, yz, zy, zz`) from the **scaled** weights `w~`
 /// (complex for the paper structure, real for the physical one):
 /// `sum_j g_j(Omega) s_j w~_j`.
@@ -490,21 +516,10 @@ pub fn bearing_dynamic_stiffness<T: Real, F: ComplexField<RealField = T> + Copy>
     m: usize,
     omega: T,
 ) -> Result<[Complex<T>; 4], ParamError> {
-    structure.check(nb, np, w.len())?;
-    if m >= nb {
-        return Err(ParamError::Dimension);
-    }
     let mut z = [Complex::new(T::zero(), T::zero()); 4];
-    for (e, ze) in z.iter_mut().enumerate() {
-        for i in 0..structure.terms_per_entry() {
-            let term = structure.entry_term(i);
-            let j = structure
-                .bearing_index(m, e / 2, e % 2, term)
-                .ok_or(ParamError::Dimension)?;
-            let x = Complex::new(w[j].real(), w[j].imaginary());
-            *ze += term.scaled_z_factor(scaling, omega) * x;
-        }
-    }
+    for_each_bearing_unknown(structure, w, nb, np, m, |e, term, wj| {
+        z[e] += term.scaled_z_factor(scaling, omega) * Complex::new(wj.real(), wj.imaginary());
+    })?;
     Ok(z)
 }
 
@@ -520,10 +535,6 @@ pub fn bearing_estimate<T: Real, F: ComplexField<RealField = T> + Copy>(
     m: usize,
     omega: T,
 ) -> Result<BearingEstimate<T>, ParamError> {
-    structure.check(nb, np, w.len())?;
-    if m >= nb {
-        return Err(ParamError::Dimension);
-    }
     let complex = structure.is_complex();
     let mut out = BearingEstimate {
         k: [T::zero(); 4],
@@ -531,31 +542,25 @@ pub fn bearing_estimate<T: Real, F: ComplexField<RealField = T> + Copy>(
         im_z0: complex.then_some([T::zero(); 4]),
         re_z1: complex.then_some([T::zero(); 4]),
     };
-    for e in 0..4 {
-        for i in 0..structure.terms_per_entry() {
-            let term = structure.entry_term(i);
-            let j = structure
-                .bearing_index(m, e / 2, e % 2, term)
-                .ok_or(ParamError::Dimension)?;
-            let (re, im) = (w[j].real(), w[j].imaginary());
-            out.k[e] += term.k_weight(scaling, omega) * re;
-            out.c[e] += term.c_weight(scaling, omega) * if complex { im } else { re };
-            let s = scaling.power_scale(term.scale_power());
-            match term {
-                BearingTerm::Z { power: 0 } => {
-                    if let Some(v) = out.im_z0.as_mut() {
-                        v[e] = im * s;
-                    }
+    for_each_bearing_unknown(structure, w, nb, np, m, |e, term, wj| {
+        let (re, im) = (wj.real(), wj.imaginary());
+        out.k[e] += term.k_weight(scaling, omega) * re;
+        out.c[e] += term.c_weight(scaling, omega) * if complex { im } else { re };
+        let s = scaling.power_scale(term.scale_power());
+        match term {
+            BearingTerm::Z { power: 0 } => {
+                if let Some(v) = out.im_z0.as_mut() {
+                    v[e] = im * s;
                 }
-                BearingTerm::Z { power: 1 } => {
-                    if let Some(v) = out.re_z1.as_mut() {
-                        v[e] = re * s;
-                    }
-                }
-                _ => {}
             }
+            BearingTerm::Z { power: 1 } => {
+                if let Some(v) = out.re_z1.as_mut() {
+                    v[e] = re * s;
+                }
+            }
+            _ => {}
         }
-    }
+    })?;
     Ok(out)
 }
 
