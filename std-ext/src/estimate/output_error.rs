@@ -83,8 +83,8 @@ pub struct OutputErrorOptions {
 impl Default for OutputErrorOptions {
     fn default() -> Self {
         OutputErrorOptions {
-            iv_passes: 3,
-            reweightings: 3,
+            iv_passes: 2,
+            reweightings: 2,
             max_iterations: 50,
             tolerance: 1e-10,
             floor: 1e-6,
