@@ -211,8 +211,8 @@ fn main() -> Res<()> {
         let w = full.omega;
         for b in &mut full.bearings {
             if let Some(i0) = b.im_z0 {
-                for e in 0..4 {
-                    b.c[e] += i0[e] / w;
+                for (c, i) in b.c.iter_mut().zip(i0) {
+                    *c += i / w;
                 }
             }
         }
