@@ -92,6 +92,10 @@ impl Default for OutputErrorOptions {
     }
 }
 
+/// A weighted misfit `S / N` below this (relative RMS misfit 1e-10) is a
+/// fit to round-off: no pass or step can improve it.
+const PERFECT: f64 = 1e-20;
+
 /// The fit could not be done.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum OutputErrorError {
@@ -415,6 +419,10 @@ fn levenberg_marquardt(
 ) -> Result<(Vec<f64>, usize, bool), OutputErrorError> {
     let np = data.pr.n_params();
     let (mut theta, mut cur) = start;
+    let n = data.samples.len() * data.samples.first().map_or(0, |s| s.q.len());
+    if cur.cost <= PERFECT * n as f64 {
+        return Ok((theta, 0, true));
+    }
     let max_diag = (0..np).map(|i| cur.normal[(i, i)]).fold(0.0, f64::max);
     if max_diag.is_nan() || max_diag <= 0.0 {
         return Err(OutputErrorError::Singular);
@@ -496,9 +504,23 @@ pub fn fit_output_error(
     }
     let data = Data::new(pr, samples, terms, opts.floor);
     let mut theta = pr.theta(start);
+    // A pass keeps its result only if it explains the data better: on data
+    // the start already fits to round-off, the instrumental-variable
+    // equations (whose conditioning is that of the normal equations) must
+    // not move it along poorly determined directions.
+    let mut cost = data.reweighted(&theta, false)?.0.cost;
     for _ in 0..opts.iv_passes {
+        if cost <= PERFECT * n as f64 {
+            break;
+        }
         match iv_pass(&data, &theta) {
-            Ok(t) => theta = t,
+            Ok(t) => match data.reweighted(&t, false) {
+                Ok((p, _)) if p.cost < cost => {
+                    theta = t;
+                    cost = p.cost;
+                }
+                _ => break,
+            },
             Err(OutputErrorError::Predict(_)) | Err(OutputErrorError::Singular) => break,
             Err(e) => return Err(e),
         }
