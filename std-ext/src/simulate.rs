@@ -9,8 +9,10 @@
 //!    the sweep ([`apply_effects`]);
 //! 2. `Z(Omega) q = Omega^2 f_unbalance + f_bow` is solved by the FE model
 //!    (`response::unbalance_response`), with the model's true unbalance plus
-//!    any extra unbalance planes; the probe signal is the shaft's absolute
-//!    displacement at each bearing node, channels `b1_y, b1_z, b2_y, ...`;
+//!    any extra unbalance planes; the probe signal is the shaft's
+//!    displacement at each bearing node relative to the bearing housing
+//!    (the pedestal, where there is one; [`ProbeReference`]), or absolute
+//!    for `probes = "absolute"`, channels `b1_y, b1_z, b2_y, ...`;
 //! 3. probe runout phasors are added, constant across speed ([`add_runout`]);
 //! 4. noise: every complex sample `q` of every channel gets `s |q| eps`,
 //!    `eps` standard complex Gaussian (`E|eps|^2 = 1`: real and imaginary
@@ -28,7 +30,7 @@ use crate::fe::assembly::{FeError, FeModel};
 use crate::fe::response::{unbalance_response, Forcing};
 use crate::io::measurement::{Measurements, Sample};
 use crate::model::extension::{apply_effects, Effects, ExtensionError, Runout};
-use crate::model::{ModelError, RotorModel, ShaftBow, Unbalance};
+use crate::model::{ModelError, ProbeReference, RotorModel, ShaftBow, Unbalance};
 use crate::units::rpm_to_rad_s;
 
 /// Error of the simulator.
@@ -187,8 +189,9 @@ pub fn simulate(model: &RotorModel, opts: &SimOptions) -> Result<Measurements, S
     simulate_with(model, opts, &fe_bearing_response)
 }
 
-/// The finite-element response at the bearing probes: the shaft's absolute
-/// displacement at each bearing node (`Response::bearings`), one banded LU
+/// The finite-element response at the bearing probes: the shaft's
+/// displacement at each bearing node (`Response::bearings`), less the
+/// pedestal's (`Response::pedestals`) for relative probes, one banded LU
 /// per speed.
 fn fe_bearing_response(
     model: &RotorModel,
@@ -202,7 +205,19 @@ fn fe_bearing_response(
         bow: bow.cloned(),
     };
     let responses = unbalance_response(&fe, &forcing, omegas)?;
-    Ok(responses.into_iter().map(|r| r.bearings).collect())
+    Ok(responses
+        .into_iter()
+        .map(|r| match model.probes {
+            // The probe on a pedestal reads the shaft relative to it.
+            ProbeReference::Relative => r
+                .bearings
+                .iter()
+                .zip(&r.pedestals)
+                .map(|(s, p)| s - p)
+                .collect(),
+            ProbeReference::Absolute => r.bearings,
+        })
+        .collect())
 }
 
 #[cfg(test)]

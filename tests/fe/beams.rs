@@ -45,6 +45,7 @@ fn uniform_beam(theory: BeamTheory, length: f64, d: f64, n_el: usize) -> RotorMo
         planes: vec![],
         unbalance: vec![],
         bow: None,
+        probes: rotorid::model::ProbeReference::Relative,
     }
 }
 

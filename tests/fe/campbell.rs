@@ -54,6 +54,7 @@ fn disk_gyroscopic_split_matches_rigid_disk_closed_form() {
         planes: vec![],
         unbalance: vec![],
         bow: None,
+        probes: rotorid::model::ProbeReference::Relative,
     };
     let fe = FeModel::new(&model).unwrap();
     let ei = light.e * Section::tube(d, 0.0, 0.3).inertia;

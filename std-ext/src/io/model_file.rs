@@ -10,6 +10,8 @@
 //! name = "paper"                 # optional, for reports
 //! theory = "timoshenko"          # or "euler-bernoulli" (default timoshenko)
 //! planes = [5, 11, 21]           # unbalance planes to identify (nodes)
+//! probes = "relative"            # bearing probes read the shaft relative to the
+//!                                # housing (default) or "absolute" (seismic)
 //!
 //! [materials.steel]              # any number of named materials
 //! e = 200e9                      # Young's modulus (Pa)
@@ -75,7 +77,7 @@ use crate::io::ross::RossError;
 use crate::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
 use crate::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, BowPoint, Disk, Material, ModelError,
-    Pedestal, RotorModel, ShaftBow, ShaftElement, Unbalance,
+    Pedestal, ProbeReference, RotorModel, ShaftBow, ShaftElement, Unbalance,
 };
 use crate::units::rpm_to_rad_s;
 
@@ -157,6 +159,7 @@ struct RawFile {
     unbalance: Vec<RawUnbalance>,
     #[serde(default)]
     bow: Vec<RawBow>,
+    probes: Option<String>,
     simulate: Option<RawSimulate>,
 }
 
@@ -704,6 +707,16 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         Some(ShaftBow { points })
     };
 
+    let probes = match raw.probes.as_deref() {
+        None | Some("relative") => ProbeReference::Relative,
+        Some("absolute") => ProbeReference::Absolute,
+        Some(other) => {
+            return Err(ModelFileError::field(
+                "probes",
+                format!("expected \"relative\" or \"absolute\", got \"{other}\""),
+            ))
+        }
+    };
     let model = RotorModel {
         name: raw.name.unwrap_or_else(|| "model".into()),
         theory,
@@ -713,6 +726,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         planes,
         unbalance,
         bow,
+        probes,
     };
     model.validate()?;
 

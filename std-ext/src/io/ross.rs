@@ -642,6 +642,7 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         planes: planes_dedup,
         unbalance: Vec::new(),
         bow: None,
+        probes: crate::model::ProbeReference::Relative,
     };
     model.validate()?;
     Ok(model)

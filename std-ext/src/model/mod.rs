@@ -319,6 +319,23 @@ pub struct RotorModel {
     pub unbalance: Vec<Unbalance>,
     /// Optional shaft bow, used by the simulator.
     pub bow: Option<ShaftBow>,
+    /// What the bearing probes measure (matters only under pedestals).
+    pub probes: ProbeReference,
+}
+
+/// What a bearing probe measures.
+///
+/// Proximity probes are mounted on the bearing housing and read the
+/// shaft's motion relative to it: on a pedestal of displacement `q_p` they
+/// read `q_s - q_p`. Seismic or inertially referenced probes read the
+/// shaft's absolute motion `q_s`. On a rigid foundation both are the same.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ProbeReference {
+    /// Shaft relative to the bearing housing (the default).
+    #[default]
+    Relative,
+    /// Shaft absolute motion.
+    Absolute,
 }
 
 impl RotorModel {
@@ -406,6 +423,7 @@ impl RotorModel {
             planes: vec![4, 10, 20],
             unbalance,
             bow: None,
+            probes: ProbeReference::Relative,
         }
     }
 

@@ -318,8 +318,31 @@ impl<'a> Reducer<'a> {
     /// banded LU of `K_ii` for `X_0`. Fails if `K_ii` is singular (a shaft
     /// on a single bearing is a mechanism).
     pub fn new(fe: &'a FeModel, model: &RotorModel) -> Result<Self, ReductionError> {
-        let (bearing, interior) = partition(fe, model)?;
         let t = fe.unbalance_distribution(&model.planes)?;
+        Self::with_loads(fe, model, t)
+    }
+
+    /// [`Reducer::new`] with arbitrary load columns instead of the unbalance
+    /// planes: each column of `loads` (`4 N_nodes` shaft DOFs, any unit) is a
+    /// load shape `t`, and [`Reducer::reduce`] returns in column `k` of `B`
+    /// `Omega^2 (t_B - Y t_i)`, so `B / Omega^2` is the load reduced to the
+    /// bearing DOFs. A unit unbalance at a node is the column of
+    /// [`FeModel::unbalance_distribution`]; a bow forcing `K_s q_bow`
+    /// ([`FeModel::bow_force`]) gives its reduced force after dividing by
+    /// `Omega^2`.
+    pub fn with_loads(
+        fe: &'a FeModel,
+        model: &RotorModel,
+        t: DMatrix<Complex64>,
+    ) -> Result<Self, ReductionError> {
+        let (bearing, interior) = partition(fe, model)?;
+        if t.nrows() != fe.n_shaft_dof() {
+            return Err(ReductionError::Invalid(format!(
+                "load columns have {} rows, the shaft has {} DOFs",
+                t.nrows(),
+                fe.n_shaft_dof()
+            )));
+        }
         let z0 = fe.rotor_dynamic_stiffness(0.0);
         // Dense K and H = M - j G of the shaft DOFs (set-up only).
         let (kd, h) = dense_k_h(fe);

@@ -1,0 +1,717 @@
+//! The nominal prediction model extended by the hypotheses' effects.
+//!
+//! # Model
+//!
+//! At speed `Omega`, with the terms of [`super::terms`], the nominal
+//! bearing law `Z_B(theta)` and plane unbalance `a(theta)` of the
+//! [`Predictor`], the shaft's bearing-node response solves
+//!
+//! ```text
+//!     (A + dA de + Z_eff) q = (B + dB de) a + sum_n b_n u_n + sum_n g_n beta_n
+//! ```
+//!
+//! and the probes read `y = P q + r`:
+//!
+//! | extension | parameters (scaled) | enters as |
+//! |---|---|---|
+//! | [`Extension::Runout`] | `r_c = q_s (x + j y)` per channel | `y_c += r_c` |
+//! | [`Extension::Plane`] | `u = s_a (x + j y)` (kg m) at node `n` | `b_n u` |
+//! | [`Extension::Bow`] | `beta = q_s (x + j y)` (m) at node `n` | `g_n beta` |
+//! | [`Extension::EScale`] | `de = 0.01 x` about the terms' own `e` | `dA de`, `dB a de` |
+//! | [`Extension::Pedestal`] | `m = m_0 e^x1`, `w_d = w_0 e^x_d`, `zeta_d = x_d / 10` | `Z_eff`, `P` |
+//!
+//! (`q_s`: RMS measured response, `s_a`: the unbalance scale of the
+//! parametrization.) A pedestal under bearing `m` with
+//! `Z_P = diag(m_p (w_d^2 - Omega^2 + 2 j zeta_d w_d Omega))` puts the
+//! bearing `Z_B` and the pedestal in series:
+//!
+//! ```text
+//!     Z_eff = Z_B - Z_B (Z_B + Z_P)^-1 Z_B,
+//! ```
+//!
+//! and a probe mounted on the pedestal (relative, the default) reads the
+//! shaft's motion less the pedestal's, `P = (Z_B + Z_P)^-1 Z_P` on that
+//! bearing's channels (`P = I` for absolute probes and elsewhere).
+//!
+//! # Jacobian
+//!
+//! The prediction is `q = H^-1 f` with `H`, `f` affine in every nominal
+//! and forcing parameter, so `dq/dtheta_i = H^-1 (df_i - dH_i q)`: the
+//! identification's [`Predictor`] columns plus one per extension
+//! parameter. With a pedestal, `S = (Z_B + Z_P)^-1`, `T = S Z_P`:
+//!
+//! ```text
+//!     d Z_eff = Z_P S dZ_B S Z_P          (a bearing entry of that bearing)
+//!     d Z_eff = Z_B S dZ_P S Z_B          (a pedestal parameter)
+//!     d T     = -S dZ_B T,   d T = S dZ_P S Z_B
+//! ```
+//!
+//! and `dy = P dq + dT q_m` on the pedestal's channels. Checked against
+//! central differences and against the full FE response in the tests.
+
+use nalgebra::{DMatrix, DVector, Matrix2};
+use num_complex::Complex64;
+
+use crate::diagnose::terms::SpeedTerms;
+use crate::estimate::predictor::{Entry, PredictError, Predictor};
+
+/// Step of the shaft modulus parameter: `de = E_STEP x`.
+pub const E_STEP: f64 = 0.01;
+
+/// One effect added to the nominal model (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Extension {
+    /// A constant phasor on every channel.
+    Runout,
+    /// Unbalance at a node (0-based) that is not a plane.
+    Plane {
+        /// Node (0-based).
+        node: usize,
+    },
+    /// A bow of the shaft with its offset at a node (0-based).
+    Bow {
+        /// Node (0-based).
+        node: usize,
+    },
+    /// A pedestal under a bearing (0-based).
+    Pedestal {
+        /// Bearing (0-based).
+        bearing: usize,
+    },
+    /// A factor on the shaft's modulus.
+    EScale,
+}
+
+impl Extension {
+    /// Number of real parameters with `nq` channels.
+    pub fn n_params(&self, nq: usize) -> usize {
+        match self {
+            Extension::Runout => 2 * nq,
+            Extension::Plane { .. } | Extension::Bow { .. } => 2,
+            Extension::Pedestal { .. } => 5,
+            Extension::EScale => 1,
+        }
+    }
+}
+
+/// Reference magnitudes of the extension parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scales {
+    /// Response scale `q_s` (m): RMS of the measured responses.
+    pub q: f64,
+    /// Pedestal reference mass `m_0` (kg).
+    pub mass: f64,
+    /// Pedestal reference frequency `w_0` (rad/s).
+    pub omega: f64,
+}
+
+/// A pedestal's physical parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PedestalParams {
+    /// Mass (kg).
+    pub mass: f64,
+    /// Natural frequencies on its own springs, y and z (rad/s).
+    pub omega: [f64; 2],
+    /// Damping ratios, y and z.
+    pub zeta: [f64; 2],
+}
+
+impl PedestalParams {
+    /// From the scaled parameters.
+    pub fn from_scaled(p: &[f64], s: &Scales) -> Self {
+        PedestalParams {
+            mass: s.mass * p[0].exp(),
+            omega: [s.omega * p[1].exp(), s.omega * p[2].exp()],
+            zeta: [0.1 * p[3], 0.1 * p[4]],
+        }
+    }
+
+    /// The scaled parameters.
+    pub fn to_scaled(&self, s: &Scales) -> [f64; 5] {
+        [
+            (self.mass / s.mass).ln(),
+            (self.omega[0] / s.omega).ln(),
+            (self.omega[1] / s.omega).ln(),
+            10.0 * self.zeta[0],
+            10.0 * self.zeta[1],
+        ]
+    }
+
+    /// Stiffness `k_d = m w_d^2` (N/m) and damping `c_d = 2 zeta_d m w_d`
+    /// (N s/m).
+    pub fn k_c(&self) -> ([f64; 2], [f64; 2]) {
+        let k = self.omega.map(|w| self.mass * w * w);
+        let c = [
+            2.0 * self.zeta[0] * self.mass * self.omega[0],
+            2.0 * self.zeta[1] * self.mass * self.omega[1],
+        ];
+        (k, c)
+    }
+
+    /// `Z_P(Omega)` (N/m), diagonal.
+    pub fn impedance(&self, omega: f64) -> Matrix2<Complex64> {
+        let z = |d: usize| {
+            let w = self.omega[d];
+            Complex64::new(
+                self.mass * (w * w - omega * omega),
+                2.0 * self.mass * self.zeta[d] * w * omega,
+            )
+        };
+        Matrix2::new(
+            z(0),
+            Complex64::new(0.0, 0.0),
+            Complex64::new(0.0, 0.0),
+            z(1),
+        )
+    }
+}
+
+/// The extended prediction model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExtendedModel {
+    /// The nominal parameters (bearing law and plane unbalance).
+    pub pr: Predictor,
+    /// The effects added, in parameter order after the nominal ones.
+    pub ext: Vec<Extension>,
+    /// Reference magnitudes.
+    pub scales: Scales,
+    /// Probes on the pedestals read relative motion.
+    pub relative_probes: bool,
+}
+
+/// One evaluation at one speed.
+struct Eval {
+    q: DVector<Complex64>,
+    y: DVector<Complex64>,
+    h_inv: DMatrix<Complex64>,
+    a: DVector<Complex64>,
+    /// `B + dB de`.
+    b_eff: DMatrix<Complex64>,
+    ped: Option<PedEval>,
+}
+
+/// The pedestal's matrices at one speed (bearing block from channel `i0`).
+struct PedEval {
+    i0: usize,
+    /// Parameter offset of the pedestal.
+    o: usize,
+    params: PedestalParams,
+    zb: Matrix2<Complex64>,
+    zp: Matrix2<Complex64>,
+    /// `(Z_B + Z_P)^-1`.
+    s: Matrix2<Complex64>,
+    /// `P` on the block: `S Z_P` (relative) or `I`.
+    t: Matrix2<Complex64>,
+}
+
+impl ExtendedModel {
+    /// Number of channels `2 N_b`.
+    pub fn n_channels(&self) -> usize {
+        2 * self.pr.param.n_bearings()
+    }
+
+    /// Number of real parameters.
+    pub fn n_params(&self) -> usize {
+        let nq = self.n_channels();
+        self.pr.n_params() + self.ext.iter().map(|e| e.n_params(nq)).sum::<usize>()
+    }
+
+    /// Index of the first parameter of extension `k`.
+    pub fn offset(&self, k: usize) -> usize {
+        let nq = self.n_channels();
+        self.pr.n_params()
+            + self
+                .ext
+                .iter()
+                .take(k)
+                .map(|e| e.n_params(nq))
+                .sum::<usize>()
+    }
+
+    fn eval(
+        &self,
+        st: &SpeedTerms,
+        entries: &[Entry],
+        theta: &[f64],
+    ) -> Result<Eval, PredictError> {
+        let nq = st.a.nrows();
+        let np = st.b.ncols();
+        let nom = self.pr.n_params();
+        if theta.len() != self.n_params() || entries.len() != nom || nq != self.n_channels() {
+            return Err(PredictError::Dimension);
+        }
+        let mut h = st.a.clone();
+        let mut a = DVector::<Complex64>::zeros(np);
+        for (en, &t) in entries.iter().zip(&theta[..nom]) {
+            match *en {
+                Entry::Bearing { row, col, dz } => h[(row, col)] += dz * t,
+                Entry::Unbalance { plane, da } => a[plane] += da * t,
+            }
+        }
+        let mut f = &st.b * &a;
+        let mut b_eff = st.b.clone();
+        let mut runout: Option<&[f64]> = None;
+        let mut ped: Option<PedEval> = None;
+        for (k, ext) in self.ext.iter().enumerate() {
+            let o = self.offset(k);
+            let p = &theta[o..o + ext.n_params(nq)];
+            match *ext {
+                Extension::Runout => runout = Some(p),
+                Extension::Plane { node } | Extension::Bow { node }
+                    if node >= st.b_node.ncols() || node >= st.g_node.ncols() =>
+                {
+                    return Err(PredictError::Dimension)
+                }
+                Extension::Plane { node } => {
+                    let u = Complex64::new(p[0], p[1]) * self.pr.param.scaling.unbalance;
+                    f += st.b_node.column(node) * u;
+                }
+                Extension::Bow { node } => {
+                    let beta = Complex64::new(p[0], p[1]) * self.scales.q;
+                    f += st.g_node.column(node) * beta;
+                }
+                Extension::EScale => {
+                    let de = Complex64::from(p[0] * E_STEP);
+                    let (da, db) = match (&st.da_de, &st.db_de) {
+                        (Some(da), Some(db)) => (da, db),
+                        _ => return Err(PredictError::Dimension),
+                    };
+                    h += da * de;
+                    f += db * &a * de;
+                    b_eff += db * de;
+                }
+                Extension::Pedestal { bearing } => {
+                    let i0 = 2 * bearing;
+                    if i0 + 2 > nq {
+                        return Err(PredictError::Dimension);
+                    }
+                    // Z_B block of this bearing from the nominal entries.
+                    let mut zb = Matrix2::<Complex64>::zeros();
+                    for (en, &t) in entries.iter().zip(&theta[..nom]) {
+                        if let Entry::Bearing { row, col, dz } = *en {
+                            if (i0..i0 + 2).contains(&row) && (i0..i0 + 2).contains(&col) {
+                                zb[(row - i0, col - i0)] += dz * t;
+                            }
+                        }
+                    }
+                    let params = PedestalParams::from_scaled(p, &self.scales);
+                    let zp = params.impedance(st.omega);
+                    let s = (zb + zp)
+                        .try_inverse()
+                        .ok_or(PredictError::Singular { omega: st.omega })?;
+                    let zeff = zb - zb * s * zb;
+                    for r in 0..2 {
+                        for c in 0..2 {
+                            h[(i0 + r, i0 + c)] += zeff[(r, c)] - zb[(r, c)];
+                        }
+                    }
+                    let t = if self.relative_probes {
+                        s * zp
+                    } else {
+                        Matrix2::identity()
+                    };
+                    ped = Some(PedEval {
+                        i0,
+                        o,
+                        params,
+                        zb,
+                        zp,
+                        s,
+                        t,
+                    });
+                }
+            }
+        }
+        let h_inv = h
+            .try_inverse()
+            .filter(|m| m.iter().all(|z| z.re.is_finite() && z.im.is_finite()))
+            .ok_or(PredictError::Singular { omega: st.omega })?;
+        let q = &h_inv * f;
+        let mut y = q.clone();
+        if let Some(pe) = &ped {
+            let i0 = pe.i0;
+            for r in 0..2 {
+                y[i0 + r] = pe.t[(r, 0)] * q[i0] + pe.t[(r, 1)] * q[i0 + 1];
+            }
+        }
+        if let Some(p) = runout {
+            for c in 0..nq {
+                y[c] += Complex64::new(p[2 * c], p[2 * c + 1]) * self.scales.q;
+            }
+        }
+        Ok(Eval {
+            q,
+            y,
+            h_inv,
+            a,
+            b_eff,
+            ped,
+        })
+    }
+
+    /// The probe readings `y` at one speed (m) and, when `jac` is given,
+    /// `dy/dtheta` into it (`2 N_b x P`). `entries` are the nominal
+    /// parameters' [`Entry`]s at this speed ([`Predictor::entries`]).
+    pub fn predict(
+        &self,
+        st: &SpeedTerms,
+        entries: &[Entry],
+        theta: &[f64],
+        jac: Option<&mut DMatrix<Complex64>>,
+    ) -> Result<DVector<Complex64>, PredictError> {
+        let ev = self.eval(st, entries, theta)?;
+        let Some(jac) = jac else {
+            return Ok(ev.y);
+        };
+        let nq = self.n_channels();
+        let np = self.n_params();
+        if jac.nrows() != nq || jac.ncols() != np {
+            return Err(PredictError::Dimension);
+        }
+        let j = Complex64::new(0.0, 1.0);
+        let zero = Complex64::new(0.0, 0.0);
+        // Columns of dq (before the probe transform P), and for a relative
+        // pedestal probe the extra `dT q_m` on its block.
+        let mut extra: Vec<(usize, [Complex64; 2])> = Vec::new();
+        let block_dq = |m2: &Matrix2<Complex64>, pe: &PedEval| -> DVector<Complex64> {
+            // dq = -H^-1 [dZ_eff] q with dZ_eff = m2 on the block.
+            let qm = nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]);
+            let u = m2 * qm;
+            let mut v = DVector::<Complex64>::zeros(nq);
+            for r in 0..nq {
+                v[r] = -(ev.h_inv[(r, pe.i0)] * u[0] + ev.h_inv[(r, pe.i0 + 1)] * u[1]);
+            }
+            v
+        };
+        let qm = ev
+            .ped
+            .as_ref()
+            .map(|pe| nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]));
+        for (i, en) in entries.iter().enumerate() {
+            match *en {
+                Entry::Bearing { row, col, dz } => {
+                    let in_block = ev.ped.as_ref().filter(|pe| {
+                        (pe.i0..pe.i0 + 2).contains(&row) && (pe.i0..pe.i0 + 2).contains(&col)
+                    });
+                    if let (Some(pe), Some(qm)) = (in_block, qm) {
+                        let mut e = Matrix2::<Complex64>::zeros();
+                        e[(row - pe.i0, col - pe.i0)] = dz;
+                        let dzeff = pe.zp * pe.s * e * pe.s * pe.zp;
+                        jac.set_column(i, &block_dq(&dzeff, pe));
+                        if self.relative_probes {
+                            let d = -(pe.s * e * pe.t * qm);
+                            extra.push((i, [d[0], d[1]]));
+                        }
+                    } else {
+                        let s = dz * ev.q[col];
+                        for r in 0..nq {
+                            jac[(r, i)] = -(ev.h_inv[(r, row)] * s);
+                        }
+                    }
+                }
+                Entry::Unbalance { plane, da } => {
+                    let v = &ev.h_inv * ev.b_eff.column(plane) * da;
+                    jac.set_column(i, &v);
+                }
+            }
+        }
+        let mut runout_cols: Option<usize> = None;
+        for (k, ext) in self.ext.iter().enumerate() {
+            let o = self.offset(k);
+            match *ext {
+                Extension::Runout => runout_cols = Some(o),
+                Extension::Plane { node } => {
+                    let v = &ev.h_inv
+                        * st.b_node.column(node)
+                        * Complex64::from(self.pr.param.scaling.unbalance);
+                    jac.set_column(o, &v);
+                    jac.set_column(o + 1, &(v * j));
+                }
+                Extension::Bow { node } => {
+                    let v = &ev.h_inv * st.g_node.column(node) * Complex64::from(self.scales.q);
+                    jac.set_column(o, &v);
+                    jac.set_column(o + 1, &(v * j));
+                }
+                Extension::EScale => {
+                    let (da, db) = match (&st.da_de, &st.db_de) {
+                        (Some(da), Some(db)) => (da, db),
+                        _ => return Err(PredictError::Dimension),
+                    };
+                    let v = &ev.h_inv * (db * &ev.a - da * &ev.q) * Complex64::from(E_STEP);
+                    jac.set_column(o, &v);
+                }
+                Extension::Pedestal { .. } => {
+                    let (Some(pe), Some(qm)) = (ev.ped.as_ref(), qm) else {
+                        return Err(PredictError::Dimension);
+                    };
+                    debug_assert_eq!(pe.o, o);
+                    let w = st.omega;
+                    let pp = &pe.params;
+                    for d in 0..5 {
+                        // dZ_P / dx_d, diagonal.
+                        let mut dzp = Matrix2::<Complex64>::zeros();
+                        match d {
+                            0 => dzp = pe.zp,
+                            1 | 2 => {
+                                let k = d - 1;
+                                let wk = pp.omega[k];
+                                dzp[(k, k)] = Complex64::new(
+                                    2.0 * pp.mass * wk * wk,
+                                    2.0 * pp.mass * pp.zeta[k] * wk * w,
+                                );
+                            }
+                            _ => {
+                                let k = d - 3;
+                                dzp[(k, k)] = Complex64::new(0.0, 0.2 * pp.mass * pp.omega[k] * w);
+                            }
+                        }
+                        let dzeff = pe.zb * pe.s * dzp * pe.s * pe.zb;
+                        jac.set_column(o + d, &block_dq(&dzeff, pe));
+                        if self.relative_probes {
+                            let dt = pe.s * dzp * pe.s * pe.zb * qm;
+                            extra.push((o + d, [dt[0], dt[1]]));
+                        }
+                    }
+                }
+            }
+        }
+        // The probe transform on the pedestal's block, then its own terms.
+        if let Some(pe) = ev.ped.as_ref().filter(|_| self.relative_probes) {
+            for i in 0..np {
+                let a0 = jac[(pe.i0, i)];
+                let a1 = jac[(pe.i0 + 1, i)];
+                jac[(pe.i0, i)] = pe.t[(0, 0)] * a0 + pe.t[(0, 1)] * a1;
+                jac[(pe.i0 + 1, i)] = pe.t[(1, 0)] * a0 + pe.t[(1, 1)] * a1;
+            }
+            for (i, d) in &extra {
+                jac[(pe.i0, *i)] += d[0];
+                jac[(pe.i0 + 1, *i)] += d[1];
+            }
+        }
+        if let Some(o) = runout_cols {
+            for c in 0..nq {
+                for r in 0..nq {
+                    jac[(r, o + 2 * c)] = zero;
+                    jac[(r, o + 2 * c + 1)] = zero;
+                }
+                jac[(c, o + 2 * c)] = Complex64::from(self.scales.q);
+                jac[(c, o + 2 * c + 1)] = j * self.scales.q;
+            }
+        }
+        Ok(ev.y)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::terms::build;
+    use crate::estimate::Parametrization;
+    use crate::fe::assembly::FeModel;
+    use crate::fe::response::{bearing_response, Forcing};
+    use crate::model::{BowPoint, RotorModel, ShaftBow, Unbalance};
+    use crate::tables::auto_scaling;
+    use rotorid_core::parametrization::Structure;
+
+    fn model_for(m: &RotorModel, ext: Vec<Extension>) -> ExtendedModel {
+        let param = Parametrization {
+            structure: Structure::physical(1),
+            scaling: auto_scaling(m, 1500.0),
+            bearing_nodes: m.bearing_nodes(),
+            plane_nodes: m.planes.clone(),
+        };
+        ExtendedModel {
+            pr: Predictor::new(param),
+            ext,
+            scales: Scales {
+                q: 1e-5,
+                mass: 50.0,
+                omega: 1000.0,
+            },
+            relative_probes: true,
+        }
+    }
+
+    /// The nominal parameters of the paper rotor (physical order 1: K then
+    /// C per bearing entry, then Re/Im of the plane unbalances, scaled).
+    fn nominal_theta(m: &RotorModel, x: &ExtendedModel) -> Vec<f64> {
+        let p = &x.pr.param;
+        let mut w = vec![Complex64::new(0.0, 0.0); p.n_unknowns()];
+        for (j, wj) in w.iter_mut().enumerate() {
+            let s = p.scale(j);
+            *wj = match p.unknown(j).unwrap() {
+                rotorid_core::parametrization::Unknown::Bearing {
+                    bearing,
+                    row,
+                    col,
+                    term,
+                } => {
+                    let co = m.bearings[bearing].law.at(0.0);
+                    let v = match term {
+                        rotorid_core::parametrization::BearingTerm::K { .. } => co.k[2 * row + col],
+                        _ => co.c[2 * row + col],
+                    };
+                    Complex64::from(v / s)
+                }
+                rotorid_core::parametrization::Unknown::Unbalance { plane, part } => {
+                    let u = m
+                        .unbalance
+                        .iter()
+                        .find(|u| u.node == m.planes[plane])
+                        .unwrap();
+                    let a = u.phasor();
+                    let v = match part {
+                        rotorid_core::parametrization::UnbalancePart::Re => a.re,
+                        rotorid_core::parametrization::UnbalancePart::Im => a.im,
+                        rotorid_core::parametrization::UnbalancePart::Phasor => unreachable!(),
+                    };
+                    Complex64::from(v / s)
+                }
+            };
+        }
+        x.pr.theta(&w)
+    }
+
+    /// Bow and extra plane through the extended model equal the full FE
+    /// response of the paper rotor with that bow and unbalance.
+    #[test]
+    fn bow_and_plane_match_the_fe_response() {
+        let m = RotorModel::paper();
+        let x = model_for(
+            &m,
+            vec![Extension::Plane { node: 15 }, Extension::Bow { node: 14 }],
+        );
+        let omegas = [200.0, 700.0, 1300.0];
+        let terms = build(&m, &omegas, 1.0, false).unwrap();
+        let mut theta = nominal_theta(&m, &x);
+        let u = Complex64::from_polar(2e-4, 0.7);
+        let beta = Complex64::from_polar(2e-5, -1.1);
+        let su = x.pr.param.scaling.unbalance;
+        theta.extend([u.re / su, u.im / su, beta.re / 1e-5, beta.im / 1e-5]);
+        let mut forcing = Forcing::from_model(&m);
+        forcing.unbalance.push(Unbalance {
+            node: 15,
+            me: u.norm(),
+            phase: u.arg(),
+        });
+        forcing.bow = Some(ShaftBow {
+            points: vec![BowPoint {
+                node: 14,
+                amplitude: beta.norm(),
+                phase: beta.arg(),
+            }],
+        });
+        let fe = FeModel::new(&m).unwrap();
+        let want = bearing_response(&fe, &forcing, &omegas).unwrap();
+        for (k, st) in terms.iter().enumerate() {
+            let y = x
+                .predict(st, &x.pr.entries(st.omega), &theta, None)
+                .unwrap();
+            let w = DVector::from_vec(want[k].clone());
+            assert!((&y - &w).norm() <= 1e-8 * w.norm(), "{k}: {y} vs {w}");
+        }
+    }
+
+    /// A pedestal through the extended model equals the FE response of the
+    /// rotor with that pedestal, read absolutely and relatively.
+    #[test]
+    fn pedestal_matches_the_fe_response() {
+        let m = RotorModel::paper();
+        let mut x = model_for(&m, vec![Extension::Pedestal { bearing: 1 }]);
+        let ped = PedestalParams {
+            mass: 80.0,
+            omega: [900.0, 1100.0],
+            zeta: [0.05, 0.03],
+        };
+        let (k, c) = ped.k_c();
+        let mut mp = m.clone();
+        mp.bearings[1].pedestal = Some(crate::model::Pedestal {
+            mass: ped.mass,
+            k,
+            c,
+        });
+        let omegas = [300.0, 950.0, 1400.0];
+        let terms = build(&m, &omegas, 1.0, false).unwrap();
+        let mut theta = nominal_theta(&m, &x);
+        theta.extend(ped.to_scaled(&x.scales));
+        let fe = FeModel::new(&mp).unwrap();
+        let resp = crate::fe::response::unbalance_response(&fe, &Forcing::from_model(&mp), &omegas)
+            .unwrap();
+        for relative in [false, true] {
+            x.relative_probes = relative;
+            for (n, st) in terms.iter().enumerate() {
+                let y = x
+                    .predict(st, &x.pr.entries(st.omega), &theta, None)
+                    .unwrap();
+                let want: Vec<Complex64> = (0..4)
+                    .map(|i| {
+                        let r = &resp[n];
+                        if relative {
+                            r.bearings[i] - r.pedestals[i]
+                        } else {
+                            r.bearings[i]
+                        }
+                    })
+                    .collect();
+                let w = DVector::from_vec(want);
+                assert!(
+                    (&y - &w).norm() <= 1e-8 * w.norm(),
+                    "{relative} {n}: {y} vs {w}"
+                );
+            }
+        }
+    }
+
+    /// The analytic Jacobian equals central differences, with and without
+    /// a pedestal, relative and absolute probes.
+    #[test]
+    fn jacobian_matches_central_differences() {
+        let m = RotorModel::paper();
+        let plain = vec![
+            Extension::Runout,
+            Extension::Plane { node: 16 },
+            Extension::Bow { node: 9 },
+            Extension::EScale,
+        ];
+        let ped = vec![
+            Extension::Pedestal { bearing: 0 },
+            Extension::Runout,
+            Extension::Plane { node: 16 },
+            Extension::EScale,
+        ];
+        for (ext, relative) in [(plain, true), (ped.clone(), true), (ped, false)] {
+            let mut x = model_for(&m, ext);
+            x.relative_probes = relative;
+            jacobian_case(&m, &x);
+        }
+    }
+
+    fn jacobian_case(m: &RotorModel, x: &ExtendedModel) {
+        let terms = build(m, &[800.0], 1.0, true).unwrap();
+        let st = &terms[0];
+        let mut theta = nominal_theta(m, x);
+        theta.extend((0..x.n_params() - theta.len()).map(|i| 0.3 + 0.1 * i as f64));
+        let en = x.pr.entries(st.omega);
+        let mut jac = DMatrix::zeros(4, x.n_params());
+        let y = x.predict(st, &en, &theta, Some(&mut jac)).unwrap();
+        for i in 0..x.n_params() {
+            let h = 1e-6;
+            let mut tp = theta.clone();
+            let mut tm = theta.clone();
+            tp[i] += h;
+            tm[i] -= h;
+            let fd = (x.predict(st, &en, &tp, None).unwrap()
+                - x.predict(st, &en, &tm, None).unwrap())
+                / Complex64::from(2.0 * h);
+            for r in 0..4 {
+                assert!(
+                    (fd[r] - jac[(r, i)]).norm() <= 1e-6 * y.norm(),
+                    "{:?} param {i} row {r}: {} vs {}",
+                    x.ext,
+                    fd[r],
+                    jac[(r, i)]
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,287 @@
+//! Hidden-effect cases: a seeded generator that draws a machine around a
+//! model, hides one effect (or none) in it, simulates a noisy sweep and
+//! keeps the answer apart from the data.
+//!
+//! What is drawn (uniform distributions, all from one ChaCha8 stream):
+//!
+//! | part | draw |
+//! |---|---|
+//! | bearings | every K and C entry of each bearing times `U(0.7, 1.3)` (constant coefficients) |
+//! | unbalance | at the model's planes, `m e = U(0.5, 1.5) m e_ref`, phase `U(0, 360)` deg; `m e_ref` the model's mean, or ISO 1940 grade G 2.5 (`e = 2.5 mm/s / Omega_max`) split over the planes when the model has none |
+//! | noise | relative level `U(0.001, 0.01)` unless given |
+//! | `speed_dependent_bearing` | `K(Omega) = K (1 + kappa (Omega/Omega_max)^2)`, `|kappa| = U(0.2, 0.6)`, random sign |
+//! | `foundation_flexibility` | a pedestal under one random bearing: mass `U(0.5, 2) m_rotor / N_b`, natural frequencies `w_y = U(0.4, 1.1) Omega_max`, `w_z = U(1, 1.3) w_y`, damping ratios `U(0.02, 0.08)`; relative probes |
+//! | `shaft_bow` | an offset `U(10, 50)` um at a random interior node that is not a bearing node, random phase |
+//! | `probe_runout` | on one or two random channels, `U(3, 15)` um, random phase |
+//! | `extra_unbalance_plane` | at a random node that is not a plane, `U(0.3, 1) m e_ref`, random phase |
+//! | `shaft_stiffness_error` | E and G times `1 +- U(0.03, 0.10)` |
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::diagnose::{rotor_mass, Effect};
+use crate::io::measurement::Measurements;
+use crate::model::extension::{Channel, Direction, Effects, Runout};
+use crate::model::{BearingCoefficients, BearingLaw, BowPoint, Pedestal, RotorModel, Unbalance};
+use crate::simulate::{simulate, SimOptions, SimulateError};
+use crate::units::rpm_to_rad_s;
+
+/// What was hidden (the answer key).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hidden {
+    /// The effect.
+    pub effect: Effect,
+    /// One line, for logs.
+    pub description: String,
+    /// Node (0-based) of a bow or extra plane.
+    pub node: Option<usize>,
+    /// Bearing (0-based) of a pedestal.
+    pub bearing: Option<usize>,
+    /// The main size: bow amplitude (m), extra plane `m e` (kg m), runout
+    /// amplitude of the first channel (m), modulus factor, pedestal natural
+    /// frequency `w_y` (rad/s), `kappa`.
+    pub size: f64,
+    /// Phase (rad) of a phasor-valued effect.
+    pub phase: f64,
+    /// Runout phasors by channel index.
+    pub runout: Vec<(usize, num_complex::Complex64)>,
+    /// The pedestal.
+    pub pedestal: Option<Pedestal>,
+}
+
+/// A generated case.
+#[derive(Debug, Clone)]
+pub struct Case {
+    /// The machine as simulated (scattered bearings, drawn unbalance,
+    /// pedestal or speed law included).
+    pub truth: RotorModel,
+    /// The effects applied by the simulator (bow, runout, extra
+    /// unbalance, modulus).
+    pub effects: Effects,
+    /// The answer.
+    pub hidden: Hidden,
+    /// Relative noise level.
+    pub noise: f64,
+    /// The simulated measurement.
+    pub meas: Measurements,
+}
+
+/// Generates a case around `model` with `effect` hidden (`Effect::None`:
+/// nothing; `Unexplained` is not drawn), at the speeds `speeds_rpm`, with
+/// the noise `noise` or a drawn one.
+pub fn generate(
+    model: &RotorModel,
+    effect: Effect,
+    seed: u64,
+    speeds_rpm: &[f64],
+    noise: Option<f64>,
+) -> Result<Case, SimulateError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let omega_max = speeds_rpm.iter().copied().fold(0.0, f64::max).max(1.0);
+    let omega_max = rpm_to_rad_s(omega_max);
+    let mut truth = model.clone();
+    truth.bow = None;
+    let deg = |r: &mut ChaCha8Rng| r.random_range(0.0..std::f64::consts::TAU);
+    for b in &mut truth.bearings {
+        let co = b.law.at(0.5 * omega_max);
+        let k = co.k.map(|v| v * rng.random_range(0.7..1.3));
+        let c = co.c.map(|v| v * rng.random_range(0.7..1.3));
+        b.law = BearingLaw::Constant(BearingCoefficients { k, c });
+    }
+    let np = model.planes.len().max(1);
+    let me_ref = if model.unbalance.is_empty() {
+        rotor_mass(model) * 2.5e-3 / omega_max / np as f64
+    } else {
+        model.unbalance.iter().map(|u| u.me).sum::<f64>() / model.unbalance.len() as f64
+    };
+    truth.unbalance = model
+        .planes
+        .iter()
+        .map(|&node| Unbalance {
+            node,
+            me: me_ref * rng.random_range(0.5..1.5),
+            phase: deg(&mut rng),
+        })
+        .collect();
+    let noise = match noise {
+        Some(s) => s,
+        None => rng.random_range(0.001..0.01),
+    };
+    let mut effects = Effects::default();
+    let mut hidden = Hidden {
+        effect,
+        description: "none".into(),
+        node: None,
+        bearing: None,
+        size: 0.0,
+        phase: 0.0,
+        runout: Vec::new(),
+        pedestal: None,
+    };
+    let n_nodes = model.n_nodes();
+    let bearing_nodes = model.bearing_nodes();
+    match effect {
+        Effect::None | Effect::Unexplained => {}
+        Effect::SpeedDependentBearing => {
+            let kappa = rng.random_range(0.2..0.6) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            for b in &mut truth.bearings {
+                let co = b.law.at(0.0);
+                b.law = BearingLaw::Polynomial {
+                    k: vec![
+                        co.k,
+                        [0.0; 4],
+                        co.k.map(|v| v * kappa / (omega_max * omega_max)),
+                    ],
+                    c: vec![co.c],
+                };
+            }
+            hidden.size = kappa;
+            hidden.description =
+                format!("bearing stiffness x (1 + {kappa:.3} (Omega/Omega_max)^2)");
+        }
+        Effect::FoundationFlexibility => {
+            let b = rng.random_range(0..truth.bearings.len());
+            let mass = rng.random_range(0.5..2.0) * rotor_mass(model) / truth.bearings.len() as f64;
+            let wy = rng.random_range(0.4..1.1) * omega_max;
+            let wz = wy * rng.random_range(1.0..1.3);
+            let zy = rng.random_range(0.02..0.08);
+            let zz = rng.random_range(0.02..0.08);
+            let p = Pedestal {
+                mass,
+                k: [mass * wy * wy, mass * wz * wz],
+                c: [2.0 * zy * mass * wy, 2.0 * zz * mass * wz],
+            };
+            truth.bearings[b].pedestal = Some(p);
+            hidden.bearing = Some(b);
+            hidden.size = wy;
+            hidden.pedestal = Some(p);
+            hidden.description = format!(
+                "pedestal under bearing {}: {mass:.1} kg, {:.1}/{:.1} Hz, zeta {zy:.3}/{zz:.3}",
+                b + 1,
+                wy / std::f64::consts::TAU,
+                wz / std::f64::consts::TAU
+            );
+        }
+        Effect::ShaftBow => {
+            let nodes: Vec<usize> = (1..n_nodes - 1)
+                .filter(|n| !bearing_nodes.contains(n))
+                .collect();
+            let node = nodes[rng.random_range(0..nodes.len())];
+            let amplitude = rng.random_range(10e-6..50e-6);
+            let phase = deg(&mut rng);
+            effects.bow.push(BowPoint {
+                node,
+                amplitude,
+                phase,
+            });
+            hidden.node = Some(node);
+            hidden.size = amplitude;
+            hidden.phase = phase;
+            hidden.description = format!(
+                "bow {:.1} um at node {}, {:.0} deg",
+                amplitude * 1e6,
+                node + 1,
+                phase.to_degrees()
+            );
+        }
+        Effect::ProbeRunout => {
+            let nq = 2 * truth.bearings.len();
+            let first = rng.random_range(0..nq);
+            let mut channels = vec![first];
+            if rng.random_bool(0.5) {
+                let second = (first + rng.random_range(1..nq)) % nq;
+                channels.push(second);
+            }
+            for &ch in &channels {
+                let amplitude = rng.random_range(3e-6..15e-6);
+                let phase = deg(&mut rng);
+                effects.runout.push(Runout {
+                    channel: Channel {
+                        bearing: ch / 2,
+                        direction: if ch % 2 == 0 {
+                            Direction::Y
+                        } else {
+                            Direction::Z
+                        },
+                    },
+                    amplitude,
+                    phase,
+                });
+                hidden
+                    .runout
+                    .push((ch, num_complex::Complex64::from_polar(amplitude, phase)));
+            }
+            hidden.size = hidden.runout[0].1.norm();
+            hidden.phase = hidden.runout[0].1.arg();
+            hidden.description = format!(
+                "runout {}",
+                hidden
+                    .runout
+                    .iter()
+                    .map(|(c, z)| format!(
+                        "ch{} {:.1} um {:.0} deg",
+                        c,
+                        z.norm() * 1e6,
+                        z.arg().to_degrees()
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        Effect::ExtraUnbalancePlane => {
+            let nodes: Vec<usize> = (0..n_nodes).filter(|n| !model.planes.contains(n)).collect();
+            let node = nodes[rng.random_range(0..nodes.len())];
+            let me = me_ref * rng.random_range(0.3..1.0);
+            let phase = deg(&mut rng);
+            effects.extra_unbalance.push(Unbalance { node, me, phase });
+            hidden.node = Some(node);
+            hidden.size = me;
+            hidden.phase = phase;
+            hidden.description = format!(
+                "extra unbalance {me:.3e} kg m at node {}, {:.0} deg",
+                node + 1,
+                phase.to_degrees()
+            );
+        }
+        Effect::ShaftStiffnessError => {
+            let d = rng.random_range(0.03..0.10) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            effects.e_scale = 1.0 + d;
+            hidden.size = 1.0 + d;
+            hidden.description = format!("shaft E and G x {:.4}", 1.0 + d);
+        }
+    }
+    let sim_seed: u64 = rng.random();
+    let meas = simulate(
+        &truth,
+        &SimOptions {
+            speeds_rpm: speeds_rpm.to_vec(),
+            noise,
+            seed: sim_seed,
+            effects: effects.clone(),
+        },
+    )?;
+    Ok(Case {
+        truth,
+        effects,
+        hidden,
+        noise,
+        meas,
+    })
+}
+
+/// Draws the effect too: `none` or one of the bank, uniformly.
+pub fn draw(
+    model: &RotorModel,
+    seed: u64,
+    speeds_rpm: &[f64],
+    noise: Option<f64>,
+) -> Result<Case, SimulateError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_d1a6);
+    let k = rng.random_range(0..=Effect::BANK.len());
+    let effect = if k == 0 {
+        Effect::None
+    } else {
+        Effect::BANK[k - 1]
+    };
+    generate(model, effect, seed, speeds_rpm, noise)
+}

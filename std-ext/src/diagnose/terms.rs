@@ -1,0 +1,183 @@
+//! The reduced terms the hypotheses need at each measured speed.
+//!
+//! Besides the identification's `A(Omega)` and `B(Omega)` (model planes),
+//! the diagnosis reduces, in the same banded solve, a unit unbalance at
+//! every node and a unit bow at every interior node:
+//!
+//! ```text
+//!     b_n(Omega) = Omega^2 (t_B - Y t_i),      t = unit unbalance at node n   (1/s^2)
+//!     g_n(Omega) = f_B - Y f_i,                f = K_s q_bow,n                (N/m)
+//! ```
+//!
+//! with `Y = Z_Bi Z_ii^-1` ([`crate::reduce`]) and `q_bow,n` the bow shape
+//! of a unit offset at node `n` (spline with zero offset at the shaft
+//! ends, [`FeModel::bow_shape`]). An extra unbalance `u` at node `n` adds
+//! `b_n u` to the reduced force, a bow of complex amplitude `beta` (m)
+//! adds `g_n beta`.
+//!
+//! # Shaft modulus
+//!
+//! Scaling E and G by `e` scales `K_s` by `e`, so
+//! `Z_R(e, Omega) = e Z_R(1, Omega / sqrt(e))` and, exactly,
+//!
+//! ```text
+//!     A(e, Omega) = e A(Omega / sqrt(e)),   B(e, Omega) = e B(Omega / sqrt(e)),
+//!     g(e, Omega) = e g(Omega / sqrt(e))
+//! ```
+//!
+//! ([`build`] with `e != 1`); checked against a model rebuilt with the
+//! scaled modulus in the tests.
+
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+
+use crate::fe::assembly::FeModel;
+use crate::model::{BowPoint, RotorModel, ShaftBow};
+use crate::reduce::{Reducer, ReductionError};
+
+/// The terms at one speed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpeedTerms {
+    /// Speed (rad/s).
+    pub omega: f64,
+    /// `A` (`2 N_b x 2 N_b`, N/m).
+    pub a: DMatrix<Complex64>,
+    /// `B` of the model's planes (`2 N_b x N_p`, 1/s^2).
+    pub b: DMatrix<Complex64>,
+    /// `b_n` of a unit unbalance at every node (`2 N_b x N_nodes`, 1/s^2).
+    pub b_node: DMatrix<Complex64>,
+    /// `g_n` of a unit bow at every node (`2 N_b x N_nodes`, N/m; zero
+    /// columns at the shaft ends, where a bow offset is a rigid motion).
+    pub g_node: DMatrix<Complex64>,
+    /// `dA/de` at the modulus factor the terms were built for, when asked.
+    pub da_de: Option<DMatrix<Complex64>>,
+    /// `dB/de`, likewise.
+    pub db_de: Option<DMatrix<Complex64>>,
+}
+
+/// Builds the terms at every speed of `omegas` (rad/s, > 0) for the shaft
+/// modulus factor `e` (1: the model as given); with `derivative`, also
+/// `dA/de`, `dB/de` by central differences (step `1e-4 e`, error
+/// `~1e-8` relative).
+pub fn build(
+    model: &RotorModel,
+    omegas: &[f64],
+    e: f64,
+    derivative: bool,
+) -> Result<Vec<SpeedTerms>, ReductionError> {
+    if !(e.is_finite() && e > 0.0) {
+        return Err(ReductionError::Invalid(format!(
+            "shaft modulus factor must be finite and > 0, got {e}"
+        )));
+    }
+    let fe = FeModel::new(model)?;
+    let n_nodes = model.n_nodes();
+    let np = model.planes.len();
+    let all: Vec<usize> = (0..n_nodes).collect();
+    let t_planes = fe.unbalance_distribution(&model.planes)?;
+    let t_nodes = fe.unbalance_distribution(&all)?;
+    let ns = fe.n_shaft_dof();
+    let mut loads = DMatrix::<Complex64>::zeros(ns, np + 2 * n_nodes);
+    loads.view_mut((0, 0), (ns, np)).copy_from(&t_planes);
+    loads.view_mut((0, np), (ns, n_nodes)).copy_from(&t_nodes);
+    for n in 1..n_nodes.saturating_sub(1) {
+        let bow = ShaftBow {
+            points: vec![BowPoint {
+                node: n,
+                amplitude: 1.0,
+                phase: 0.0,
+            }],
+        };
+        let f = fe.bow_force(&bow)?;
+        for (r, v) in f.iter().enumerate() {
+            loads[(r, np + n_nodes + n)] = *v;
+        }
+    }
+    let reducer = Reducer::with_loads(&fe, model, loads)?;
+    let at =
+        |omega: f64, e: f64| -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), ReductionError> {
+            let w = omega / e.sqrt();
+            let t = reducer.reduce(w)?;
+            Ok((t.a * Complex64::from(e), t.b * Complex64::from(e)))
+        };
+    let mut out = Vec::with_capacity(omegas.len());
+    for &omega in omegas {
+        if !(omega.is_finite() && omega > 0.0) {
+            return Err(ReductionError::Invalid(format!(
+                "the diagnosis needs speeds > 0, got {omega} rad/s"
+            )));
+        }
+        let (a, b_all) = at(omega, e)?;
+        let nq = a.nrows();
+        let b = b_all.columns(0, np).into_owned();
+        let b_node = b_all.columns(np, n_nodes).into_owned();
+        let g_node =
+            b_all.columns(np + n_nodes, n_nodes).into_owned() / Complex64::from(omega * omega);
+        let (da_de, db_de) = if derivative {
+            let h = 1e-4 * e;
+            let (ap, bp) = at(omega, e + h)?;
+            let (am, bm) = at(omega, e - h)?;
+            let s = Complex64::from(1.0 / (2.0 * h));
+            (
+                Some((ap - am) * s),
+                Some((bp.columns(0, np) - bm.columns(0, np)) * s),
+            )
+        } else {
+            (None, None)
+        };
+        debug_assert_eq!(b.nrows(), nq);
+        out.push(SpeedTerms {
+            omega,
+            a,
+            b,
+            b_node,
+            g_node,
+            da_de,
+            db_de,
+        });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::extension::{apply_effects, Effects};
+
+    /// `A(e, Omega) = e A(Omega / sqrt(e))` equals the terms of the model
+    /// rebuilt with E and G scaled; the node column of a plane equals
+    /// `B`'s; `dA/de` equals a difference quotient. (The bow columns are
+    /// checked against the full FE response in [`super::extended`].)
+    #[test]
+    fn modulus_scaling_and_columns_match_direct_reduction() {
+        let m = RotorModel::paper();
+        let omegas = [300.0, 900.0];
+        let e = 1.04;
+        let t = build(&m, &omegas, e, true).unwrap();
+        let scaled = apply_effects(
+            &m,
+            &Effects {
+                e_scale: e,
+                ..Effects::default()
+            },
+        )
+        .unwrap();
+        let fe = FeModel::new(&scaled).unwrap();
+        let r = Reducer::new(&fe, &scaled).unwrap();
+        for (k, &w) in omegas.iter().enumerate() {
+            let d = r.reduce(w).unwrap();
+            assert!((&t[k].a - &d.a).norm() <= 1e-9 * d.a.norm());
+            assert!((&t[k].b - &d.b).norm() <= 1e-9 * d.b.norm());
+            for (p, &node) in m.planes.iter().enumerate() {
+                let c = t[k].b_node.column(node) - d.b.column(p);
+                assert!(c.norm() <= 1e-9 * d.b.norm());
+            }
+            // dA/de against a difference of two scaled models.
+            let h = 1e-3;
+            let t2 = build(&m, &[w], e + h, false).unwrap();
+            let fd = (&t2[0].a - &t[k].a) / Complex64::from(h);
+            let da = t[k].da_de.as_ref().unwrap();
+            assert!((fd - da).norm() <= 1e-2 * da.norm());
+        }
+    }
+}
