@@ -12,6 +12,8 @@
 
 mod common;
 
+mod diagnose;
+
 mod architecture;
 mod cli;
 mod fe;

@@ -23,8 +23,9 @@
 //! Levenberg-Marquardt on the scaled parameters: normal equations
 //! `(J^T J + mu D) dx = J^T r` (`D` the diagonal of `J^T J`), Cholesky,
 //! `mu` divided by 3 after a step that lowers `S`, multiplied by 4
-//! otherwise; stop when `S` falls by less than `1e-10` relative or the
-//! scaled step is below `1e-9`.
+//! otherwise; stop when `S` falls by less than `1e-9` relative (a change of
+//! `1e-9 N` in chi-square, far below any decision threshold) or the
+//! scaled step is below `1e-7`.
 //!
 //! # Covariance
 //!
@@ -218,8 +219,8 @@ pub fn fit(
                     let st = rt.norm_squared();
                     if st.is_finite() && st <= s {
                         let small_step =
-                            step.norm() <= 1e-9 * (1.0 + DVector::from_column_slice(&theta).norm());
-                        let small_drop = s - st <= 1e-10 * s;
+                            step.norm() <= 1e-7 * (1.0 + DVector::from_column_slice(&theta).norm());
+                        let small_drop = s - st <= 1e-9 * s;
                         theta = trial;
                         s = st;
                         mu = (mu / 3.0).max(1e-12);

@@ -402,6 +402,7 @@ pub fn diagnose(
             rad_s_to_rpm(s.omega)
         )));
     }
+    let __t = std::time::Instant::now();
     let samples = &meas.samples;
     let omegas: Vec<f64> = samples.iter().map(|s| s.omega).collect();
     let omega_max = omegas.iter().copied().fold(0.0, f64::max);
@@ -410,34 +411,7 @@ pub fn diagnose(
     // 1. Nominal: QRD/RLS start, output-error fit, polish on our objective.
     let structure = Structure::physical(opts.order);
     let scaling = auto_scaling(model, omega_max);
-    let mut o = Options::new(structure);
-    o.scaling = Some(scaling);
-    let index: HashMap<u64, usize> = omegas
-        .iter()
-        .enumerate()
-        .map(|(i, w)| (w.to_bits(), i))
-        .collect();
-    let mut serve = |w: f64| -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), IdentifyError> {
-        let i = index.get(&w.to_bits()).copied().unwrap_or(0);
-        Ok((terms[i].a.clone(), terms[i].b.clone()))
-    };
-    let id = identify_with(
-        &model.bearing_nodes(),
-        &model.planes,
-        meas,
-        &o,
-        &mut serve,
-        None,
-    )?;
-    let pr = Predictor::new(id.param.clone());
-    let oe_terms: Vec<Terms> = terms.iter().map(|t| (t.a.clone(), t.b.clone())).collect();
-    let oe = fit_output_error(
-        &pr,
-        samples,
-        &oe_terms,
-        &id.scaled_weights,
-        &OutputErrorOptions::default(),
-    )?;
+    let (pr, oe_theta) = oe_start(model, samples, &terms, structure, scaling)?;
     let n_real = 2 * samples.len() * 2 * nb;
     let q_rms = (samples
         .iter()
@@ -459,7 +433,7 @@ pub fn diagnose(
         scales,
         relative_probes: opts.relative_probes,
     };
-    let nominal_fit = fit::fit(&base, &data, &oe.theta, 50)?;
+    let nominal_fit = fit::fit(&base, &data, &oe_theta, 50)?;
     if n_real <= nominal_fit.n_params() {
         return Err(DiagnoseError::Input(format!(
             "{} real equations for {} nominal parameters: too few speeds to diagnose",
@@ -479,6 +453,7 @@ pub fn diagnose(
         significant: false,
     };
     let theta0 = nominal.fit.theta.clone();
+    let nominal_s = nominal.fit.s;
 
     // 2. The bank.
     let mut hyps: Vec<Candidate> = Vec::new();
@@ -631,7 +606,31 @@ pub fn diagnose(
     {
         let m = with_ext(vec![Extension::Runout]);
         if n_room(m.n_params()) {
-            let t = start_with(&m, &[]);
+            // Start: the reading at the lowest speed is mostly runout (the
+            // unbalance response vanishes like Omega^2); the nominal
+            // parameters refitted to the data without it.
+            let low = samples
+                .iter()
+                .min_by(|a, b| a.omega.total_cmp(&b.omega))
+                .map(|s| s.q.clone())
+                .unwrap_or_default();
+            let corrected: Vec<crate::io::measurement::Sample> = samples
+                .iter()
+                .map(|s| crate::io::measurement::Sample {
+                    omega: s.omega,
+                    q: s.q.iter().zip(&low).map(|(y, r)| y - r).collect(),
+                })
+                .collect();
+            let r0: Vec<f64> = low
+                .iter()
+                .flat_map(|r| [r.re / scales.q, r.im / scales.q])
+                .collect();
+            let mut t = match oe_start(model, &corrected, &terms, structure, scaling) {
+                Ok((_, th)) => th,
+                Err(_) => theta0.clone(),
+            };
+            t.extend_from_slice(&r0);
+            t.resize(m.n_params(), 0.0);
             if let Ok(f) = fit::fit(&m, &data, &t, 50) {
                 push(
                     Effect::ProbeRunout,
@@ -649,8 +648,28 @@ pub fn diagnose(
     {
         let m = with_ext(vec![Extension::EScale]);
         if n_room(m.n_params()) {
+            // Start: the best of e = 1 and e = 1 -+ 5 % with the nominal
+            // parameters refitted at each (the nominal estimate adapts the
+            // bearings to the wrong shaft: a local minimum in between).
             let mut e = 1.0;
             let mut theta = start_with(&m, &[0.0]);
+            let mut s_best = nominal_s;
+            for e_try in [0.95, 1.05] {
+                let te = terms::build(model, &omegas, e_try, false)?;
+                if let Ok((_, th)) = oe_start(model, samples, &te, structure, scaling) {
+                    let d = FitData::new(samples, &te);
+                    let en = fit::entries(&base, &d);
+                    if let Ok((r, _)) = fit::evaluate(&base, &d, &en, &th, false) {
+                        let s_try = r.norm_squared();
+                        if s_try < s_best {
+                            s_best = s_try;
+                            e = e_try;
+                            theta = th;
+                            theta.push(0.0);
+                        }
+                    }
+                }
+            }
             let mut last: Option<(Fit, f64)> = None;
             for _round in 0..4 {
                 let te = terms::build(model, &omegas, e, true)?;
@@ -809,6 +828,52 @@ pub fn diagnose(
     drop(data);
     d.terms = terms;
     Ok(d)
+}
+
+/// The output-error estimate of the nominal parameters on `samples` with
+/// the terms `terms` (same order): QRD/RLS start, then
+/// [`fit_output_error`]. Returns the predictor and its scaled parameters.
+fn oe_start(
+    model: &RotorModel,
+    samples: &[crate::io::measurement::Sample],
+    terms: &[SpeedTerms],
+    structure: Structure,
+    scaling: rotorid_core::scaling::ColumnScaling<f64>,
+) -> Result<(Predictor, Vec<f64>), DiagnoseError> {
+    let mut o = Options::new(structure);
+    o.scaling = Some(scaling);
+    let index: HashMap<u64, usize> = terms
+        .iter()
+        .enumerate()
+        .map(|(i, t)| (t.omega.to_bits(), i))
+        .collect();
+    let mut serve = |w: f64| -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), IdentifyError> {
+        let i = index.get(&w.to_bits()).copied().unwrap_or(0);
+        Ok((terms[i].a.clone(), terms[i].b.clone()))
+    };
+    let meas = Measurements {
+        comments: Vec::new(),
+        n_bearings: model.bearings.len(),
+        samples: samples.to_vec(),
+    };
+    let id = identify_with(
+        &model.bearing_nodes(),
+        &model.planes,
+        &meas,
+        &o,
+        &mut serve,
+        None,
+    )?;
+    let pr = Predictor::new(id.param.clone());
+    let oe_terms: Vec<Terms> = terms.iter().map(|t| (t.a.clone(), t.b.clone())).collect();
+    let oe = fit_output_error(
+        &pr,
+        samples,
+        &oe_terms,
+        &id.scaled_weights,
+        &OutputErrorOptions::default(),
+    )?;
+    Ok((pr, oe.theta))
 }
 
 /// A pair of hypotheses fitted together, from their own estimates.

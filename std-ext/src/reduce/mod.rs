@@ -301,14 +301,18 @@ fn statics(
 
 /// `A` and `B` from the statics and the solution `Y = Z_ii^-1 [V, T_i]`.
 fn assemble(st: &Statics, y: &DMatrix<Complex64>, omega: f64) -> ReducedTerms {
+    debug_assert_eq!(y.nrows(), st.v_l.ncols());
+    let vy = &st.v_l * y; // 2 N_b x (2 N_b + N_p)
+    assemble_vy(st, &vy, omega)
+}
+
+/// `A` and `B` from `V_L Z_ii^-1 [V, T_i]`.
+fn assemble_vy(st: &Statics, vy: &DMatrix<Complex64>, omega: f64) -> ReducedTerms {
     let nq = st.s_k.nrows();
     let np = st.t_red.ncols();
-    let ni = y.nrows();
     let w2 = Complex64::from(omega * omega);
-    let vy = &st.v_l * y; // 2 N_b x (2 N_b + N_p)
     let a = &st.s_k - &st.m_red * w2 - vy.view((0, 0), (nq, nq)) * (w2 * w2);
     let b = (&st.t_red + vy.view((0, nq), (nq, np)) * w2) * w2;
-    debug_assert_eq!(ni, st.v_l.ncols());
     ReducedTerms { omega, a, b }
 }
 
@@ -390,6 +394,37 @@ impl<'a> Reducer<'a> {
         let mut y = self.statics.rhs.clone();
         zii.into_lu()?.solve_many(&mut y)?;
         Ok(assemble(&self.statics, &y, omega))
+    }
+
+    /// [`Reducer::reduce`] by the adjoint: `W = V_L Z_ii^-1` from one
+    /// banded LU of `Z_ii^T` with `2 N_b` right-hand sides
+    /// (`Z_ii^T W^T = V_L^T`; `Z_ii` is not symmetric, the gyroscopic part
+    /// is skew), then `V_L Z_ii^-1 [V, T_i] = W [V, T_i]` by products. The
+    /// same numbers for any number of load columns at the cost of `2 N_b`
+    /// solves: the choice when there are many loads
+    /// ([`Reducer::with_loads`]).
+    pub fn reduce_adjoint(&self, omega: f64) -> Result<ReducedTerms, ReductionError> {
+        if !omega.is_finite() {
+            return Err(ReductionError::Invalid(format!(
+                "speed must be finite, got {omega}"
+            )));
+        }
+        let zr = self.fe.rotor_dynamic_stiffness(omega);
+        let zii = interior_block(&zr, &self.interior)?;
+        let n = zii.n();
+        let (kl, ku) = (zii.kl(), zii.ku());
+        let mut zt = BandedMatrix::zeros(n, ku, kl);
+        for j in 0..n {
+            for i in j.saturating_sub(ku)..(j + kl + 1).min(n) {
+                if zii.in_band(i, j) {
+                    zt.set(j, i, zii.get(i, j))?;
+                }
+            }
+        }
+        let mut wt = self.statics.v_l.transpose();
+        zt.into_lu()?.solve_many(&mut wt)?;
+        let vy = wt.tr_mul(&self.statics.rhs);
+        Ok(assemble_vy(&self.statics, &vy, omega))
     }
 
     /// The poles of the reduced model (rad/s, increasing): the speeds where

@@ -1,0 +1,4 @@
+//! The diagnosis on generated hidden-effect cases: the right effect named,
+//! its size recovered, the gain measured.
+
+mod cases;
