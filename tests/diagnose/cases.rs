@@ -21,7 +21,7 @@ fn explore() {
         .chain(Effect::BANK)
         .enumerate()
     {
-        for seed in 0..1u64 {
+        for seed in 0..3u64 {
             let case = generate(&m, effect, 1000 * k as u64 + seed, &sp, Some(0.001)).unwrap();
             let t = Instant::now();
             let d = diagnose(&m, &case.meas, &DiagnoseOptions::default()).unwrap();
@@ -35,7 +35,7 @@ fn explore() {
                 d.noise_level,
                 t.elapsed().as_secs_f64()
             );
-            for h in &d.hypotheses {
+            for h in d.hypotheses.iter().filter(|_| d.effect != effect) {
                 println!(
                     "    {:<50} res {:.2e} stat {:10.1} thr {:6.1} sig {} P {}",
                     h.label,
@@ -46,7 +46,9 @@ fn explore() {
                     h.fit.n_params()
                 );
             }
-            println!("    findings {:?}", d.findings());
+            if d.effect != effect {
+                println!("    findings {:?}", d.findings());
+            }
         }
     }
 }

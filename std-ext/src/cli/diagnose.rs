@@ -16,10 +16,62 @@ pub struct DiagnoseArgs {
     /// Write the diagnosis as JSON.
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<std::path::PathBuf>,
+    /// Write plots (SVG) into this folder: residual against speed, and
+    /// measured/nominal/extended amplitude per probe.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<std::path::PathBuf>,
+    /// Polynomial order of the nominal bearing law (physical K, C).
+    #[arg(long, default_value_t = 1)]
+    pub order: usize,
+    /// False-alarm rate of the choice: the probability that noise alone
+    /// names an effect.
+    #[arg(long, default_value_t = 1e-3)]
+    pub false_alarm: f64,
 }
 
 /// Runs `rotorid diagnose`.
 pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
-    let _ = (args, io);
-    Err(CliError::new("diagnose: not yet available in this build"))
+    use crate::diagnose::{diagnose, predictions, DiagnoseOptions};
+    use crate::model::ProbeReference;
+    use crate::report::diagnose::{json, text, write_plots};
+
+    let model = super::load_model(&args.model)?.model;
+    let meas = crate::io::measurement::read_csv(&args.measurements)
+        .map_err(|e| CliError::new(format!("{}: {e}", args.measurements.display())))?;
+    if meas.samples.len() < 8 {
+        return Err(CliError::new(format!(
+            "{}: {} speeds: the diagnosis needs at least 8 (and many more to tell effects apart)",
+            args.measurements.display(),
+            meas.samples.len()
+        )));
+    }
+    let opts = DiagnoseOptions {
+        order: args.order,
+        false_alarm: args.false_alarm,
+        relative_probes: model.probes == ProbeReference::Relative,
+    };
+    let d = diagnose(&model, &meas, &opts).map_err(|e| CliError::new(format!("diagnose: {e}")))?;
+    let nominal =
+        predictions(&model, &d, &d.nominal).map_err(|e| CliError::new(format!("diagnose: {e}")))?;
+    write!(io.out, "{}", text(&d, &meas.samples, &nominal))?;
+    for w in &d.warnings {
+        writeln!(io.err, "warning: {w}")?;
+    }
+    if let Some(path) = &args.json {
+        let t = serde_json::to_string_pretty(&json(&d))?;
+        std::fs::write(path, t + "\n")
+            .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
+    }
+    if let Some(dir) = &args.plot {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| CliError::new(format!("{}: {e}", dir.display())))?;
+        let ext = predictions(&model, &d, d.extended())
+            .map_err(|e| CliError::new(format!("diagnose: {e}")))?;
+        let files = write_plots(dir, &d, &meas.samples, &nominal, &ext)
+            .map_err(|e| CliError::new(e.to_string()))?;
+        for f in files {
+            writeln!(io.err, "wrote {}", f.display())?;
+        }
+    }
+    Ok(())
 }

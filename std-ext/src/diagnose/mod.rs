@@ -354,6 +354,32 @@ impl Diagnosis {
     }
 }
 
+/// The probe readings `c` predicts at every speed of `d` (m), with the
+/// terms rebuilt for its shaft modulus when it has one.
+pub fn predictions(
+    model: &RotorModel,
+    d: &Diagnosis,
+    c: &Candidate,
+) -> Result<Vec<Vec<Complex64>>, DiagnoseError> {
+    let own;
+    let terms: &[SpeedTerms] = if c.model.ext.contains(&Extension::EScale) {
+        let omegas: Vec<f64> = d.terms.iter().map(|t| t.omega).collect();
+        own = terms::build(model, &omegas, c.e_terms, true)?;
+        &own
+    } else {
+        &d.terms
+    };
+    terms
+        .iter()
+        .map(|st| {
+            c.model
+                .predict(st, &c.model.pr.entries(st.omega), &c.fit.theta, None)
+                .map(|y| y.iter().copied().collect())
+                .map_err(DiagnoseError::from)
+        })
+        .collect()
+}
+
 /// The scaled parameters of `to` from those of `from` (same unknowns
 /// matched; unknowns `from` lacks start at zero).
 pub fn map_theta(from: &Predictor, theta: &[f64], to: &Predictor) -> Vec<f64> {

@@ -1,5 +1,7 @@
 //! Human-facing output: SVG plot primitives ([`plot`]) and the
-//! identification report ([`identify`]: text table and plots).
+//! identification report ([`identify`]: text table and plots), the
+//! diagnosis report ([`diagnose`]: text, JSON, plots).
 
+pub mod diagnose;
 pub mod identify;
 pub mod plot;
