@@ -2,3 +2,4 @@
 //! its size recovered, the gain measured.
 
 mod cases;
+mod cli;

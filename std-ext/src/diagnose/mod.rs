@@ -347,6 +347,18 @@ impl Diagnosis {
         self.extended().residual()
     }
 
+    /// The smallest detectable size of `ext` alone at the nominal estimate
+    /// (m for a bow or runout, kg m for a plane; see [`observe`]); `None`
+    /// for effects without a zero (pedestal, modulus, speed law).
+    pub fn min_detectable(
+        &self,
+        samples: &[crate::io::measurement::Sample],
+        ext: Extension,
+    ) -> Option<f64> {
+        let data = FitData::new(samples, &self.terms);
+        observe::min_detectable_single(self, &data, ext)
+    }
+
     /// The identified size of every effect of the chosen model.
     pub fn findings(&self) -> Vec<Finding> {
         let c = self.extended();
