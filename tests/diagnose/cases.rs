@@ -1,69 +1,306 @@
-//! Generated cases (`rotorid::diagnose::generator`): the test does not tell
-//! `diagnose` what was hidden.
+//! Generated hidden-effect cases (`rotorid::diagnose::generator`): the test
+//! does not tell `diagnose` what was hidden, then checks the name, the gain,
+//! the identified size and the bearings against the answer key.
+//!
+//! Observability criterion (stated in the README): an effect that vanishes
+//! at zero size (bow, extra plane, runout) is observable in a case when its
+//! hidden size is at least twice the smallest detectable size computed by
+//! `Diagnosis::min_detectable` at its node or channel; the pedestal,
+//! modulus and speed-law effects are drawn in ranges where they always are
+//! (their resonance or critical-speed shift lies in the speed range). The
+//! gain requirement applies where the effect is plainly visible at the
+//! probes: a nominal misfit of at least 10x the noise.
 
-use std::time::Instant;
+use std::collections::BTreeMap;
 
-use rotorid::diagnose::generator::generate;
-use rotorid::diagnose::{diagnose, DiagnoseOptions, Effect};
+use rotorid::diagnose::extended::Extension;
+use rotorid::diagnose::generator::{generate, Case};
+use rotorid::diagnose::{diagnose, estimates, DiagnoseOptions, Diagnosis, Effect, Finding};
 use rotorid::model::RotorModel;
+use rotorid::units::rpm_to_rad_s;
 
 fn speeds() -> Vec<f64> {
     (1..=300).map(|i| 50.0 * i as f64).collect()
 }
 
-/// Exploration: one case per effect, printed.
-#[test]
-#[ignore]
-fn explore() {
+/// What a case showed.
+struct Outcome {
+    named: Effect,
+    /// The named effect explains the data as well as the hidden one, and
+    /// the observability analysis says so.
+    equivalent: bool,
+    observable: bool,
+    visible: bool,
+    gain: f64,
+    /// (identified, hidden, std) of the main size, when comparable.
+    size: Option<(f64, f64, f64)>,
+    /// RMS relative error of the bearing K and C of the extended and of
+    /// the nominal model against the truth.
+    bearing_error: (f64, f64),
+}
+
+fn bearing_error(d: &Diagnosis, case: &Case, c: &rotorid::diagnose::Candidate) -> f64 {
+    let (b, _) = estimates(c, d.omega_report);
+    let mut s = 0.0;
+    let mut n = 0.0;
+    for (i, br) in b.iter().enumerate() {
+        let t = case.truth.bearings[i].law.at(d.omega_report);
+        let k = [br.k.yy, br.k.yz, br.k.zy, br.k.zz];
+        let cc = [br.c.yy, br.c.yz, br.c.zy, br.c.zz];
+        for e in [0, 3] {
+            s += ((k[e] - t.k[e]) / t.k[e]).powi(2) + ((cc[e] - t.c[e]) / t.c[e]).powi(2);
+            n += 2.0;
+        }
+    }
+    (s / n).sqrt()
+}
+
+fn run_case(
+    m: &RotorModel,
+    effect: Effect,
+    seed: u64,
+    noise: Option<f64>,
+) -> (Case, Diagnosis, Outcome) {
+    let case = generate(m, effect, seed, &speeds(), noise).unwrap();
+    let d = diagnose(m, &case.meas, &DiagnoseOptions::default()).unwrap();
+    let h = &case.hidden;
+    let observable = match effect {
+        Effect::ShaftBow => {
+            let node = h.node.unwrap();
+            d.min_detectable(&case.meas.samples, Extension::Bow { node })
+                .is_some_and(|s| h.size >= 2.0 * s)
+        }
+        Effect::ExtraUnbalancePlane => {
+            let node = h.node.unwrap();
+            d.min_detectable(&case.meas.samples, Extension::Plane { node })
+                .is_some_and(|s| h.size >= 2.0 * s)
+        }
+        _ => true,
+    };
+    let visible = effect != Effect::None
+        && d.noise_level
+            .is_some_and(|s| d.residual_nominal() >= 10.0 * s);
+    let findings = d.findings();
+    let size = findings.iter().find_map(|f| match (f, effect) {
+        (
+            Finding::ShaftBow {
+                node,
+                amplitude,
+                amplitude_std,
+                ..
+            },
+            Effect::ShaftBow,
+        ) if Some(*node - 1) == h.node => Some((*amplitude, h.size, *amplitude_std)),
+        (
+            Finding::ExtraUnbalancePlane {
+                node, me, me_std, ..
+            },
+            Effect::ExtraUnbalancePlane,
+        ) if Some(*node - 1) == h.node => Some((*me, h.size, *me_std)),
+        (Finding::ProbeRunout { channels }, Effect::ProbeRunout) => {
+            let (ch, z) = h.runout[0];
+            let c = &channels[ch];
+            Some((c.amplitude, z.norm(), c.amplitude_std))
+        }
+        (Finding::ShaftStiffnessError { factor, factor_std }, Effect::ShaftStiffnessError) => {
+            Some((*factor - 1.0, h.size - 1.0, *factor_std))
+        }
+        (
+            Finding::FoundationFlexibility {
+                natural_frequency_hz,
+                natural_frequency_hz_std,
+                ..
+            },
+            Effect::FoundationFlexibility,
+        ) => Some((
+            natural_frequency_hz[0],
+            h.size / std::f64::consts::TAU,
+            natural_frequency_hz_std[0],
+        )),
+        _ => None,
+    });
+    let equivalent = d
+        .observability
+        .iter()
+        .any(|ob| ob.effect == effect && ob.indistinguishable_from.contains(&d.effect));
+    let out = Outcome {
+        named: d.effect,
+        equivalent,
+        observable,
+        visible,
+        gain: d.residual_nominal() / d.residual_extended(),
+        size,
+        bearing_error: (
+            bearing_error(&d, &case, d.extended()),
+            bearing_error(&d, &case, &d.nominal),
+        ),
+    };
+    (case, d, out)
+}
+
+/// `n` cases of `effect` at 0.1 % noise, all named right where observable,
+/// with the gain, size and bearing checks.
+fn check_effect(effect: Effect, n: u64) {
     let m = RotorModel::paper();
-    let sp = speeds();
-    for (k, effect) in std::iter::once(Effect::None)
-        .chain(Effect::BANK)
-        .enumerate()
-    {
-        for seed in 0..3u64 {
-            let case = generate(&m, effect, 1000 * k as u64 + seed, &sp, Some(0.001)).unwrap();
-            let t = Instant::now();
-            let d = diagnose(&m, &case.meas, &DiagnoseOptions::default()).unwrap();
-            println!(
-                "hidden {:<24} ({}) -> {:<24} nominal {:.2e} extended {:.2e} noise {:?} [{:.2} s]",
-                effect.name(),
-                case.hidden.description,
-                d.effect.name(),
-                d.residual_nominal(),
-                d.residual_extended(),
-                d.noise_level,
-                t.elapsed().as_secs_f64()
+    for seed in 0..n {
+        let seed = 7919 * (effect as u64 + 1) + seed;
+        let (case, d, o) = run_case(&m, effect, seed, Some(0.001));
+        let what = format!(
+            "seed {seed}: hidden {} -> {} (nominal {:.2e}, extended {:.2e}, gain {:.1}, size {:?}, bearings {:.2e}/{:.2e})",
+            case.hidden.description,
+            o.named.name(),
+            d.residual_nominal(),
+            d.residual_extended(),
+            o.gain,
+            o.size,
+            o.bearing_error.0,
+            o.bearing_error.1
+        );
+        println!("{what}");
+        // Another effect that explains the data equally well is a right
+        // answer when the observability analysis says the two cannot be
+        // told apart.
+        let equivalent = o.equivalent;
+        if !o.observable {
+            assert!(
+                matches!(o.named, Effect::None | Effect::Unexplained)
+                    || o.named == effect
+                    || equivalent,
+                "{what}"
             );
-            for h in d.hypotheses.iter().filter(|_| d.effect != effect) {
-                println!(
-                    "    {:<50} res {:.2e} stat {:10.1} thr {:6.1} sig {} P {}",
-                    h.label,
-                    h.residual(),
-                    h.statistic,
-                    h.threshold,
-                    h.significant,
-                    h.fit.n_params()
-                );
-            }
-            if d.effect != effect {
-                println!("    findings {:?}", d.findings());
-            }
+            continue;
+        }
+        if o.named != effect && equivalent {
+            println!("    (explains the data as well: accepted with the observability note)");
+            continue;
+        }
+        assert_eq!(o.named, effect, "{what}");
+        if o.visible {
+            assert!(o.gain >= 10.0, "{what}");
+            assert!(o.bearing_error.0 < o.bearing_error.1, "{what}");
+        }
+        // The extended model fits to the noise.
+        if let Some(s) = d.noise_level {
+            assert!(d.residual_extended() < 1.2 * s, "{what}");
+        }
+        if let Some((got, want, std)) = o.size {
+            assert!((got - want).abs() <= 0.05 * want.abs(), "size: {what}");
+            assert!((got - want).abs() <= 3.5 * std, "size vs std: {what}");
         }
     }
 }
 
 #[test]
+fn none_is_not_named() {
+    check_effect(Effect::None, 5);
+}
+
+#[test]
+fn speed_dependent_bearing_is_named() {
+    check_effect(Effect::SpeedDependentBearing, 5);
+}
+
+#[test]
+fn foundation_flexibility_is_named() {
+    check_effect(Effect::FoundationFlexibility, 5);
+}
+
+#[test]
+fn shaft_bow_is_named() {
+    check_effect(Effect::ShaftBow, 5);
+}
+
+#[test]
+fn probe_runout_is_named() {
+    check_effect(Effect::ProbeRunout, 5);
+}
+
+#[test]
+fn extra_unbalance_plane_is_named() {
+    check_effect(Effect::ExtraUnbalancePlane, 5);
+}
+
+#[test]
+fn shaft_stiffness_error_is_named() {
+    check_effect(Effect::ShaftStiffnessError, 5);
+}
+
+/// The confusion matrix over 50 cases per effect (and `none`), noise drawn
+/// in 0.1-1 %: printed for the README, with the accuracy bounds asserted.
+#[test]
 #[ignore]
-fn time_terms() {
+fn confusion_matrix() {
     let m = RotorModel::paper();
-    let om: Vec<f64> = speeds()
-        .iter()
-        .map(|r| rotorid::units::rpm_to_rad_s(*r))
-        .collect();
-    for _ in 0..3 {
-        let t = Instant::now();
-        let _ = rotorid::diagnose::terms::build(&m, &om, 1.0, false).unwrap();
-        println!("terms {:?}", t.elapsed());
+    let n: u64 = std::env::var("ROTORID_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(50);
+    let mut table: BTreeMap<(Effect, Effect), usize> = BTreeMap::new();
+    let (mut right, mut total, mut none_named) = (0, 0, 0);
+    let all: Vec<Effect> = std::iter::once(Effect::None).chain(Effect::BANK).collect();
+    for &effect in &all {
+        for seed in 0..n {
+            let (_, _, o) = run_case(&m, effect, 1_000_003 * (effect as u64 + 1) + seed, None);
+            *table.entry((effect, o.named)).or_default() += 1;
+            if o.observable {
+                total += 1;
+                right += usize::from(o.named == effect || o.equivalent);
+            }
+            if effect == Effect::None && o.named != Effect::None {
+                none_named += 1;
+            }
+        }
     }
+    let named: Vec<Effect> = all.iter().copied().chain([Effect::Unexplained]).collect();
+    print!("| hidden \\ named |");
+    for e in &named {
+        print!(" {} |", e.name());
+    }
+    println!();
+    for &h in &all {
+        print!("| {} |", h.name());
+        for &e in &named {
+            print!(" {} |", table.get(&(h, e)).copied().unwrap_or(0));
+        }
+        println!();
+    }
+    let acc = right as f64 / total.max(1) as f64;
+    println!("accuracy on observable cases: {right}/{total} = {acc:.3}; none named as an effect: {none_named}/{n}");
+    assert!(acc >= 0.95);
+    assert!(none_named as f64 <= 0.05 * n as f64);
+}
+
+#[test]
+fn generator_is_deterministic() {
+    let m = RotorModel::paper();
+    let a = generate(&m, Effect::ShaftBow, 3, &speeds(), None).unwrap();
+    let b = generate(&m, Effect::ShaftBow, 3, &speeds(), None).unwrap();
+    assert_eq!(a.hidden, b.hidden);
+    assert_eq!(a.meas.samples[10].q, b.meas.samples[10].q);
+    assert!(a.noise >= 0.001 && a.noise <= 0.01);
+    assert!(rpm_to_rad_s(15000.0) > 0.0);
+}
+
+/// One case printed in full: `ROTORID_EFFECT=shaft_bow ROTORID_SEED=3`.
+#[test]
+#[ignore]
+fn debug_case() {
+    let effect = std::env::var("ROTORID_EFFECT")
+        .ok()
+        .and_then(|s| Effect::from_name(&s))
+        .unwrap_or(Effect::None);
+    let seed: u64 = std::env::var("ROTORID_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let (case, d, _) = run_case(&RotorModel::paper(), effect, seed, Some(0.001));
+    println!("hidden {}", case.hidden.description);
+    let nom = predictions_text(&d, &case);
+    println!("{nom}");
+}
+
+fn predictions_text(d: &Diagnosis, case: &Case) -> String {
+    let m = RotorModel::paper();
+    let nominal = rotorid::diagnose::predictions(&m, d, &d.nominal).unwrap();
+    rotorid::report::diagnose::text(d, &case.meas.samples, &nominal)
 }

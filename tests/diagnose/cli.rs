@@ -33,7 +33,11 @@ fn diagnose_names_runout_and_writes_the_spec_json() {
         plots.to_str().unwrap(),
     ]);
     assert!(out.success(), "{}", out.stderr);
-    assert!(out.stdout.contains("diagnosis: probe_runout"), "{}", out.stdout);
+    assert!(
+        out.stdout.contains("diagnosis: probe_runout"),
+        "{}",
+        out.stdout
+    );
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(v["effect"], "probe_runout");
@@ -52,12 +56,24 @@ fn diagnose_names_runout_and_writes_the_spec_json() {
         let c = &f["channels"][*ch];
         let a = c["amplitude"].as_f64().unwrap();
         let sa = c["amplitude_std"].as_f64().unwrap();
-        assert!((a - z.norm()).abs() <= 0.05 * z.norm(), "{a} vs {}", z.norm());
-        assert!((a - z.norm()).abs() <= 3.0 * sa + 1e-12, "{a} vs {} (std {sa})", z.norm());
+        assert!(
+            (a - z.norm()).abs() <= 0.05 * z.norm(),
+            "{a} vs {}",
+            z.norm()
+        );
+        assert!(
+            (a - z.norm()).abs() <= 3.0 * sa + 1e-12,
+            "{a} vs {} (std {sa})",
+            z.norm()
+        );
         let dp = (c["phase_deg"].as_f64().unwrap() - z.arg().to_degrees() + 540.0) % 360.0 - 180.0;
         assert!(dp.abs() < 3.0, "phase off by {dp} deg");
     }
-    for name in ["diagnose_residual.svg", "diagnose_b1_y.svg", "diagnose_b2_z.svg"] {
+    for name in [
+        "diagnose_residual.svg",
+        "diagnose_b1_y.svg",
+        "diagnose_b2_z.svg",
+    ] {
         assert!(plots.join(name).exists(), "{name}");
     }
 }
@@ -70,7 +86,13 @@ fn diagnose_rejects_bad_input() {
     let case = generate(&m, Effect::None, 1, &[1000.0, 2000.0, 3000.0], Some(0.001)).unwrap();
     let csv = tmp("diag-few.csv");
     rotorid::io::measurement::write_csv(&case.meas, &csv, Default::default()).unwrap();
-    let out = cli(["diagnose", "--model", "paper", "--measurements", csv.to_str().unwrap()]);
+    let out = cli([
+        "diagnose",
+        "--model",
+        "paper",
+        "--measurements",
+        csv.to_str().unwrap(),
+    ]);
     assert_eq!(out.status, 2, "{}", out.stderr);
     assert_eq!(out.stderr.trim().lines().count(), 1, "{}", out.stderr);
     assert!(out.stderr.contains("speeds"), "{}", out.stderr);
@@ -85,11 +107,23 @@ fn diagnose_rejects_bad_input() {
     }
     let csv3 = tmp("diag-three.csv");
     rotorid::io::measurement::write_csv(&three, &csv3, Default::default()).unwrap();
-    let out = cli(["diagnose", "--model", "paper", "--measurements", csv3.to_str().unwrap()]);
+    let out = cli([
+        "diagnose",
+        "--model",
+        "paper",
+        "--measurements",
+        csv3.to_str().unwrap(),
+    ]);
     assert_eq!(out.status, 2, "{}", out.stderr);
     assert!(out.stderr.contains("bearings"), "{}", out.stderr);
     assert_eq!(out.stderr.trim().lines().count(), 1, "{}", out.stderr);
     // Unknown model.
-    let out = cli(["diagnose", "--model", "nope", "--measurements", csv3.to_str().unwrap()]);
+    let out = cli([
+        "diagnose",
+        "--model",
+        "nope",
+        "--measurements",
+        csv3.to_str().unwrap(),
+    ]);
     assert_eq!(out.status, 2, "{}", out.stderr);
 }

@@ -409,6 +409,37 @@ pub fn map_theta(from: &Predictor, theta: &[f64], to: &Predictor) -> Vec<f64> {
     to.theta(&out)
 }
 
+/// The nominal parameters with the bearings set to the model's own
+/// coefficients at `omega` (constant; higher orders zero) and the
+/// unbalance of `theta0`.
+fn theta_from_model(pr: &Predictor, model: &RotorModel, theta0: &[f64], omega: f64) -> Vec<f64> {
+    use rotorid_core::parametrization::{BearingTerm, Unknown};
+    let p = &pr.param;
+    let mut w = pr.weights(theta0);
+    for (j, wj) in w.iter_mut().enumerate() {
+        if let Some(Unknown::Bearing {
+            bearing,
+            row,
+            col,
+            term,
+        }) = p.unknown(j)
+        {
+            let co = model.bearings[bearing].law.at(omega);
+            let e = 2 * row + col;
+            let s = p.scale(j);
+            let v = match term {
+                BearingTerm::K { power: 0 } => co.k[e],
+                BearingTerm::C { power: 0 } => co.c[e],
+                _ => 0.0,
+            };
+            if s != 0.0 {
+                *wj = Complex64::from(v / s);
+            }
+        }
+    }
+    pr.theta(&w)
+}
+
 /// Runs the diagnosis of `meas` against `model` (see the module docs).
 pub fn diagnose(
     model: &RotorModel,
@@ -491,6 +522,7 @@ pub fn diagnose(
         significant: false,
     };
     let theta0 = nominal.fit.theta.clone();
+    let theta_model = theta_from_model(&pr, model, &theta0, 0.5 * omega_max);
     let nominal_s = nominal.fit.s;
 
     // 2. The bank.
@@ -570,24 +602,32 @@ pub fn diagnose(
                 continue;
             }
             alt += 1;
-            let mut start: Option<Fit> = None;
-            for ratio in [0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4] {
-                let ped = PedestalParams {
-                    mass: scales.mass,
-                    omega: [ratio * scales.omega; 2],
-                    zeta: [0.05; 2],
-                };
-                let t = start_with(&m, &ped.to_scaled(&scales));
-                if let Ok(f) = fit::fit(&m, &data, &t, 4) {
-                    if start.as_ref().is_none_or(|s| f.s < s.s) {
-                        start = Some(f);
+            // Screen a grid of natural frequencies and masses by a few
+            // iterations each, then fit from the two best starts.
+            // The bearings start from the nominal fit and from the model's
+            // own values (a large pedestal distorts the nominal fit).
+            let mut starts: Vec<Fit> = Vec::new();
+            for nominal_start in [&theta0, &theta_model] {
+                for ratio in [0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4] {
+                    for mass in [0.5, 1.5] {
+                        let ped = PedestalParams {
+                            mass: mass * scales.mass,
+                            omega: [ratio * scales.omega; 2],
+                            zeta: [0.05; 2],
+                        };
+                        let mut t = nominal_start.clone();
+                        t.extend_from_slice(&ped.to_scaled(&scales));
+                        if let Ok(f) = fit::fit(&m, &data, &t, 3) {
+                            starts.push(f);
+                        }
                     }
                 }
             }
-            if let Some(s) = start {
+            starts.sort_by(|a, b| a.s.total_cmp(&b.s));
+            for s in starts.iter().take(2) {
                 if let Ok(f) = fit::fit(&m, &data, &s.theta, 60) {
                     if best.as_ref().is_none_or(|b| f.s < b.0.s) {
-                        best = Some((f, m, bearing));
+                        best = Some((f, m.clone(), bearing));
                     }
                 }
             }
