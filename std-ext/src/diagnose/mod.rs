@@ -465,7 +465,11 @@ pub fn diagnose(
             opts.false_alarm
         )));
     }
-    if let Some(s) = meas.samples.iter().find(|s| !(s.omega > 0.0)) {
+    if let Some(s) = meas
+        .samples
+        .iter()
+        .find(|s| s.omega.is_nan() || s.omega <= 0.0)
+    {
         return Err(DiagnoseError::Input(format!(
             "the diagnosis needs speeds above 0 rpm, got {} rpm",
             rad_s_to_rpm(s.omega)
@@ -757,7 +761,7 @@ pub fn diagnose(
                 };
                 let x = f.theta[m.offset(0)];
                 let e_new = e + E_STEP * x;
-                let done = (e_new - e).abs() < 1e-7 * e || !(e_new > 0.0);
+                let done = (e_new - e).abs() < 1e-7 * e || e_new.is_nan() || e_new <= 0.0;
                 theta = f.theta.clone();
                 last = Some((f, e));
                 if done {
@@ -1189,7 +1193,7 @@ pub fn normal_quantile_upper(alpha: f64) -> f64 {
         -3.969683028665376e1,
         2.209460984245205e2,
         -2.759285104469687e2,
-        1.383577518672690e2,
+        1.383_577_518_672_69e2,
         -3.066479806614716e1,
         2.506628277459239,
     ];

@@ -161,7 +161,7 @@ fn misfit_bands(samples: &[Sample], res: &[f64], noise: f64) -> Vec<(f64, f64, f
         .fold(f64::INFINITY, f64::min);
     let hi = samples.iter().map(|s| s.omega).fold(0.0, f64::max);
     let mut out = Vec::new();
-    if !(hi > lo) {
+    if hi.is_nan() || hi <= lo {
         return out;
     }
     for k in 0..10 {
@@ -234,8 +234,8 @@ pub fn text(
     );
     let _ = writeln!(
         s,
-        "  {:<62} {:>10} {:>6} {:>12} {:>9}  {}",
-        "model", "residual", "+P", "statistic", "threshold", "significant"
+        "  {:<62} {:>10} {:>6} {:>12} {:>9}  significant",
+        "model", "residual", "+P", "statistic", "threshold"
     );
     for h in &j.hypotheses {
         let _ = writeln!(

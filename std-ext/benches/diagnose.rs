@@ -1,0 +1,53 @@
+//! A full diagnosis of a 300-speed measurement on the paper rotor (50..15000
+//! rpm in 50 rpm steps, 0.1 % noise), all hypotheses included, against the
+//! nominal output-error identification of the same data in the same run;
+//! and its parts: the terms (one adjoint reduction per speed with every
+//! node's unbalance and bow columns) and one nominal-model Jacobian pass.
+//!
+//! `cargo bench --bench diagnose -- --warm-up-time 1 --measurement-time 20`
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use rotorid::diagnose::generator::generate;
+use rotorid::diagnose::{diagnose, terms, DiagnoseOptions, Effect};
+use rotorid::estimate::{identify, Estimator, Options};
+use rotorid::model::RotorModel;
+use std::hint::black_box;
+
+fn bench(c: &mut Criterion) {
+    let model = RotorModel::paper();
+    let speeds: Vec<f64> = (1..=300).map(|i| 50.0 * i as f64).collect();
+    let omegas: Vec<f64> = speeds
+        .iter()
+        .map(|r| rotorid::units::rpm_to_rad_s(*r))
+        .collect();
+    let mut g = c.benchmark_group("diagnose_300_speeds");
+    g.sample_size(10);
+    for effect in [
+        Effect::None,
+        Effect::FoundationFlexibility,
+        Effect::ProbeRunout,
+    ] {
+        let case = generate(&model, effect, 11, &speeds, Some(0.001)).expect("case");
+        g.bench_function(format!("diagnose_{}", effect.name()), |b| {
+            b.iter(|| {
+                black_box(
+                    diagnose(&model, &case.meas, &DiagnoseOptions::default()).expect("diagnose"),
+                )
+            })
+        });
+        if effect == Effect::None {
+            let mut o = Options::new(rotorid::core::parametrization::Structure::physical(1));
+            o.estimator = Estimator::OutputError;
+            g.bench_function("baseline_identify_oe", |b| {
+                b.iter(|| black_box(identify(&model, &case.meas, &o, None).expect("identify")))
+            });
+        }
+    }
+    g.bench_function("terms_all_nodes", |b| {
+        b.iter(|| black_box(terms::build(&model, &omegas, 1.0, false).expect("terms")))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
