@@ -45,9 +45,9 @@ pub mod tables;
 
 pub mod simulate;
 
-/// Diagnosis: which physical effect the nominal model lacks.
-pub mod diagnose;
 pub mod estimate;
+
+pub mod diagnose;
 
 pub mod report;
 
