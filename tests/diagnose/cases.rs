@@ -141,10 +141,13 @@ fn run_case(
 /// `n` cases of `effect` at 0.1 % noise, all named right where observable,
 /// with the gain, size and bearing checks.
 fn check_effect(effect: Effect, n: u64) {
-    let m = RotorModel::paper();
+    check_effect_on(&RotorModel::paper(), &speeds(), effect, n);
+}
+
+fn check_effect_on(m: &RotorModel, sp: &[f64], effect: Effect, n: u64) {
     for seed in 0..n {
         let seed = 7919 * (effect as u64 + 1) + seed;
-        let (case, d, o) = run_case(&m, effect, seed, Some(0.001));
+        let (case, d, o) = run_case(m, sp, effect, seed, Some(0.001));
         let what = format!(
             "seed {seed}: hidden {} -> {} (nominal {:.2e}, extended {:.2e}, gain {:.1}, size {:?}, bearings {:.2e}/{:.2e})",
             case.hidden.description,
@@ -225,6 +228,23 @@ fn shaft_stiffness_error_is_named() {
     check_effect(Effect::ShaftStiffnessError, 5);
 }
 
+/// The second rotor: ROSS's stepped hollow shaft on two bearings (saved by
+/// ROSS 3.1, `tests/data/ross/stepped_hollow.toml`; two disks, 24
+/// elements, critical speeds 2878 and 9224 rpm), 300 speeds up to 11000
+/// rpm, one case per effect.
+#[test]
+fn second_rotor_every_effect() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/ross/stepped_hollow.toml");
+    let m = rotorid::io::model_file::model_file_by_name_or_path(path.to_str().unwrap())
+        .unwrap()
+        .model;
+    let sp: Vec<f64> = (1..=300).map(|i| 11000.0 * i as f64 / 300.0).collect();
+    for effect in std::iter::once(Effect::None).chain(Effect::BANK) {
+        check_effect_on(&m, &sp, effect, 1);
+    }
+}
+
 /// The confusion matrix over 50 cases per effect (and `none`), noise drawn
 /// in 0.1-1 %: printed for the README, with the accuracy bounds asserted.
 #[test]
@@ -240,7 +260,13 @@ fn confusion_matrix() {
     let all: Vec<Effect> = std::iter::once(Effect::None).chain(Effect::BANK).collect();
     for &effect in &all {
         for seed in 0..n {
-            let (_, _, o) = run_case(&m, effect, 1_000_003 * (effect as u64 + 1) + seed, None);
+            let (_, _, o) = run_case(
+                &m,
+                &speeds(),
+                effect,
+                1_000_003 * (effect as u64 + 1) + seed,
+                None,
+            );
             *table.entry((effect, o.named)).or_default() += 1;
             if o.observable {
                 total += 1;
@@ -293,14 +319,27 @@ fn debug_case() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(0);
-    let (case, d, _) = run_case(&RotorModel::paper(), effect, seed, Some(0.001));
+    let m = match std::env::var("ROTORID_MODEL") {
+        Ok(path) => {
+            rotorid::io::model_file::model_file_by_name_or_path(&path)
+                .unwrap()
+                .model
+        }
+        Err(_) => RotorModel::paper(),
+    };
+    let rpm_max: f64 = std::env::var("ROTORID_RPM_MAX")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(15000.0);
+    let sp: Vec<f64> = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
+    let case = generate(&m, effect, seed, &sp, Some(0.001)).unwrap();
+    let d = diagnose(&m, &case.meas, &DiagnoseOptions::default()).unwrap();
     println!("hidden {}", case.hidden.description);
-    let nom = predictions_text(&d, &case);
+    let nom = predictions_text(&m, &d, &case);
     println!("{nom}");
 }
 
-fn predictions_text(d: &Diagnosis, case: &Case) -> String {
-    let m = RotorModel::paper();
-    let nominal = rotorid::diagnose::predictions(&m, d, &d.nominal).unwrap();
+fn predictions_text(m: &RotorModel, d: &Diagnosis, case: &Case) -> String {
+    let nominal = rotorid::diagnose::predictions(m, d, &d.nominal).unwrap();
     rotorid::report::diagnose::text(d, &case.meas.samples, &nominal)
 }
