@@ -57,11 +57,12 @@ fn bearing_error(d: &Diagnosis, case: &Case, c: &rotorid::diagnose::Candidate) -
 
 fn run_case(
     m: &RotorModel,
+    sp: &[f64],
     effect: Effect,
     seed: u64,
     noise: Option<f64>,
 ) -> (Case, Diagnosis, Outcome) {
-    let case = generate(m, effect, seed, &speeds(), noise).unwrap();
+    let case = generate(m, effect, seed, sp, noise).unwrap();
     let d = diagnose(m, &case.meas, &DiagnoseOptions::default()).unwrap();
     let h = &case.hidden;
     let observable = match effect {
