@@ -344,3 +344,66 @@ fn predictions_text(m: &RotorModel, d: &Diagnosis, case: &Case) -> String {
     let nominal = rotorid::diagnose::predictions(m, d, &d.nominal).unwrap();
     rotorid::report::diagnose::text(d, &case.meas.samples, &nominal)
 }
+
+/// Two effects at once (runout and an extra plane): no single effect
+/// fits, the pair does, and both are named.
+#[test]
+fn a_pair_is_found() {
+    let m = RotorModel::paper();
+    let case = generate(&m, Effect::ProbeRunout, 5, &speeds(), Some(0.001)).unwrap();
+    let mut effects = case.effects.clone();
+    effects.extra_unbalance.push(rotorid::model::Unbalance {
+        node: 15,
+        me: 3e-3,
+        phase: 1.0,
+    });
+    let meas = rotorid::simulate::simulate(
+        &case.truth,
+        &rotorid::simulate::SimOptions {
+            speeds_rpm: speeds(),
+            noise: 0.001,
+            seed: 77,
+            effects,
+        },
+    )
+    .unwrap();
+    let d = diagnose(&m, &meas, &DiagnoseOptions::default()).unwrap();
+    println!(
+        "{:?} {:.3e} -> {:.3e}",
+        d.effects,
+        d.residual_nominal(),
+        d.residual_extended()
+    );
+    assert!(d.effects.contains(&Effect::ProbeRunout), "{:?}", d.effects);
+    assert!(
+        d.effects.contains(&Effect::ExtraUnbalancePlane),
+        "{:?}",
+        d.effects
+    );
+    assert!(d.residual_extended() < 1.2 * d.noise_level.unwrap());
+}
+
+/// An effect outside the bank (every probe read through a first-order
+/// low-pass at 150 Hz, a driver/cable fault): `unexplained`, with a
+/// warning, never a forced name.
+#[test]
+fn an_effect_outside_the_bank_is_unexplained() {
+    let m = RotorModel::paper();
+    let mut case = generate(&m, Effect::None, 9, &speeds(), Some(0.001)).unwrap();
+    let wc = std::f64::consts::TAU * 150.0;
+    for s in &mut case.meas.samples {
+        let g = num_complex::Complex64::new(1.0, s.omega / wc).inv();
+        for q in &mut s.q {
+            *q *= g;
+        }
+    }
+    let d = diagnose(&m, &case.meas, &DiagnoseOptions::default()).unwrap();
+    println!(
+        "{:?} {:.3e} -> {:.3e}",
+        d.effect,
+        d.residual_nominal(),
+        d.residual_extended()
+    );
+    assert_eq!(d.effect, Effect::Unexplained);
+    assert!(!d.warnings.is_empty());
+}

@@ -34,7 +34,7 @@
 //!    is chosen. When the chosen model's residual noise is still above the
 //!    model-free noise level ([`crate::estimate::noise`]) by more than a
 //!    chi-square per degree of freedom of [`MISFIT_CHI2`], the best pairs
-//!    of the three strongest effects are tried, and if none fits, the
+//!    of the four strongest effects are tried, and if none fits, the
 //!    answer is `unexplained`.
 //! 4. **Observability** ([`observe`]): from the Fisher information, the
 //!    smallest size of each effect these sensors and speeds can detect,
@@ -832,10 +832,10 @@ pub fn diagnose(
         None => misfit(&nominal),
     };
     if chosen_misfit {
-        // Pairs of the three strongest significant effects.
+        // Pairs of the four strongest significant effects.
         let mut strong: Vec<usize> = (0..hyps.len()).filter(|&i| hyps[i].significant).collect();
         strong.sort_by(|&a, &b| hyps[b].statistic.total_cmp(&hyps[a].statistic));
-        strong.truncate(3);
+        strong.truncate(4);
         let mut pair_best: Option<Candidate> = None;
         for (x, &i) in strong.iter().enumerate() {
             for &k in strong.iter().skip(x + 1) {
@@ -848,7 +848,9 @@ pub fn diagnose(
                     &hyps[k],
                     &mut e_terms_cache,
                 )? {
-                    if pair_best.as_ref().is_none_or(|b| c.fit.s < b.fit.s) {
+                    // By BIC: a pair with a lean law beats one whose
+                    // extra bearing orders merely absorb the second effect.
+                    if pair_best.as_ref().is_none_or(|b| bic_of(&c) < bic_of(b)) {
                         pair_best = Some(c);
                     }
                 }
