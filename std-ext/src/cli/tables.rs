@@ -60,6 +60,7 @@ pub struct TablesArgs {
 
 /// Runs `rotorid tables`.
 pub fn run(args: &TablesArgs, io: &mut Io<'_>) -> Result<(), CliError> {
+    super::refuse_overwriting_inputs(Some(&args.model), &[], &[("--out", Some(&args.out))])?;
     if !(1..=MAX_ORDER).contains(&args.order) {
         return Err(CliError::new(format!(
             "tables: --order must be in 1..={MAX_ORDER}, got {}",
@@ -117,8 +118,7 @@ pub fn run(args: &TablesArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     } else {
         table.to_blob(scalar)?
     };
-    std::fs::write(&args.out, &bytes)
-        .map_err(|e| CliError::new(format!("cannot write {}: {e}", args.out.display())))?;
+    crate::io::output::write_atomic(&args.out, &bytes)?;
     writeln!(
         io.out,
         "wrote {} ({} bytes, {}, {}, {} {}): {} speeds {:.1}..{:.1} rpm, {} bearings, {} planes, poles of A at {:?} rpm, of B at {:?} rpm{note}",
