@@ -743,7 +743,8 @@ impl<T: Real, F: IdField<T>, const NQ: usize, const NP: usize, const M: usize, c
     /// A fresh identifier. The sizes are checked at compile time (see
     /// [`Self::STRUCTURE`]); at run time `config.structure` must be
     /// [`Self::STRUCTURE`] (else [`IdentifyError::Structure`]) and `lambda`,
-    /// `delta` and the guard in range ([`IdentifyError::InvalidConfig`]).
+    /// `delta` and the guard in range ([`IdentifyError::InvalidLambda`],
+    /// [`IdentifyError::InvalidDelta`], [`IdentifyError::InvalidConfig`]).
     pub fn new(config: Config<T>) -> Result<Self, IdentifyError> {
         let structure = const { Self::STRUCTURE };
         if config.structure != structure {

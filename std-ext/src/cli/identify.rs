@@ -15,6 +15,16 @@ use rotorid_core::identify::{delta_range, MIN_LAMBDA};
 /// identification's products in single precision.
 pub const MAX_RESPONSE_M: f64 = 1.0;
 
+/// `x` for a message: plain for ordinary magnitudes, scientific otherwise
+/// (so `1e-300` is not printed with 300 zeros).
+fn short_number(x: f64) -> String {
+    if x == 0.0 || (1e-4..1e6).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// Refuses a response component beyond [`MAX_RESPONSE_M`], naming its line
 /// and column.
 fn check_response_range(meas: &Measurements, located: &CsvLocations) -> Result<(), String> {
@@ -131,7 +141,7 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     if !(args.lambda >= MIN_LAMBDA && args.lambda <= 1.0) {
         return Err(CliError::new(format!(
             "--lambda must be in [{MIN_LAMBDA:.3}, 1] (a memory of at least one update: -1/ln(lambda) >= 1), got {}",
-            args.lambda
+            short_number(args.lambda)
         )));
     }
     let (delta_lo, delta_hi, precision) = if args.f32 {
