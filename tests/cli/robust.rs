@@ -495,4 +495,18 @@ fn campbell_refuses_models_and_grids_beyond_its_limits() {
         &["campbell", "--model", "paper", "--rpm-step", "0.01"],
         &["speeds", "larger speed step"],
     );
+    // An adaptive table grid with a tiny tolerance would not end.
+    fails(
+        &[
+            "tables",
+            "--model",
+            "paper",
+            "--out",
+            s(&tmp("t.bin")),
+            "--adaptive",
+            "1e-300",
+        ],
+        &["--adaptive must be in [1e-7, 1)", "got 1e-300"],
+    );
+    assert!(!tmp("t.bin").exists());
 }
