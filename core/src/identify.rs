@@ -74,8 +74,16 @@ pub enum IdentifyError {
     InvalidOrder,
     /// Negative speed.
     InvalidSpeed,
-    /// Configuration out of range (lambda, delta, guard thresholds).
+    /// Guard thresholds out of range (negative or not finite).
     InvalidConfig,
+    /// Forgetting factor outside `[MIN_LAMBDA, 1]` (see [`MIN_LAMBDA`]).
+    InvalidLambda,
+    /// Regularisation outside `[1 / L, L]`, `L = sqrt(T::MAX)` (see
+    /// [`delta_range`]).
+    InvalidDelta,
+    /// A physical estimate (after back-substitution and unscaling) is not
+    /// finite: the weights are too large for the working precision.
+    EstimateOverflow,
     /// The table could not give the terms at this speed.
     Table(TableError),
     /// The filter refused the update or the back-substitution.
@@ -97,8 +105,18 @@ impl fmt::Display for IdentifyError {
             IdentifyError::InvalidOrder => f.write_str("polynomial order out of range"),
             IdentifyError::InvalidSpeed => f.write_str("speed must be >= 0"),
             IdentifyError::InvalidConfig => {
-                f.write_str("invalid identifier configuration (lambda, delta or thresholds)")
+                f.write_str("steady-running guard thresholds must be finite and >= 0")
             }
+            IdentifyError::InvalidLambda => f.write_str(
+                "forgetting factor lambda must lie in [0.368, 1] (a memory of at least one update)",
+            ),
+            IdentifyError::InvalidDelta => f.write_str(
+                "regularisation delta must lie in [1/sqrt(MAX), sqrt(MAX)] of the working precision \
+                 (f32: 5.4e-20..1.8e19, f64: 7.5e-155..1.3e154)",
+            ),
+            IdentifyError::EstimateOverflow => f.write_str(
+                "an estimate is not finite in the working precision (the data cannot determine it)",
+            ),
             IdentifyError::Table(e) => write!(f, "table lookup failed: {e}"),
             IdentifyError::Filter(e) => write!(f, "filter: {e}"),
         }
@@ -267,17 +285,39 @@ impl<T: Real> Config<T> {
         self
     }
 
-    /// Checks `lambda`, `delta`, the order and the guard thresholds.
+    /// Checks `lambda` (in `[MIN_LAMBDA, 1]`), `delta` (in [`delta_range`]),
+    /// the order and the guard thresholds.
     pub fn validate(&self) -> Result<(), IdentifyError> {
         self.structure.validate()?;
-        qrdrls::validate_lambda(self.lambda).map_err(|_| IdentifyError::InvalidConfig)?;
-        qrdrls::validate_delta(self.delta).map_err(|_| IdentifyError::InvalidConfig)?;
+        if !(self.lambda >= T::lit(MIN_LAMBDA) && self.lambda <= T::one()) {
+            return Err(IdentifyError::InvalidLambda);
+        }
+        let (lo, hi) = delta_range::<T>();
+        if !(self.delta >= lo && self.delta <= hi) {
+            return Err(IdentifyError::InvalidDelta);
+        }
         let ok = |x: T| x.is_finite() && x >= T::zero();
         if !(ok(self.steady.min_speed_step) && ok(self.steady.min_diag_ratio)) {
             return Err(IdentifyError::InvalidConfig);
         }
         Ok(())
     }
+}
+
+/// Smallest forgetting factor the identifier accepts: `exp(-1)`. The
+/// memory of the filter, the number of updates over which the weight of an
+/// old update falls by `e` (`-1 / ln lambda`), is then at least one update;
+/// below it each update all but replaces the previous ones and the filter
+/// is meaningless.
+pub const MIN_LAMBDA: f64 = 0.367_879_441_171_442_33;
+
+/// The range `[1 / L, L]` of the regularisation `delta`, `L = sqrt(T::MAX)`
+/// ([`qrdrls::input_limit`]): `R(0) = sqrt(delta) I` and its inverse stay
+/// far from overflow and underflow (f32: `5.4e-20..1.8e19`, f64:
+/// `7.5e-155..1.3e154`).
+pub fn delta_range<T: Real>() -> (T, T) {
+    let l = qrdrls::input_limit::<T>();
+    (T::one() / l, l)
 }
 
 /// The field of the filter for a formulation: `Complex<T>` for
@@ -532,11 +572,22 @@ pub fn estimates_into<T: Real, F: IdField<T>>(
         return Err(IdentifyError::Dimension);
     }
     let st = &config.structure;
+    let finite = |v: &[T; 4]| v.iter().all(|x| x.is_finite());
     for (m, be) in bearings.iter_mut().enumerate() {
         *be = bearing_estimate(st, &config.scaling, w, nb, np, m, omega)?;
+        if !(finite(&be.k)
+            && finite(&be.c)
+            && be.im_z0.as_ref().is_none_or(finite)
+            && be.re_z1.as_ref().is_none_or(finite))
+        {
+            return Err(IdentifyError::EstimateOverflow);
+        }
     }
     for (k, ue) in unbalance.iter_mut().enumerate() {
         *ue = unbalance_estimate(st, &config.scaling, w, nb, np, k)?;
+        if !(ue.a.re.is_finite() && ue.a.im.is_finite() && ue.me.is_finite()) {
+            return Err(IdentifyError::EstimateOverflow);
+        }
     }
     Ok(())
 }
@@ -621,7 +672,7 @@ pub struct Estimates<T, const NQ: usize, const NP: usize> {
 /// let config = Config::<f32>::new(Structure::physical(1), ColumnScaling::identity());
 /// let id = PhysicalIdentifier::<f32, 4, 3, 21, 8>::new(config);
 /// ```
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Identifier<T, F, const NQ: usize, const NP: usize, const M: usize, const N: usize> {
     config: Config<T>,
     r: [[F; M]; M],
@@ -692,7 +743,8 @@ impl<T: Real, F: IdField<T>, const NQ: usize, const NP: usize, const M: usize, c
     /// A fresh identifier. The sizes are checked at compile time (see
     /// [`Self::STRUCTURE`]); at run time `config.structure` must be
     /// [`Self::STRUCTURE`] (else [`IdentifyError::Structure`]) and `lambda`,
-    /// `delta` and the guard in range ([`IdentifyError::InvalidConfig`]).
+    /// `delta` and the guard in range ([`IdentifyError::InvalidLambda`],
+    /// [`IdentifyError::InvalidDelta`], [`IdentifyError::InvalidConfig`]).
     pub fn new(config: Config<T>) -> Result<Self, IdentifyError> {
         let structure = const { Self::STRUCTURE };
         if config.structure != structure {
@@ -804,6 +856,12 @@ impl<T: Real, F: IdField<T>, const NQ: usize, const NP: usize, const M: usize, c
         let mut w = [F::zero(); M];
         qrdrls::solve_weights(self.r.as_flattened(), &self.p, &mut w)?;
         Ok(w)
+    }
+
+    /// The filter state: the triangular factor `R` and the rotated
+    /// right-hand side `p` (scaled unknowns).
+    pub fn state(&self) -> (&[[F; M]; M], &[F; M]) {
+        (&self.r, &self.p)
     }
 
     /// `min|R_ii| / max|R_ii|` of the factor.
@@ -1044,7 +1102,7 @@ mod tests {
         bad.lambda = 1.5;
         assert_eq!(
             PaperIdentifier::<f64, NQ, NP, 19, 4>::new(bad).err(),
-            Some(IdentifyError::InvalidConfig)
+            Some(IdentifyError::InvalidLambda)
         );
         assert!(PaperIdentifier::<f64, NQ, NP, 27, 4>::new(config(
             Structure::paper(2),
@@ -1092,7 +1150,106 @@ mod tests {
             Config::new(Structure::paper(1), sc)
                 .with_lambda(0.0)
                 .validate(),
-            Err(IdentifyError::InvalidConfig)
+            Err(IdentifyError::InvalidLambda)
+        );
+        // A memory under one update, and delta out of [1/L, L].
+        for lambda in [1.5e-32, 1e-300f64 as f32, 0.36] {
+            assert_eq!(
+                Config::new(Structure::paper(1), sc)
+                    .with_lambda(lambda)
+                    .validate(),
+                Err(IdentifyError::InvalidLambda)
+            );
+        }
+        assert!(Config::new(Structure::paper(1), sc)
+            .with_lambda(0.37)
+            .validate()
+            .is_ok());
+        for delta in [1e-30f32, 0.0, f32::NAN, 1e20, f32::INFINITY] {
+            assert_eq!(
+                Config::new(Structure::paper(1), sc)
+                    .with_delta(delta)
+                    .validate(),
+                Err(IdentifyError::InvalidDelta)
+            );
+        }
+        for delta in [1e-19f32, 1e19] {
+            assert!(Config::new(Structure::paper(1), sc)
+                .with_delta(delta)
+                .validate()
+                .is_ok());
+        }
+        let sc64 = ColumnScaling::<f64>::new(5e7, 1600.0, 1e-3).unwrap();
+        for delta in [1e-300, 1e300] {
+            assert_eq!(
+                Config::new(Structure::paper(1), sc64)
+                    .with_delta(delta)
+                    .validate(),
+                Err(IdentifyError::InvalidDelta)
+            );
+        }
+    }
+
+    /// Weights finite in the filter but beyond the working precision once
+    /// unscaled (f32, physical, huge responses, tiny delta) give an error,
+    /// never `Ok` with an infinite estimate; the state is not changed by
+    /// reading the estimates.
+    #[test]
+    fn unscaled_overflow_is_an_error_not_an_infinite_estimate() {
+        let sys = Synthetic::new();
+        // A large stiffness scale: weights near f32::MAX / 1e9 unscale to inf.
+        let sc = ColumnScaling::<f32>::new(1e30, 1.0, 1.0).unwrap();
+        let cfg = Config::new(Structure::physical(1), sc)
+            .with_lambda(0.99)
+            .with_delta(1e-19)
+            .with_steady(SteadyPolicy::off());
+        let mut id = PhysicalIdentifier::<f32, NQ, NP, 22, 8>::new(cfg).unwrap();
+        let t = sys.terms_arrays::<f32>(700.0);
+        for q in [5.5e11f32, 5.5e3, 1e-3] {
+            // Accepted or refused, never a non-finite state.
+            let q = [Complex::new(q, -q); NQ];
+            let _ = id.update_with_terms(700.0, &t.a, &t.b, &q);
+        }
+        let before = (id.r, id.p, id.guard);
+        match id.estimates(700.0) {
+            Ok(e) => {
+                for b in &e.bearings {
+                    assert!(b.k.iter().chain(&b.c).all(|x| x.is_finite()), "{e:?}");
+                }
+                for u in &e.unbalance {
+                    assert!(u.a.re.is_finite() && u.a.im.is_finite() && u.me.is_finite());
+                }
+            }
+            Err(err) => assert!(
+                matches!(
+                    err,
+                    IdentifyError::EstimateOverflow | IdentifyError::Filter(_)
+                ),
+                "{err:?}"
+            ),
+        }
+        assert_eq!((id.r, id.p, id.guard), before);
+        // Finite weights whose unscaled value overflows f32.
+        let w = [1e38f32; 22];
+        let zero_b = BearingEstimate {
+            k: [0.0f32; 4],
+            c: [0.0; 4],
+            im_z0: None,
+            re_z1: None,
+        };
+        let mut bearings = [zero_b; NQ / 2];
+        let mut unbalance = [UnbalanceEstimate::from_phasor(Complex::new(0.0f32, 0.0)); NP];
+        assert_eq!(
+            estimates_into::<f32, f32>(
+                id.config(),
+                &w,
+                NQ,
+                NP,
+                700.0,
+                &mut bearings,
+                &mut unbalance
+            ),
+            Err(IdentifyError::EstimateOverflow)
         );
     }
 

@@ -18,6 +18,12 @@
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+// Panic discipline: no unwrap, expect or panic outside the tests (errors
+// are returned; compile-time `assert!` in const contexts is allowed).
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
 
 #[cfg(any(test, feature = "baseline"))]
 extern crate std;

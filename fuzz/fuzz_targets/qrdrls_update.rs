@@ -1,15 +1,25 @@
-//! Numerical stability: arbitrary f32 rows (including NaN, infinities,
+//! Numerical stability: arbitrary rows (including NaN, infinities,
 //! subnormals and huge values) and forgetting factors fed to the Givens
-//! QRD/RLS. A rejected update must leave the state bit-identical; an
-//! accepted one must leave it finite.
+//! QRD/RLS, over several sizes (M unknowns, N rows per update) and both
+//! precisions, real and complex. A rejected update must leave the state
+//! bit-identical; an accepted one must leave it finite; weights are finite
+//! or an error.
+//!
+//! The first byte picks the case: field (f32, f64, complex f32, complex
+//! f64) and size (M, N) in {(1, 1), (5, 2), (19, 4), (22, 8)}.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use num_complex::Complex;
 use rotorid_core::qrdrls::VectorQrdRls;
 
-const M: usize = 5;
-const N: usize = 2;
+/// A field element decoded from raw bytes (4 per real for f32, 8 for f64).
+trait Field: nalgebra::ComplexField<RealField = Self::Real> + Copy + PartialEq {
+    type Real: rotorid_core::Real;
+    fn take(data: &mut &[u8]) -> Option<Self>;
+    fn take_real(data: &mut &[u8]) -> Option<Self::Real>;
+    fn finite(&self) -> bool;
+}
 
 fn take_f32(data: &mut &[u8]) -> Option<f32> {
     let (head, rest) = data.split_first_chunk::<4>()?;
@@ -17,55 +27,143 @@ fn take_f32(data: &mut &[u8]) -> Option<f32> {
     Some(f32::from_le_bytes(*head))
 }
 
-fn finite_state(f: &VectorQrdRls<Complex<f32>, M, N>) -> bool {
+fn take_f64(data: &mut &[u8]) -> Option<f64> {
+    let (head, rest) = data.split_first_chunk::<8>()?;
+    *data = rest;
+    Some(f64::from_le_bytes(*head))
+}
+
+impl Field for f32 {
+    type Real = f32;
+    fn take(data: &mut &[u8]) -> Option<Self> {
+        take_f32(data)
+    }
+    fn take_real(data: &mut &[u8]) -> Option<f32> {
+        take_f32(data)
+    }
+    fn finite(&self) -> bool {
+        self.is_finite()
+    }
+}
+
+impl Field for f64 {
+    type Real = f64;
+    fn take(data: &mut &[u8]) -> Option<Self> {
+        take_f64(data)
+    }
+    fn take_real(data: &mut &[u8]) -> Option<f64> {
+        take_f64(data)
+    }
+    fn finite(&self) -> bool {
+        self.is_finite()
+    }
+}
+
+impl Field for Complex<f32> {
+    type Real = f32;
+    fn take(data: &mut &[u8]) -> Option<Self> {
+        Some(Complex::new(take_f32(data)?, take_f32(data)?))
+    }
+    fn take_real(data: &mut &[u8]) -> Option<f32> {
+        take_f32(data)
+    }
+    fn finite(&self) -> bool {
+        self.re.is_finite() && self.im.is_finite()
+    }
+}
+
+impl Field for Complex<f64> {
+    type Real = f64;
+    fn take(data: &mut &[u8]) -> Option<Self> {
+        Some(Complex::new(take_f64(data)?, take_f64(data)?))
+    }
+    fn take_real(data: &mut &[u8]) -> Option<f64> {
+        take_f64(data)
+    }
+    fn finite(&self) -> bool {
+        self.re.is_finite() && self.im.is_finite()
+    }
+}
+
+fn finite_state<F: Field, const M: usize, const N: usize>(f: &VectorQrdRls<F, M, N>) -> bool {
     f.r()
         .iter()
         .flatten()
         .chain(f.p().iter())
-        .all(|z| z.re.is_finite() && z.im.is_finite())
+        .all(Field::finite)
 }
 
-fuzz_target!(|data: &[u8]| {
-    let mut data = data;
-    let Some(lambda) = take_f32(&mut data) else {
+/// Bit patterns of the state (so that a rejected update is checked to
+/// leave it bit-identical, `-0.0` and `0.0` told apart).
+fn bits<F: Field, const M: usize, const N: usize>(f: &VectorQrdRls<F, M, N>) -> Vec<u64> {
+    f.r()
+        .iter()
+        .flatten()
+        .chain(f.p().iter())
+        .flat_map(|z| {
+            [
+                z.real().to_f64().to_bits(),
+                z.imaginary().to_f64().to_bits(),
+            ]
+        })
+        .collect()
+}
+
+use rotorid_core::Real as _;
+
+fn run<F: Field, const M: usize, const N: usize>(mut data: &[u8]) {
+    let data = &mut data;
+    let (Some(lambda), Some(delta)) = (F::take_real(data), F::take_real(data)) else {
         return;
     };
-    let Some(delta) = take_f32(&mut data) else {
-        return;
-    };
-    let Ok(mut filter) = VectorQrdRls::<Complex<f32>, M, N>::new(lambda, delta) else {
+    let Ok(mut filter) = VectorQrdRls::<F, M, N>::new(lambda, delta) else {
         return;
     };
     loop {
-        let mut u = [[Complex::new(0.0f32, 0.0); M]; N];
-        let mut d = [Complex::new(0.0f32, 0.0); N];
-        let Some(lam) = take_f32(&mut data) else {
+        let Some(lam) = F::take_real(data) else {
             break;
         };
-        for row in u.iter_mut() {
-            for z in row.iter_mut() {
-                let (Some(re), Some(im)) = (take_f32(&mut data), take_f32(&mut data)) else {
-                    return;
-                };
-                *z = Complex::new(re, im);
-            }
-        }
-        for z in d.iter_mut() {
-            let (Some(re), Some(im)) = (take_f32(&mut data), take_f32(&mut data)) else {
+        let mut u = [[F::zero(); M]; N];
+        let mut d = [F::zero(); N];
+        for z in u.iter_mut().flatten().chain(d.iter_mut()) {
+            let Some(v) = F::take(data) else {
                 return;
             };
-            *z = Complex::new(re, im);
+            *z = v;
         }
-        let before = filter.clone();
+        let before = bits(&filter);
         match filter.update_with_lambda(&u, &d, lam) {
             Ok(_) => assert!(
                 finite_state(&filter),
                 "accepted update left a non-finite state"
             ),
-            Err(_) => assert_eq!(before, filter, "rejected update changed the state"),
+            Err(_) => assert_eq!(before, bits(&filter), "rejected update changed the state"),
         }
-        // Weights may fail (singular factor) but must not panic.
-        let _ = filter.weights();
+        if let Ok(w) = filter.weights() {
+            assert!(w.iter().all(Field::finite), "Ok weights not finite");
+        }
         let _ = filter.r_diag_ratio();
+    }
+}
+
+fn sized<F: Field>(size: u8, data: &[u8]) {
+    match size % 4 {
+        0 => run::<F, 1, 1>(data),
+        1 => run::<F, 5, 2>(data),
+        2 => run::<F, 19, 4>(data),
+        _ => run::<F, 22, 8>(data),
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&case, data)) = data.split_first() else {
+        return;
+    };
+    let size = case >> 2;
+    match case % 4 {
+        0 => sized::<f32>(size, data),
+        1 => sized::<f64>(size, data),
+        2 => sized::<Complex<f32>>(size, data),
+        _ => sized::<Complex<f64>>(size, data),
     }
 });

@@ -1,5 +1,6 @@
 //! The `rotorid` command line: the error contract, `simulate` and
-//! `campbell`.
+//! `campbell`, outputs, degenerate data and limits.
 
 mod errors;
+mod robust;
 mod simulate;

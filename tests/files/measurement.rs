@@ -100,26 +100,32 @@ fn bad_rows_carry_line_and_column() {
         ),
         (
             "20,1,abc,3,4",
-            "line 4, column b1_y_im: not a number: \"abc\"",
+            "line 4, column 3 (b1_y_im): not a number: \"abc\"",
         ),
         (
             "20,1,2,NaN,4",
-            "line 4, column b1_z_re: not finite: \"NaN\"",
+            "line 4, column 4 (b1_z_re): not finite: \"NaN\"",
         ),
         (
             "20,1,2,3,inf",
-            "line 4, column b1_z_im: not finite: \"inf\"",
+            "line 4, column 5 (b1_z_im): not finite: \"inf\"",
         ),
         (
             "20,-infinity,2,3,4",
-            "line 4, column b1_y_re: not finite: \"-infinity\"",
+            "line 4, column 2 (b1_y_re): not finite: \"-infinity\"",
         ),
         (
             "-5,1,2,3,4",
-            "line 4, column speed_rpm: must be >= 0, got -5",
+            "line 4, column 1 (speed_rpm): must be >= 0, got -5",
         ),
-        ("x,1,2,3,4", "line 4, column speed_rpm: not a number: \"x\""),
-        ("20,1,,3,4", "line 4, column b1_y_im: not a number: \"\""),
+        (
+            "x,1,2,3,4",
+            "line 4, column 1 (speed_rpm): not a number: \"x\"",
+        ),
+        (
+            "20,1,,3,4",
+            "line 4, column 3 (b1_y_im): not a number: \"\"",
+        ),
     ];
     for (row, msg) in cases {
         assert_eq!(bad(row).to_string(), msg, "row {row:?}");
@@ -130,7 +136,7 @@ fn bad_rows_carry_line_and_column() {
     )
     .unwrap_err()
     .to_string();
-    assert_eq!(e, "line 3, column b1_y_amp: must be >= 0, got -1");
+    assert_eq!(e, "line 3, column 2 (b1_y_amp): must be >= 0, got -1");
 }
 
 #[test]
@@ -208,4 +214,72 @@ fn grid_speeds_are_written_as_round_rpm() {
         assert!((a.omega - b.omega).abs() <= 1e-12 * b.omega);
         assert_eq!(a.q, b.q);
     }
+}
+
+#[test]
+fn a_last_row_without_line_break_is_refused_as_cut_short() {
+    let text = "# c\nspeed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im\n10,1,2,3,4\n20,1,2,3,-3.8";
+    let e = parse_csv(text).unwrap_err();
+    assert!(
+        matches!(e, MeasurementError::Truncated { line: 4 }),
+        "{e:?}"
+    );
+    assert!(
+        e.to_string()
+            .starts_with("line 4: the last row has no line break"),
+        "{e}"
+    );
+    // Complete with its line break (or CRLF), or followed by a blank or
+    // comment line without one: accepted.
+    for tail in ["\n", "\r\n", "\n\n", "\n# end"] {
+        assert_eq!(
+            parse_csv(&format!("{text}{tail}")).unwrap().samples.len(),
+            2
+        );
+    }
+}
+
+#[test]
+fn long_fields_are_cut_in_messages() {
+    let f = "9".repeat(100_000) + "x";
+    let e = parse_csv(&format!("{HEAD}20,1,{f},3,4\n"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("line 4, column 3 (b1_y_im): not a number: \"9999"),
+        "{e}"
+    );
+    assert!(e.len() < 120 && e.contains('…'), "{e}");
+}
+
+#[test]
+fn huge_phasors_round_trip_and_the_amplitude_writer_never_writes_inf() {
+    let m = Measurements {
+        comments: vec![],
+        n_bearings: 1,
+        samples: vec![Sample {
+            omega: 100.0,
+            q: vec![
+                Complex64::new(1.5e308, -1.5e308),
+                Complex64::new(f64::MIN_POSITIVE / 8.0, 0.0),
+            ],
+        }],
+    };
+    let text = to_csv_string(&m, CsvLayout::Complex).unwrap();
+    let back = parse_csv(&text).unwrap();
+    assert_eq!(back.samples[0].q, m.samples[0].q);
+    let e = to_csv_string(&m, CsvLayout::AmplitudePhase).unwrap_err();
+    assert!(
+        e.to_string().starts_with("sample 1 (counting from 1)"),
+        "{e}"
+    );
+    assert!(e.to_string().contains("amplitude"), "{e}");
+    // Just below the largest number: written and read back.
+    let mut ok = m.clone();
+    ok.samples[0].q[0] = Complex64::new(1e308, -1e308);
+    let text = to_csv_string(&ok, CsvLayout::AmplitudePhase).unwrap();
+    assert!(!text.contains("inf"));
+    let back = parse_csv(&text).unwrap();
+    let (a, b) = (back.samples[0].q[0], ok.samples[0].q[0]);
+    assert!((a - b).norm() <= 1e-15 * b.norm(), "{a} vs {b}");
 }

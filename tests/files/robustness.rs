@@ -127,5 +127,8 @@ fn mutated_csv_never_panics() {
     )
     .unwrap_err()
     .to_string();
-    assert!(e.starts_with("line 2, column speed_rpm: too large"), "{e}");
+    assert!(
+        e.starts_with("line 2, column 1 (speed_rpm): too large"),
+        "{e}"
+    );
 }

@@ -179,6 +179,7 @@ pub fn diagram_series(diagram: &CampbellDiagram, forward: &[CriticalSpeed]) -> V
 
 /// Runs `rotorid campbell`.
 pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
+    super::refuse_overwriting_inputs(Some(&args.model), &[], &[("--plot", args.plot.as_deref())])?;
     let file = load_model(&args.model)?;
     if !(args.rpm_max.is_finite() && args.rpm_max > 0.0) {
         return Err(CliError(format!(
@@ -191,6 +192,10 @@ pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     }
     let rpm = uniform_rpm(0.0, args.rpm_max, args.rpm_step)?;
     let omegas: Vec<f64> = rpm.iter().map(|&r| rpm_to_rad_s(r)).collect();
+    // Size limits before the FE model is even assembled (4 DOF per node,
+    // 2 more per pedestal).
+    let n_dof_est = 4 * file.model.n_nodes();
+    crate::fe::campbell::check_size(n_dof_est, omegas.len())?;
     let fe = FeModel::new(&file.model)?;
     let opts = CampbellOptions {
         max_modes: args.modes,

@@ -4,6 +4,53 @@
 use clap::{Args, ValueEnum};
 
 use super::{CliError, Io};
+use crate::estimate::IdentifyError;
+use crate::io::clip;
+use crate::io::measurement::{CsvLocations, Measurements};
+use rotorid_core::identify::{delta_range, MIN_LAMBDA};
+
+/// Largest magnitude (m) of a measured response component `identify`
+/// accepts: a 1X bearing vibration beyond a metre is not a measurement
+/// (values are in metres), and larger values would overflow the
+/// identification's products in single precision.
+pub const MAX_RESPONSE_M: f64 = 1.0;
+
+/// `x` for a message: plain for ordinary magnitudes, scientific otherwise
+/// (so `1e-300` is not printed with 300 zeros).
+fn short_number(x: f64) -> String {
+    if x == 0.0 || (1e-4..1e6).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// Refuses a response component beyond [`MAX_RESPONSE_M`], naming its line
+/// and column.
+fn check_response_range(meas: &Measurements, located: &CsvLocations) -> Result<(), String> {
+    for (i, s) in meas.samples.iter().enumerate() {
+        for (ch, z) in s.q.iter().enumerate() {
+            let over = |v: f64| v.abs() > MAX_RESPONSE_M;
+            let (re_col, name) = located.channel_column(ch);
+            let (col, name, v) = match located.layout {
+                crate::io::measurement::CsvLayout::Complex if over(z.re) => (re_col, name, z.re),
+                crate::io::measurement::CsvLayout::Complex if over(z.im) => {
+                    (re_col + 1, name.replace("_re", "_im"), z.im)
+                }
+                crate::io::measurement::CsvLayout::AmplitudePhase if over(z.norm()) => {
+                    (re_col, name, z.norm())
+                }
+                _ => continue,
+            };
+            let line = located.lines.get(i).copied().unwrap_or(0);
+            return Err(format!(
+                "line {line}, column {col} ({name}): {} m is beyond {MAX_RESPONSE_M} m, not a bearing vibration in metres",
+                clip(&format!("{v:e}"))
+            ));
+        }
+    }
+    Ok(())
+}
 
 /// Model structure of the identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -91,21 +138,38 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             args.order
         )));
     }
-    if !(args.lambda > 0.0 && args.lambda <= 1.0) {
+    if !(args.lambda >= MIN_LAMBDA && args.lambda <= 1.0) {
         return Err(CliError::new(format!(
-            "--lambda must be in (0, 1], got {}",
-            args.lambda
+            "--lambda must be in [{MIN_LAMBDA:.3}, 1] (a memory of at least one update: -1/ln(lambda) >= 1), got {}",
+            short_number(args.lambda)
         )));
     }
-    if !(args.delta > 0.0 && args.delta.is_finite()) {
+    let (delta_lo, delta_hi, precision) = if args.f32 {
+        let (lo, hi) = delta_range::<f32>();
+        (f64::from(lo), f64::from(hi), "--f32")
+    } else {
+        let (lo, hi) = delta_range::<f64>();
+        (lo, hi, "double precision")
+    };
+    if !(args.delta >= delta_lo && args.delta <= delta_hi) {
         return Err(CliError::new(format!(
-            "--delta must be finite and > 0, got {}",
+            "--delta must be in [{delta_lo:.2e}, {delta_hi:.2e}] with {precision}, got {:e}",
             args.delta
         )));
     }
+    super::refuse_overwriting_inputs(
+        Some(&args.model),
+        &[("--measurements", &args.measurements)],
+        &[
+            ("--json", args.json.as_deref()),
+            ("--plot", args.plot.as_deref()),
+        ],
+    )?;
     let model = super::load_model(&args.model)?.model;
-    let meas = crate::io::measurement::read_csv(&args.measurements)
-        .map_err(|e| CliError::new(format!("{}: {e}", args.measurements.display())))?;
+    let file = args.measurements.display().to_string();
+    let (meas, located) = crate::io::measurement::read_csv_located(&args.measurements)
+        .map_err(|e| CliError::new(format!("{file}: {e}")))?;
+    check_response_range(&meas, &located).map_err(|e| CliError::new(format!("{file}: {e}")))?;
     let structure = match args.formulation {
         Formulation::Physical => Structure::physical(args.order),
         Formulation::Paper => Structure::paper(args.order),
@@ -155,7 +219,13 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     if let Some(pb) = &bar {
         pb.finish_and_clear();
     }
-    let id = result?;
+    let id = result.map_err(|e| match e {
+        IdentifyError::Step { index, rpm, source } => {
+            let line = located.lines.get(index).copied().unwrap_or(0);
+            CliError::new(format!("{file}: line {line} ({rpm} rpm): {source}"))
+        }
+        other => CliError::new(other.to_string()),
+    })?;
 
     write!(io.out, "{}", report_table(&id, Some(&model)))?;
     if let Some(check) = &id.check {
@@ -165,8 +235,7 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     }
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&id.result())?;
-        std::fs::write(path, text + "\n")
-            .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
+        crate::io::output::write_atomic(path, (text + "\n").as_bytes())?;
     }
     if let Some(dir) = &args.plot {
         let rpm_max = crate::units::rad_s_to_rpm(crate::estimate::max_speed(&meas.samples));

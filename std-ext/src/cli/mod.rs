@@ -160,6 +160,29 @@ pub fn load_model(name_or_path: &str) -> Result<ModelFile, CliError> {
     })
 }
 
+/// Refuses a command line whose outputs (`(option, path)`, `None` when
+/// not given) include one of its inputs: the model file (unless `model` is
+/// a built-in name) or another input file. Called before anything runs.
+pub fn refuse_overwriting_inputs(
+    model: Option<&str>,
+    inputs: &[(&str, &std::path::Path)],
+    outputs: &[(&str, Option<&std::path::Path>)],
+) -> Result<(), CliError> {
+    let mut all: Vec<(&str, &std::path::Path)> = Vec::new();
+    if let Some(m) = model {
+        if crate::io::model_file::builtin_model(m).is_none() {
+            all.push(("--model", std::path::Path::new(m)));
+        }
+    }
+    all.extend_from_slice(inputs);
+    let outs: Vec<(&str, &std::path::Path)> = outputs
+        .iter()
+        .filter_map(|(f, p)| p.map(|p| (*f, p)))
+        .collect();
+    crate::io::output::refuse_inputs_as_outputs(&all, &outs)?;
+    Ok(())
+}
+
 /// Where a command writes: its stdout and stderr, and whether it may draw
 /// a progress bar (on the process's stderr, only when that is a terminal).
 pub struct Io<'a> {

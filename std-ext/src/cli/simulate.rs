@@ -219,6 +219,7 @@ impl SimulateArgs {
 
 /// Runs `rotorid simulate`.
 pub fn run(args: &SimulateArgs, io: &mut Io<'_>) -> Result<(), CliError> {
+    super::refuse_overwriting_inputs(Some(&args.model), &[], &[("--out", Some(&args.out))])?;
     let file = load_model(&args.model)?;
     let speeds_rpm = args.grid.speeds_rpm()?;
     if !(args.noise.is_finite() && args.noise >= 0.0) {

@@ -31,6 +31,12 @@ use crate::tables::grid::AdaptiveOptions;
 use crate::tables::{build, build_adaptive, Scalar};
 use crate::units::{rad_s_to_rpm, rpm_to_rad_s};
 
+/// Smallest `--adaptive` tolerance: the speeds of a linear-interpolation
+/// grid grow like `TOL^-1/2` (about 4000 for 1e-6 and 13000 for 1e-7 on the
+/// paper's rotor, each with ten reductions on the check grid); finer
+/// tolerances would run for many minutes.
+pub const MIN_ADAPTIVE_TOL: f64 = 1e-7;
+
 /// Arguments of `rotorid tables`.
 #[derive(Debug, Clone, PartialEq, Args)]
 pub struct TablesArgs {
@@ -60,6 +66,7 @@ pub struct TablesArgs {
 
 /// Runs `rotorid tables`.
 pub fn run(args: &TablesArgs, io: &mut Io<'_>) -> Result<(), CliError> {
+    super::refuse_overwriting_inputs(Some(&args.model), &[], &[("--out", Some(&args.out))])?;
     if !(1..=MAX_ORDER).contains(&args.order) {
         return Err(CliError::new(format!(
             "tables: --order must be in 1..={MAX_ORDER}, got {}",
@@ -87,9 +94,9 @@ pub fn run(args: &TablesArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             if !(g.rpm_min.is_finite() && g.rpm_max.is_finite() && g.rpm_min > 0.0) {
                 return Err(CliError::new("tables: --rpm-min must be finite and > 0"));
             }
-            if !(tol.is_finite() && tol > 0.0) {
+            if !(tol.is_finite() && (MIN_ADAPTIVE_TOL..1.0).contains(&tol)) {
                 return Err(CliError::new(format!(
-                    "tables: --adaptive must be finite and > 0, got {tol}"
+                    "tables: --adaptive must be in [{MIN_ADAPTIVE_TOL:e}, 1) (finer grids take too long: the speeds grow like TOL^-1/2), got {tol:e}"
                 )));
             }
             let (t, s) = build_adaptive(
@@ -117,8 +124,7 @@ pub fn run(args: &TablesArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     } else {
         table.to_blob(scalar)?
     };
-    std::fs::write(&args.out, &bytes)
-        .map_err(|e| CliError::new(format!("cannot write {}: {e}", args.out.display())))?;
+    crate::io::output::write_atomic(&args.out, &bytes)?;
     writeln!(
         io.out,
         "wrote {} ({} bytes, {}, {}, {} {}): {} speeds {:.1}..{:.1} rpm, {} bearings, {} planes, poles of A at {:?} rpm, of B at {:?} rpm{note}",

@@ -58,8 +58,8 @@ pub enum IdentifyError {
         /// Real unknowns of the structure.
         unknowns: usize,
     },
-    /// Every response is zero (or not a normal number): no signal.
-    #[error("measurements: every response is zero: no signal to identify from")]
+    /// Every response is below [`MIN_SIGNAL`] in magnitude: no signal.
+    #[error("measurements: every response is below {MIN_SIGNAL:e} m (zero or numerical noise): no signal to identify from")]
     NoSignal,
     /// The model is invalid.
     #[error("model: {0}")]
@@ -92,8 +92,8 @@ pub enum IdentifyError {
     /// The configuration was refused by the core identifier.
     #[error("options: {0}")]
     Config(CoreError),
-    /// The identifier refused sample `index` (0-based) at `rpm`.
-    #[error("sample {index} ({rpm} rpm): {source}")]
+    /// The identifier refused sample `index` (0-based; shown from 1) at `rpm`.
+    #[error("sample {} (counting from 1, {rpm} rpm): {source}", index + 1)]
     Step {
         /// Index of the sample in the file (0-based).
         index: usize,
@@ -109,6 +109,12 @@ pub enum IdentifyError {
     #[error(transparent)]
     OutputError(#[from] crate::estimate::output_error::OutputErrorError),
 }
+
+/// The smallest response magnitude (m) that counts as a signal: 1e-15 m,
+/// a million times below the resolution of any vibration probe and still
+/// a normal number in single precision. A sweep whose every response is
+/// below it has nothing to identify from.
+pub const MIN_SIGNAL: f64 = 1e-15;
 
 /// Arithmetic of the identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -313,7 +319,7 @@ pub fn identify_with(
         .samples
         .iter()
         .flat_map(|s| &s.q)
-        .any(|z| z.norm().is_normal())
+        .any(|z| z.norm() >= MIN_SIGNAL)
     {
         return Err(IdentifyError::NoSignal);
     }

@@ -116,6 +116,43 @@ impl Default for CampbellOptions {
     }
 }
 
+/// Most degrees of freedom of a model whose Campbell diagram is computed:
+/// each speed solves a dense eigenproblem of `2 n` states (`O(n^2)` memory,
+/// `O(n^3)` time, several seconds per speed at this size). 400 DOF are 99
+/// shaft elements (4 DOF per node); the paper's rotor has 108.
+pub const MAX_CAMPBELL_DOF: usize = 400;
+
+/// Most work of one Campbell diagram, counted as `speeds x (2 n)^3` for
+/// `n` DOF: a few minutes, about 1500 speeds of the paper's rotor (the
+/// default diagram has 61), 61 speeds of a 312-DOF model or 29 speeds at
+/// [`MAX_CAMPBELL_DOF`].
+pub const MAX_CAMPBELL_WORK: f64 = 1.5e10;
+
+/// Checks a Campbell diagram of `n_dof` DOF at `n_speeds` speeds against
+/// [`MAX_CAMPBELL_DOF`] and [`MAX_CAMPBELL_WORK`], before anything is
+/// allocated.
+pub fn check_size(n_dof: usize, n_speeds: usize) -> Result<(), FeError> {
+    if n_dof > MAX_CAMPBELL_DOF {
+        return Err(FeError::Invalid(format!(
+            "Campbell diagram of a model with {n_dof} degrees of freedom: at most {MAX_CAMPBELL_DOF} \
+             (about {} shaft elements; each speed solves a dense {}x{} eigenproblem)",
+            MAX_CAMPBELL_DOF / 4 - 1,
+            2 * n_dof,
+            2 * n_dof
+        )));
+    }
+    let states = 2.0 * n_dof as f64;
+    let work = n_speeds as f64 * states * states * states;
+    if work > MAX_CAMPBELL_WORK {
+        let max_speeds = (MAX_CAMPBELL_WORK / (states * states * states)).floor();
+        return Err(FeError::Invalid(format!(
+            "Campbell diagram at {n_speeds} speeds of a {n_dof}-DOF model: at most {max_speeds} speeds \
+             for this model (use a larger speed step)"
+        )));
+    }
+    Ok(())
+}
+
 /// A 1X crossing.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CriticalSpeed {
@@ -139,6 +176,7 @@ pub fn campbell_with(
     speeds: &[f64],
     opts: &CampbellOptions,
 ) -> Result<CampbellDiagram, FeError> {
+    check_size(fe.n_dof(), speeds.len())?;
     let m = fe.mass_matrix();
     let chol = m
         .clone()

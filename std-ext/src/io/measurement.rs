@@ -21,8 +21,13 @@
 //!   endings `\n` or `\r\n`.
 //! - N_b comes from the header. Every bad row (wrong column count, a field
 //!   that is not a number, NaN, infinity, negative speed or amplitude) is an
-//!   error carrying its 1-based line number and column name: nothing is
-//!   silently dropped.
+//!   error carrying its 1-based line number and its column (1-based number
+//!   and header name): nothing is silently dropped. A quoted field is cut
+//!   to its first 40 characters.
+//! - Every line ends with a line break, the last one included: a file whose
+//!   last data row has none is taken as cut short (a write that stopped
+//!   half way, e.g. `...,-3.8` for `...,-3.85e-7`) and refused.
+//! - At most [`MAX_ROWS`] data rows.
 //!
 //! The writer prints every number with Rust's shortest round-trip
 //! representation (`{:e}`), so the phasors read back bit for bit; the speed
@@ -34,7 +39,13 @@ use std::path::Path;
 use num_complex::Complex64;
 use thiserror::Error;
 
+use crate::io::clip;
 use crate::units::{rad_s_to_rpm, rpm_to_rad_s};
+
+/// Most data rows a measurement file may hold (a sweep of one million
+/// speeds; far beyond any run-up, and a bound on the memory a file can ask
+/// for).
+pub const MAX_ROWS: usize = 1_000_000;
 
 /// The 1X response phasors at all bearing channels at one speed.
 #[derive(Debug, Clone, PartialEq)]
@@ -99,20 +110,36 @@ pub enum MeasurementError {
         found: usize,
     },
     /// A field is not a valid value for its column.
-    #[error("line {line}, column {column}: {reason}")]
+    #[error("line {line}, column {index} ({column}): {reason}")]
     Field {
         /// Line of the row.
         line: usize,
+        /// 1-based number of the column.
+        index: usize,
         /// Header name of the column.
         column: String,
         /// What is wrong (e.g. `not a number: "abc"`).
         reason: String,
     },
+    /// The last data row has no line break: the file was cut short.
+    #[error("line {line}: the last row has no line break: the file looks cut short (a complete measurement file ends with a newline)")]
+    Truncated {
+        /// Line of the last row.
+        line: usize,
+    },
+    /// More data rows than [`MAX_ROWS`].
+    #[error("line {line}: more than {max} data rows")]
+    TooManyRows {
+        /// Line of the first row beyond the limit.
+        line: usize,
+        /// The limit.
+        max: usize,
+    },
     /// The header is followed by no data rows.
     #[error("no data rows after the header")]
     NoData,
     /// The measurements to write are inconsistent.
-    #[error("sample {index}: {reason}")]
+    #[error("sample {} (counting from 1): {reason}", index + 1)]
     Inconsistent {
         /// 0-based sample index.
         index: usize,
@@ -151,7 +178,7 @@ fn parse_header(line_no: usize, line: &str) -> Result<(usize, CsvLayout), Measur
     if cols.first() != Some(&"speed_rpm") {
         return Err(bad(format!(
             "first column must be `speed_rpm`, found `{}`",
-            cols.first().copied().unwrap_or("")
+            clip(cols.first().copied().unwrap_or(""))
         )));
     }
     let n_ch = cols.len() - 1;
@@ -170,8 +197,9 @@ fn parse_header(line_no: usize, line: &str) -> Result<(usize, CsvLayout), Measur
     for (i, (got, want)) in cols.iter().zip(expected.iter()).enumerate() {
         if got != want {
             return Err(bad(format!(
-                "column {} must be `{want}`, found `{got}`",
-                i + 1
+                "column {} must be `{want}`, found `{}`",
+                i + 1,
+                clip(got)
             )));
         }
     }
@@ -180,11 +208,44 @@ fn parse_header(line_no: usize, line: &str) -> Result<(usize, CsvLayout), Measur
 
 /// Parses the text of a measurement file.
 pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
+    parse_csv_located(text).map(|(m, _)| m)
+}
+
+/// Where the samples of a parsed file came from (for messages about a
+/// sample: line and column, 1-based).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct CsvLocations {
+    /// 1-based line of every sample.
+    pub lines: Vec<usize>,
+    /// The file's column layout.
+    pub layout: CsvLayout,
+}
+
+impl CsvLocations {
+    /// 1-based column number and header name of the column holding the
+    /// real part (complex layout) or the amplitude (amplitude/phase
+    /// layout) of channel `ch` (0-based, `b1_y, b1_z, b2_y, ...`).
+    pub fn channel_column(&self, ch: usize) -> (usize, String) {
+        let b = ch / 2 + 1;
+        let dir = if ch % 2 == 0 { "y" } else { "z" };
+        let name = match self.layout {
+            CsvLayout::Complex => format!("b{b}_{dir}_re"),
+            CsvLayout::AmplitudePhase => format!("b{b}_{dir}_amp"),
+        };
+        (2 + 2 * ch, name)
+    }
+}
+
+/// [`parse_csv`], also returning where every sample came from.
+pub fn parse_csv_located(text: &str) -> Result<(Measurements, CsvLocations), MeasurementError> {
     let mut comments = Vec::new();
     let mut header: Option<(usize, CsvLayout, Vec<String>)> = None;
     let mut samples = Vec::new();
+    let mut lines = Vec::new();
+    let mut file_layout = CsvLayout::default();
     // A byte-order mark (spreadsheet exports) is not part of the header.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut last_row_line = None;
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let line = raw.trim();
@@ -198,8 +259,15 @@ pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
         let Some((n_b, layout, names)) = &header else {
             let (n_b, layout) = parse_header(line_no, line)?;
             header = Some((n_b, layout, header_columns(n_b, layout)));
+            file_layout = layout;
             continue;
         };
+        if samples.len() == MAX_ROWS {
+            return Err(MeasurementError::TooManyRows {
+                line: line_no,
+                max: MAX_ROWS,
+            });
+        }
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
         if fields.len() != names.len() {
             return Err(MeasurementError::ColumnCount {
@@ -209,20 +277,21 @@ pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
             });
         }
         let mut values = Vec::with_capacity(fields.len());
-        for (f, name) in fields.iter().zip(names.iter()) {
+        for (col, (f, name)) in fields.iter().zip(names.iter()).enumerate() {
             let field_err = |reason: String| MeasurementError::Field {
                 line: line_no,
+                index: col + 1,
                 column: name.clone(),
                 reason,
             };
             let v: f64 = f
                 .parse()
-                .map_err(|_| field_err(format!("not a number: {f:?}")))?;
+                .map_err(|_| field_err(format!("not a number: {:?}", clip(f))))?;
             if !v.is_finite() {
-                return Err(field_err(format!("not finite: {f:?}")));
+                return Err(field_err(format!("not finite: {:?}", clip(f))));
             }
             if (name == "speed_rpm" || name.ends_with("_amp")) && v < 0.0 {
-                return Err(field_err(format!("must be >= 0, got {f}")));
+                return Err(field_err(format!("must be >= 0, got {}", clip(f))));
             }
             values.push(v);
         }
@@ -238,11 +307,26 @@ pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
         if !omega.is_finite() {
             return Err(MeasurementError::Field {
                 line: line_no,
+                index: 1,
                 column: "speed_rpm".into(),
-                reason: format!("too large: {}", fields[0]),
+                reason: format!("too large: {}", clip(fields[0])),
+            });
+        }
+        if let Some(col) = q
+            .iter()
+            .position(|z| !(z.re.is_finite() && z.im.is_finite()))
+        {
+            // An amplitude near f64::MAX times cos/sin of its phase.
+            return Err(MeasurementError::Field {
+                line: line_no,
+                index: 2 + 2 * col,
+                column: names[1 + 2 * col].clone(),
+                reason: format!("too large: {}", clip(fields[1 + 2 * col])),
             });
         }
         samples.push(Sample { omega, q });
+        lines.push(line_no);
+        last_row_line = Some(line_no);
     }
     let Some((n_bearings, _, _)) = header else {
         return Err(MeasurementError::MissingHeader);
@@ -250,21 +334,45 @@ pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
     if samples.is_empty() {
         return Err(MeasurementError::NoData);
     }
-    Ok(Measurements {
-        comments,
-        n_bearings,
-        samples,
-    })
+    // The last data row must end with a line break (only trailing blank or
+    // comment lines may follow it, themselves ended or not).
+    if let Some(line) = last_row_line {
+        let ended = text
+            .split_inclusive('\n')
+            .nth(line - 1)
+            .is_some_and(|l| l.ends_with('\n'));
+        if !ended {
+            return Err(MeasurementError::Truncated { line });
+        }
+    }
+    Ok((
+        Measurements {
+            comments,
+            n_bearings,
+            samples,
+        },
+        CsvLocations {
+            lines,
+            layout: file_layout,
+        },
+    ))
 }
 
 /// Reads a measurement file.
 pub fn read_csv(path: impl AsRef<Path>) -> Result<Measurements, MeasurementError> {
+    read_csv_located(path).map(|(m, _)| m)
+}
+
+/// [`read_csv`], also returning where every sample came from.
+pub fn read_csv_located(
+    path: impl AsRef<Path>,
+) -> Result<(Measurements, CsvLocations), MeasurementError> {
     let path = path.as_ref();
     let text = std::fs::read_to_string(path).map_err(|source| MeasurementError::Io {
         path: path.display().to_string(),
         source,
     })?;
-    parse_csv(&text)
+    parse_csv_located(&text)
 }
 
 /// The speed column's value for `omega` (rad/s): rpm rounded to 12
@@ -309,6 +417,12 @@ pub fn to_csv_string(m: &Measurements, layout: CsvLayout) -> Result<String, Meas
         if s.q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
             return Err(bad("non-finite phasor".into()));
         }
+        if layout == CsvLayout::AmplitudePhase && s.q.iter().any(|z| !z.norm().is_finite()) {
+            // |z| beyond f64::MAX: the amplitude column cannot hold it.
+            return Err(bad(
+                "a phasor's amplitude exceeds the largest number (use the complex layout)".into(),
+            ));
+        }
         let _ = write!(out, "{}", speed_for_file(s.omega));
         for z in &s.q {
             match layout {
@@ -333,9 +447,15 @@ pub fn write_csv(
 ) -> Result<(), MeasurementError> {
     let path = path.as_ref();
     let text = to_csv_string(m, layout)?;
-    std::fs::write(path, text).map_err(|source| MeasurementError::Io {
-        path: path.display().to_string(),
-        source,
+    crate::io::output::write_atomic(path, text.as_bytes()).map_err(|e| match e {
+        crate::io::output::OutputError::Io { source, .. } => MeasurementError::Io {
+            path: path.display().to_string(),
+            source,
+        },
+        other => MeasurementError::Io {
+            path: path.display().to_string(),
+            source: std::io::Error::other(other.to_string()),
+        },
     })
 }
 

@@ -75,6 +75,10 @@ use thiserror::Error;
 
 use crate::io::ross::RossError;
 use crate::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
+use crate::model::plausible::{
+    check, check_magnitude, Range, DAMPING_MAX, DENSITY, DIAMETER, INERTIA, LENGTH, MASS, SHEAR,
+    STIFFNESS_MAX, YOUNG,
+};
 use crate::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, BowPoint, Disk, Material, ModelError,
     Pedestal, ProbeReference, RotorModel, ShaftBow, ShaftElement, Unbalance,
@@ -375,6 +379,22 @@ fn finite(field: &str, v: f64) -> Result<f64, ModelFileError> {
     }
 }
 
+/// A finite value > 0 inside a physically plausible range
+/// ([`crate::model::plausible`]).
+fn plausible(field: &str, v: f64, range: Range) -> Result<f64, ModelFileError> {
+    let v = finite_pos(field, v)?;
+    check(v, range).map_err(|reason| ModelFileError::field(field, reason))
+}
+
+/// A bearing or pedestal coefficient array of plausible magnitude.
+fn plausible4(field: &str, v: &[f64], max: f64, unit: &str) -> Result<(), ModelFileError> {
+    for (j, x) in v.iter().enumerate() {
+        check_magnitude(*x, max, unit)
+            .map_err(|reason| ModelFileError::field(format!("{field}[{}]", j + 1), reason))?;
+    }
+    Ok(())
+}
+
 /// 1-based file node -> 0-based, checked against the node count.
 fn node(field: &str, n: usize, n_nodes: usize) -> Result<usize, ModelFileError> {
     if n == 0 || n > n_nodes {
@@ -389,12 +409,15 @@ fn node(field: &str, n: usize, n_nodes: usize) -> Result<usize, ModelFileError> 
 
 fn pedestal(field: &str, p: &RawPedestal) -> Result<Pedestal, ModelFileError> {
     let mass = finite_pos(&format!("{field}.mass"), p.mass)?;
+    let mass = plausible(&format!("{field}.mass"), mass, MASS)?;
     let mut k = [0.0; 2];
     let mut c = [0.0; 2];
     for j in 0..2 {
         k[j] = finite_pos(&format!("{field}.k[{}]", j + 1), p.k[j])?;
         c[j] = finite_nonneg(&format!("{field}.c[{}]", j + 1), p.c[j])?;
     }
+    plausible4(&format!("{field}.k"), &k, STIFFNESS_MAX, "N/m")?;
+    plausible4(&format!("{field}.c"), &c, DAMPING_MAX, "N s/m")?;
     Ok(Pedestal { mass, k, c })
 }
 
@@ -427,8 +450,8 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
     let mut materials = BTreeMap::new();
     for (name, m) in &raw.materials {
         let f = |k: &str| format!("materials.{name}.{k}");
-        let e = finite_pos(&f("e"), m.e)?;
-        let rho = finite_pos(&f("rho"), m.rho)?;
+        let e = plausible(&f("e"), m.e, YOUNG)?;
+        let rho = plausible(&f("rho"), m.rho, DENSITY)?;
         let mat = match (m.nu, m.g) {
             (Some(nu), None) => {
                 if !(nu.is_finite() && nu > -1.0 && nu < 0.5) {
@@ -442,7 +465,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
             (None, Some(g)) => Material {
                 name: name.clone(),
                 e,
-                g: finite_pos(&f("g"), g)?,
+                g: plausible(&f("g"), g, SHEAR)?,
                 rho,
             },
             (Some(_), Some(_)) => {
@@ -473,8 +496,8 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
     let mut shaft = Vec::new();
     for (i, s) in raw.shaft.iter().enumerate() {
         let f = |k: &str| format!("shaft[{}].{k}", i + 1);
-        let length = finite_pos(&f("length"), s.length)?;
-        let od = finite_pos(&f("outer_diameter"), s.outer_diameter)?;
+        let length = plausible(&f("length"), s.length, LENGTH)?;
+        let od = plausible(&f("outer_diameter"), s.outer_diameter, DIAMETER)?;
         let id = finite_nonneg(&f("inner_diameter"), s.inner_diameter)?;
         if id >= od {
             return Err(ModelFileError::field(
@@ -492,6 +515,15 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
             return Err(ModelFileError::field(
                 f("elements"),
                 format!("more than {MAX_ELEMENTS} shaft elements in all"),
+            ));
+        }
+        if length / (s.elements as f64) < LENGTH.lo {
+            return Err(ModelFileError::field(
+                f("elements"),
+                format!(
+                    "{} elements of {length:e} m are shorter than {:e} m each",
+                    s.elements, LENGTH.lo
+                ),
             ));
         }
         let mat = material(f("material"), &s.material)?;
@@ -526,8 +558,9 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
                 }
                 (false, true) => {
                     let get = |k: &str, v: Option<f64>| -> Result<f64, ModelFileError> {
+                        let range = if k == "mass" { MASS } else { INERTIA };
                         match v {
-                            Some(v) => finite_pos(&f(k), v),
+                            Some(v) => plausible(&f(k), v, range),
                             None => Err(ModelFileError::field(f(k), "missing")),
                         }
                     };
@@ -546,11 +579,11 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
                 }
                 (true, false) => {
                     let od = match d.outer_diameter {
-                        Some(v) => finite_pos(&f("outer_diameter"), v)?,
+                        Some(v) => plausible(&f("outer_diameter"), v, DIAMETER)?,
                         None => return Err(ModelFileError::field(f("outer_diameter"), "missing")),
                     };
                     let t = match d.thickness {
-                        Some(v) => finite_pos(&f("thickness"), v)?,
+                        Some(v) => plausible(&f("thickness"), v, DIAMETER)?,
                         None => return Err(ModelFileError::field(f("thickness"), "missing")),
                     };
                     let id = finite_nonneg(&f("inner_diameter"), d.inner_diameter.unwrap_or(0.0))?;
@@ -562,7 +595,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
                     }
                     let rho = match (&d.material, d.rho) {
                         (Some(m), None) => material(f("material"), m)?.rho,
-                        (None, Some(r)) => finite_pos(&f("rho"), r)?,
+                        (None, Some(r)) => plausible(&f("rho"), r, DENSITY)?,
                         (Some(_), Some(_)) => {
                             return Err(ModelFileError::field(
                                 f("rho"),
@@ -596,6 +629,8 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
             (Some(k), Some(c), None, None) => {
                 check4(&f("k"), k)?;
                 check4(&f("c"), c)?;
+                plausible4(&f("k"), k, STIFFNESS_MAX, "N/m")?;
+                plausible4(&f("c"), c, DAMPING_MAX, "N s/m")?;
                 BearingLaw::Constant(BearingCoefficients { k: *k, c: *c })
             }
             (None, None, Some(t), None) => {
@@ -623,6 +658,8 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
                 for (j, (k, c)) in t.k.iter().zip(t.c.iter()).enumerate() {
                     check4(&f(&format!("table.k[{}]", j + 1)), k)?;
                     check4(&f(&format!("table.c[{}]", j + 1)), c)?;
+                    plausible4(&f(&format!("table.k[{}]", j + 1)), k, STIFFNESS_MAX, "N/m")?;
+                    plausible4(&f(&format!("table.c[{}]", j + 1)), c, DAMPING_MAX, "N s/m")?;
                     coefficients.push(BearingCoefficients { k: *k, c: *c });
                 }
                 BearingLaw::Table {
@@ -733,7 +770,15 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
     let mut effects = Effects::default();
     if let Some(s) = &raw.simulate {
         if let Some(e) = s.e_scale {
-            effects.e_scale = finite_pos("simulate.e_scale", e)?;
+            effects.e_scale = plausible(
+                "simulate.e_scale",
+                e,
+                Range {
+                    lo: 1e-3,
+                    hi: 1e3,
+                    unit: "(factor)",
+                },
+            )?;
         }
         if let Some(l) = &s.bearing_speed_law {
             let rpm_ref = finite_pos("simulate.bearing_speed_law.rpm_ref", l.rpm_ref)?;

@@ -58,6 +58,9 @@ use std::fmt::Write as _;
 use serde::Deserialize;
 use thiserror::Error;
 
+use crate::model::plausible::{
+    check, Range, DENSITY, DIAMETER, INERTIA, LENGTH, MASS, SHEAR, YOUNG,
+};
 use crate::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, Disk, Material, ModelError, Pedestal,
     RotorModel, ShaftElement,
@@ -345,11 +348,23 @@ fn material(name: &str, m: &RossMaterial) -> Result<Material, RossError> {
             })
         }
     };
+    let e = plausible(name, "material.E", m.E, YOUNG)?;
+    let g = plausible(name, "material.G_s", g, SHEAR)?;
+    let rho = plausible(name, "material.rho", m.rho, DENSITY)?;
     Ok(Material {
         name: label,
-        e: m.E,
+        e,
         g,
-        rho: m.rho,
+        rho,
+    })
+}
+
+/// `v` (key `key` of element `name`) inside a physically plausible range
+/// ([`crate::model::plausible`]).
+fn plausible(name: &str, key: &str, v: f64, range: Range) -> Result<f64, RossError> {
+    check(v, range).map_err(|reason| RossError::Field {
+        element: name.into(),
+        reason: format!("{key}: {reason}"),
     })
 }
 
@@ -462,6 +477,14 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
             }
             _ => {}
         }
+        plausible(name, "L", s.L, LENGTH)?;
+        plausible(name, "odl", s.odl, DIAMETER)?;
+        if !(s.idl >= 0.0 && s.idl < s.odl) {
+            return Err(RossError::Field {
+                element: name.clone(),
+                reason: format!("idl: must be in [0, odl), got {:e}", s.idl),
+            });
+        }
         by_n.entry(s.n).or_default().push((
             name.clone(),
             ShaftElement {
@@ -520,9 +543,9 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         }
         out_disks.push(Disk {
             node: d.n,
-            mass: d.m,
-            id: d.Id,
-            ip: d.Ip,
+            mass: plausible(name, "m", d.m, MASS)?,
+            id: plausible(name, "Id", d.Id, INERTIA)?,
+            ip: plausible(name, "Ip", d.Ip, INERTIA)?,
         });
     }
     out_disks.sort_by_key(|d| d.node);

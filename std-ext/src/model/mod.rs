@@ -14,6 +14,7 @@
 //! `Y = r exp(j alpha)`, `Z = -j r exp(j alpha)`.
 
 pub mod extension;
+pub mod plausible;
 
 use core::f64::consts::PI;
 use num_complex::Complex64;
@@ -523,8 +524,8 @@ impl RotorModel {
             }
             let check = |c: &BearingCoefficients, at: &str| -> Result<(), ModelError> {
                 for j in 0..4 {
-                    finite(f(&format!("{at}k[{j}]")), c.k[j])?;
-                    finite(f(&format!("{at}c[{j}]")), c.c[j])?;
+                    finite(f(&format!("{at}k[{}]", j + 1)), c.k[j])?;
+                    finite(f(&format!("{at}c[{}]", j + 1)), c.c[j])?;
                 }
                 Ok(())
             };
@@ -555,20 +556,20 @@ impl RotorModel {
                 BearingLaw::DynamicStiffness { z } => {
                     for (p, row) in z.iter().enumerate() {
                         for (j, v) in row.iter().enumerate() {
-                            finite(f(&format!("z_poly[{p}][{j}].re")), v.re)?;
-                            finite(f(&format!("z_poly[{p}][{j}].im")), v.im)?;
+                            finite(f(&format!("z_poly[{}][{}].re", p + 1, j + 1)), v.re)?;
+                            finite(f(&format!("z_poly[{}][{}].im", p + 1, j + 1)), v.im)?;
                         }
                     }
                 }
                 BearingLaw::Polynomial { k, c } => {
                     for (p, row) in k.iter().enumerate() {
                         for (j, v) in row.iter().enumerate() {
-                            finite(f(&format!("k_poly[{p}][{j}]")), *v)?;
+                            finite(f(&format!("k_poly[{}][{}]", p + 1, j + 1)), *v)?;
                         }
                     }
                     for (p, row) in c.iter().enumerate() {
                         for (j, v) in row.iter().enumerate() {
-                            finite(f(&format!("c_poly[{p}][{j}]")), *v)?;
+                            finite(f(&format!("c_poly[{}][{}]", p + 1, j + 1)), *v)?;
                         }
                     }
                 }
@@ -576,10 +577,10 @@ impl RotorModel {
             if let Some(p) = &b.pedestal {
                 pos(f("pedestal.mass"), p.mass)?;
                 for j in 0..2 {
-                    pos(f(&format!("pedestal.k[{j}]")), p.k[j])?;
+                    pos(f(&format!("pedestal.k[{}]", j + 1)), p.k[j])?;
                     if !(p.c[j].is_finite() && p.c[j] >= 0.0) {
                         return Err(ModelError::invalid(
-                            f(&format!("pedestal.c[{j}]")),
+                            f(&format!("pedestal.c[{}]", j + 1)),
                             "must be finite and >= 0",
                         ));
                     }

@@ -264,8 +264,9 @@ pub enum ReportError {
 /// damping (identified as lines; the `reference` model's values as dashed
 /// lines), the unbalance m e and phase per plane, and the Campbell diagram
 /// of the identified rotor (lines) against the reference rotor (points) up to
-/// `rpm_max`, like Fig. 6. `prefix` starts every file name. Returns the
-/// files written.
+/// `rpm_max`, like Fig. 6 (left out for a model beyond the limits of
+/// [`crate::fe::campbell::check_size`]). `prefix` starts every file name.
+/// Returns the files written.
 pub fn write_plots(
     dir: &std::path::Path,
     prefix: &str,
@@ -418,6 +419,11 @@ pub fn write_plots(
     let speeds: Vec<f64> = (0..=30)
         .map(|i| crate::units::rpm_to_rad_s(rpm_max * i as f64 / 30.0))
         .collect();
+    // A model beyond the Campbell diagram's size limits gets the other
+    // plots only.
+    if crate::fe::campbell::check_size(4 * ident.n_nodes(), 2 * speeds.len()).is_err() {
+        return Ok(files);
+    }
     let copts = crate::fe::campbell::CampbellOptions {
         max_frequency: Some(2.0 * crate::units::rpm_to_rad_s(rpm_max)),
         max_modes: 8,

@@ -281,23 +281,32 @@ pub fn line_plot_with(
         return Err(data_err("empty y range".into()));
     }
 
-    let root = SVGBackend::new(path, opts.size).into_drawing_area();
     let be = |e: String| PlotError::Backend {
         path: pstr.clone(),
         reason: e,
     };
-    root.fill(&WHITE).map_err(|e| be(e.to_string()))?;
-    let labels = Labels {
-        title,
-        x: x_label,
-        y: y_label,
-    };
-    if opts.log_y {
-        draw(&root, &labels, series, opts, x0..x1, (y0..y1).log_scale()).map_err(be)?;
-    } else {
-        draw(&root, &labels, series, opts, x0..x1, y0..y1).map_err(be)?;
+    // Drawn in memory, then written whole (temporary file + rename): a
+    // failed write never leaves a partial SVG.
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, opts.size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| be(e.to_string()))?;
+        let labels = Labels {
+            title,
+            x: x_label,
+            y: y_label,
+        };
+        if opts.log_y {
+            draw(&root, &labels, series, opts, x0..x1, (y0..y1).log_scale()).map_err(be)?;
+        } else {
+            draw(&root, &labels, series, opts, x0..x1, y0..y1).map_err(be)?;
+        }
+        root.present().map_err(|e| be(e.to_string()))?;
     }
-    root.present().map_err(|e| be(e.to_string()))?;
+    crate::io::output::write_atomic(path, svg.as_bytes()).map_err(|e| match e {
+        crate::io::output::OutputError::Io { source, .. } => be(format!("cannot write: {source}")),
+        other => be(other.to_string()),
+    })?;
     Ok(())
 }
 
