@@ -35,6 +35,14 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     use crate::model::ProbeReference;
     use crate::report::diagnose::{json, text, write_plots};
 
+    super::refuse_overwriting_inputs(
+        Some(&args.model),
+        &[("--measurements", &args.measurements)],
+        &[
+            ("--json", args.json.as_deref()),
+            ("--plot", args.plot.as_deref()),
+        ],
+    )?;
     let model = super::load_model(&args.model)?.model;
     let meas = crate::io::measurement::read_csv(&args.measurements)
         .map_err(|e| CliError::new(format!("{}: {e}", args.measurements.display())))?;
@@ -59,7 +67,7 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     }
     if let Some(path) = &args.json {
         let t = serde_json::to_string_pretty(&json(&d))?;
-        std::fs::write(path, t + "\n")
+        crate::io::output::write_atomic(path, (t + "\n").as_bytes())
             .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
     }
     if let Some(dir) = &args.plot {
