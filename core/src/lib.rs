@@ -24,6 +24,7 @@ extern crate std;
 
 #[cfg(feature = "baseline")]
 pub mod baseline;
+pub mod blockqrd;
 pub mod crc32;
 pub mod givens;
 pub mod identify;
