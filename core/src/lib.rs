@@ -26,6 +26,7 @@ extern crate std;
 pub mod baseline;
 pub mod blockqrd;
 pub mod crc32;
+pub mod factor;
 pub mod givens;
 pub mod identify;
 pub mod parametrization;
