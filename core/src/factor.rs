@@ -120,12 +120,147 @@ where
     }
 }
 
+/// What the identification step needs of a filter state (implemented by
+/// the run-time dispatching [`FactorMut`] and, statically, by [`DenseMut`]
+/// and [`BlockMut`], so that a firmware build holds only the filter it
+/// uses).
+pub trait FilterState<F: ComplexField> {
+    /// Number of unknowns `M`.
+    fn unknowns(&self) -> usize;
+    /// The block layout, `None` for a dense factor.
+    fn shape(&self) -> Option<BlockShape>;
+    /// `R = sqrt(delta) I`, `p = 0`.
+    fn init(&mut self, delta: F::RealField) -> Result<(), FilterError>;
+    /// Folds in `N` rows; errors leave the state unchanged.
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: F::RealField,
+        xi: &mut [F],
+        gamma: &mut [F::RealField],
+    ) -> Result<(), FilterError>;
+    /// Back-substitution `R w = p` into `w` (`M` entries).
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError>;
+    /// `min|R_ii| / max|R_ii|`.
+    fn diag_ratio(&self) -> Result<F::RealField, FilterError>;
+}
+
+impl<F, T> FilterState<F> for FactorMut<'_, F>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn unknowns(&self) -> usize {
+        FactorMut::unknowns(self)
+    }
+    fn shape(&self) -> Option<BlockShape> {
+        FactorMut::shape(self)
+    }
+    fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        FactorMut::init(self, delta)
+    }
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        FactorMut::update_rows(self, u, d, lambda, xi, gamma)
+    }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        self.as_ref().solve_weights(w)
+    }
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        self.as_ref().diag_ratio()
+    }
+}
+
+/// Mutable view of a dense state: `r` row-major `M x M`, `p` (`M`).
+#[derive(Debug)]
+pub struct DenseMut<'a, F> {
+    /// Factor `R`.
+    pub r: &'a mut [F],
+    /// Rotated right-hand side `p`.
+    pub p: &'a mut [F],
+}
+
+impl<F, T> FilterState<F> for DenseMut<'_, F>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn unknowns(&self) -> usize {
+        self.p.len()
+    }
+    fn shape(&self) -> Option<BlockShape> {
+        None
+    }
+    fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        qrdrls::init(self.r, self.p, delta, None)
+    }
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        qrdrls::update_rows(self.r, self.p, u, d, lambda, xi, gamma)
+    }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        qrdrls::solve_weights(self.r, self.p, w)
+    }
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        qrdrls::r_diag_ratio(self.r)
+    }
+}
+
+impl<F, T> FilterState<F> for BlockMut<'_, F>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn unknowns(&self) -> usize {
+        self.shape.unknowns()
+    }
+    fn shape(&self) -> Option<BlockShape> {
+        Some(self.shape)
+    }
+    fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        BlockMut::init(self, delta, None)
+    }
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        BlockMut::update_rows(self, u, d, lambda, xi, gamma)
+    }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        self.as_ref().solve_weights(w)
+    }
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        Ok(self.as_ref().diag_ratio())
+    }
+}
+
 /// Inline storage of a filter state, owned by a const-generic identifier.
-pub trait Factor<F>: Clone + Debug + PartialEq {
+pub trait Factor<F: ComplexField>: Clone + Debug + PartialEq {
+    /// The mutable view the identification step works on.
+    type View<'a>: FilterState<F>
+    where
+        Self: 'a;
     /// All zero (the identifier initialises it).
     fn zeroed() -> Self;
-    /// Mutable view.
-    fn view_mut(&mut self) -> FactorMut<'_, F>;
+    /// Mutable view (static dispatch).
+    fn view_mut(&mut self) -> Self::View<'_>;
     /// Read-only view.
     fn view(&self) -> FactorRef<'_, F>;
 }
@@ -142,6 +277,11 @@ where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
+    type View<'a>
+        = DenseMut<'a, F>
+    where
+        Self: 'a;
+
     fn zeroed() -> Self {
         DenseFactor {
             r: [[F::zero(); M]; M],
@@ -149,8 +289,8 @@ where
         }
     }
 
-    fn view_mut(&mut self) -> FactorMut<'_, F> {
-        FactorMut::Dense {
+    fn view_mut(&mut self) -> DenseMut<'_, F> {
+        DenseMut {
             r: self.r.as_flattened_mut(),
             p: &mut self.p,
         }
@@ -169,12 +309,17 @@ where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
+    type View<'a>
+        = BlockMut<'a, F>
+    where
+        Self: 'a;
+
     fn zeroed() -> Self {
         BlockFactor::zeroed()
     }
 
-    fn view_mut(&mut self) -> FactorMut<'_, F> {
-        FactorMut::Block(BlockFactor::view_mut(self))
+    fn view_mut(&mut self) -> BlockMut<'_, F> {
+        BlockFactor::view_mut(self)
     }
 
     fn view(&self) -> FactorRef<'_, F> {

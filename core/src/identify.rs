@@ -45,7 +45,7 @@
 //! [`Kernel`] (the desktop driver in `rotorid::identify`).
 
 use crate::blockqrd::{BlockFactor, BlockShape};
-use crate::factor::{DenseFactor, Factor, FactorMut};
+use crate::factor::{DenseFactor, Factor, FactorMut, FilterState};
 use crate::parametrization::{
     bearing_estimate, unbalance_estimate, BearingEstimate, Formulation, ParamError, Structure,
     UnbalanceEstimate, MAX_ORDER,
@@ -370,15 +370,19 @@ pub struct GuardState<T> {
 /// are scratch of lengths `N`, `N x M`, `N`, `N`. Used by [`Identifier`] and
 /// by the desktop driver, so both run exactly the same arithmetic.
 #[derive(Debug)]
-pub struct Kernel<'a, T, F> {
+pub struct Kernel<'a, T, F, V = FactorMut<'a, F>> {
     /// Configuration.
     pub config: &'a Config<T>,
     /// Number of bearing channels `2 N_b`.
     pub nq: usize,
     /// Number of unbalance planes.
     pub np: usize,
-    /// Filter state (factor `R` and rotated right-hand side `p`).
-    pub factor: FactorMut<'a, F>,
+    /// Filter state (factor `R` and rotated right-hand side `p`): a
+    /// [`FactorMut`] (dense or block, chosen at run time) or, statically, a
+    /// [`crate::factor::DenseMut`] or [`crate::blockqrd::BlockMut`].
+    pub factor: V,
+    /// The field `F` of the filter (`Complex<T>` or `T`).
+    pub field: core::marker::PhantomData<F>,
     /// Guard state.
     pub guard: &'a mut GuardState<T>,
 }
@@ -418,7 +422,7 @@ pub fn check_sizes<T: Real, F: IdField<T>>(
     Ok(())
 }
 
-impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
+impl<T: Real, F: IdField<T>, V: FilterState<F>> Kernel<'_, T, F, V> {
     /// A block-structured factor must have the layout of the structure.
     fn check_layout(&self) -> Result<(), IdentifyError> {
         match self.factor.shape() {
@@ -480,7 +484,7 @@ impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
             Some(w0) => (omega - w0).abs() >= cfg.steady.min_speed_step,
         };
         if excited && cfg.steady.min_diag_ratio > T::zero() {
-            let ratio = self.factor.as_ref().diag_ratio()?;
+            let ratio = self.factor.diag_ratio()?;
             if ratio < cfg.steady.min_diag_ratio {
                 excited = false;
             }
@@ -526,7 +530,7 @@ impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
 
     /// Current scaled weights `w~` into `w` (length `M`).
     pub fn weights(&self, w: &mut [F]) -> Result<(), IdentifyError> {
-        self.factor.as_ref().solve_weights(w)?;
+        self.factor.solve_weights(w)?;
         Ok(())
     }
 }
@@ -809,13 +813,14 @@ impl<
         Self::new(Config::new(table.structure(), table.scaling()))
     }
 
-    fn kernel(&mut self) -> Kernel<'_, T, F> {
+    fn kernel(&mut self) -> Kernel<'_, T, F, R::View<'_>> {
         Kernel {
             config: &self.config,
             nq: NQ,
             np: NP,
             factor: self.factor.view_mut(),
             guard: &mut self.guard,
+            field: core::marker::PhantomData,
         }
     }
 

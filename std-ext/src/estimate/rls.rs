@@ -439,6 +439,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
                 p: &mut self.p,
             },
             guard: &mut self.guard,
+            field: std::marker::PhantomData,
         }
     }
 
