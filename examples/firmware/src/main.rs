@@ -109,7 +109,9 @@ fn main() -> ! {
         Ok(o) => o,
         Err(()) => {
             debug::exit(debug::EXIT_FAILURE);
-            loop {}
+            loop {
+                cortex_m::asm::wfi();
+            }
         }
     };
     let mut probe = StackProbe { sp: 0, peak: 0 };
@@ -135,5 +137,7 @@ fn main() -> ! {
     } else {
         debug::EXIT_FAILURE
     });
-    loop {}
+    loop {
+        cortex_m::asm::wfi();
+    }
 }
