@@ -70,7 +70,7 @@ timeout 300 "${QEMU[@]}" >"$OUT/target.txt"
 cat "$OUT/target.txt"
 
 echo "-- host run of the same code (f32)"
-cargo run --quiet --release --example firmware_host >"$OUT/host.txt"
+cargo run --quiet --example firmware_host >"$OUT/host.txt"
 grep '^est ' "$OUT/target.txt" >"$OUT/target.est"
 grep '^est ' "$OUT/host.txt" >"$OUT/host.est"
 if [ ! -s "$OUT/target.est" ] || ! diff -u "$OUT/host.est" "$OUT/target.est"; then
@@ -79,10 +79,11 @@ if [ ! -s "$OUT/target.est" ] || ! diff -u "$OUT/host.est" "$OUT/target.est"; th
 fi
 echo "firmware (QEMU Cortex-M4F) and host f32 estimates identical: $(wc -l <"$OUT/target.est") lines"
 
-if [ "${FIRMWARE_ICOUNT:-0}" = 1 ]; then
-  echo "-- instructions per update (QEMU, one instruction per translation block, exec trace)"
+icount() {
+  local ELF=$1
   addr=$(readelf -sW "$ELF" | awk '$8 == "rotorid_update_marker" { print $2 }')
   marker=$(printf '%08x' $((16#$addr & ~1)))
+  rm -f "$OUT/trace"
   mkfifo "$OUT/trace"
   awk -v m="$marker" '
     /^Trace/ {
@@ -96,4 +97,13 @@ if [ "${FIRMWARE_ICOUNT:-0}" = 1 ]; then
   timeout 1200 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -semihosting -nographic \
     -singlestep -d exec,nochain -D "$OUT/trace" -kernel "$ELF" >/dev/null
   wait "$awk_pid"
+}
+
+if [ "${FIRMWARE_ICOUNT:-0}" = 1 ]; then
+  echo "-- instructions per update (QEMU, one instruction per translation block, exec trace)"
+  echo "block-structured filter (the firmware):"
+  icount "$ELF"
+  echo "dense filter (--features dense, same program otherwise):"
+  (cd "$FW" && cargo build --release --features dense --target-dir target/dense)
+  icount "$FW/target/dense/thumbv7em-none-eabihf/release/rotorid-firmware"
 fi

@@ -28,6 +28,9 @@ mod sweep {
 #[path = "firmware/src/run.rs"]
 mod run;
 
+/// The firmware's identifier type (the generated `type Id`).
+type FwId = table::Id;
+
 use std::fmt::Write as _;
 
 /// No hooks on the host.

@@ -32,6 +32,21 @@ mod sweep {
 
 mod run;
 
+/// The identifier: the generated `type Id` (block-structured filter), or
+/// with the `dense` feature the same structure with the dense filter.
+#[cfg(not(feature = "dense"))]
+pub type FwId = table::Id;
+/// The identifier: the generated `type Id` (block-structured filter), or
+/// with the `dense` feature the same structure with the dense filter.
+#[cfg(feature = "dense")]
+pub type FwId = rotorid_core::identify::PhysicalIdentifier<
+    f32,
+    { table::NQ },
+    { table::NP },
+    { table::M },
+    { table::N },
+>;
+
 /// The pattern painted on the free stack.
 const PAINT: u32 = 0xA5C3_5A3C;
 

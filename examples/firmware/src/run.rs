@@ -7,7 +7,8 @@
 //! (Core's float formatting would add about 10 KiB of flash.)
 
 use crate::sweep::SWEEP;
-use crate::table::{Id, SCALING, STRUCTURE, TABLE};
+use crate::table::{SCALING, STRUCTURE, TABLE};
+use crate::FwId as Id;
 use core::fmt::{self, Write};
 use rotorid_core::identify::{Config, IdentifyError};
 use rotorid_core::parametrization::COEFFICIENTS;
