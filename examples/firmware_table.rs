@@ -20,7 +20,7 @@
 //!
 //! ```text
 //! let view = TableView::<f32>::parse(blob)?;
-//! let mut id = PhysicalIdentifier::<f32, 4, 3, 22, 8>::from_table(&view)?;
+//! let mut id = PhysicalBlockIdentifier::<f32, 4, 3, 22, 8, 4, 6>::from_table(&view)?;
 //! id.update(&view, omega, &q)?;
 //! let est = id.estimates(omega)?;
 //! ```
@@ -29,7 +29,8 @@
 //! `Id::new(Config::new(STRUCTURE, SCALING))`; see `rotorid_core::identify`.)
 
 use rotorid::io::measurement::Sample;
-use rotorid_core::identify::{IdField, Identifier};
+use rotorid_core::factor::Factor;
+use rotorid_core::identify::{IdField, Identifier, PaperBlockIdentifier, PhysicalBlockIdentifier};
 use rotorid_core::parametrization::Structure;
 use rotorid_core::table::{BearingTable, TableScalar, TableView, Terms};
 use rotorid_core::Complex;
@@ -89,12 +90,12 @@ fn firmware<T: TableScalar + IdField<T>>(
     // structure it was written for.
     match view.structure() {
         s if s == Structure::physical(1) => identify(
-            Identifier::<T, T, NQ, NP, 22, 8>::from_table(&view)?,
+            PhysicalBlockIdentifier::<T, NQ, NP, 22, 8, 4, 6>::from_table(&view)?,
             &view,
             sweep,
         ),
         s if s == Structure::paper(1) => identify(
-            Identifier::<T, Complex<T>, NQ, NP, 19, 4>::from_table(&view)?,
+            PaperBlockIdentifier::<T, NQ, NP, 19, 4, 4, 3>::from_table(&view)?,
             &view,
             sweep,
         ),
@@ -106,8 +107,8 @@ fn firmware<T: TableScalar + IdField<T>>(
 }
 
 /// Runs the sweep through the identifier and prints the estimates.
-fn identify<T: TableScalar, F: IdField<T>, const M: usize, const N: usize>(
-    mut id: Identifier<T, F, NQ, NP, M, N>,
+fn identify<T: TableScalar, F: IdField<T>, const M: usize, const N: usize, R: Factor<F>>(
+    mut id: Identifier<T, F, NQ, NP, M, N, R>,
     view: &TableView<'_, T>,
     sweep: &[Sample],
 ) -> Result<(), Error> {

@@ -12,9 +12,12 @@
 //!    ([`crate::regressor`], [`crate::scaling`]), optionally with each row
 //!    normalised ([`crate::regressor::normalise_rows`]);
 //! 4. the excitation guard picks this step's forgetting factor (below);
-//! 5. the QRD/RLS factor is updated with the slice kernel
-//!    [`crate::qrdrls::update_rows`] (complex field for the `paper`
-//!    structure, real for `physical`).
+//! 5. the QRD/RLS factor is updated (complex field for the `paper`
+//!    structure, real for `physical`): by the block-structured filter
+//!    [`crate::blockqrd`] when the identifier holds a [`BlockFactor`] (each
+//!    row touches one channel's bearing coefficients and the shared
+//!    unbalance unknowns), else by the dense [`crate::qrdrls::update_rows`];
+//!    both give the same numbers.
 //!
 //! Estimates (`K`, `C` per bearing, `m e` and phase per plane, and the
 //! paper structure's consistency values `Im Z_0`, `Re Z_1`) come on demand
@@ -41,6 +44,8 @@
 //! arrays, firmware) and any caller with runtime-sized buffers through
 //! [`Kernel`] (the desktop driver in `rotorid::identify`).
 
+use crate::blockqrd::{BlockFactor, BlockShape};
+use crate::factor::{DenseFactor, Factor, FactorMut, FilterState};
 use crate::parametrization::{
     bearing_estimate, unbalance_estimate, BearingEstimate, Formulation, ParamError, Structure,
     UnbalanceEstimate, MAX_ORDER,
@@ -400,21 +405,24 @@ pub struct GuardState<T> {
 }
 
 /// The identification step on caller buffers (runtime or fixed sizes):
-/// `r` (`M x M`), `p` (`M`) hold the filter state; `d`, `u`, `xi`, `gamma`
+/// `factor` holds the filter state (dense, or block-structured with the
+/// layout [`BlockShape::of`] the structure); `d`, `u`, `xi`, `gamma`
 /// are scratch of lengths `N`, `N x M`, `N`, `N`. Used by [`Identifier`] and
 /// by the desktop driver, so both run exactly the same arithmetic.
 #[derive(Debug)]
-pub struct Kernel<'a, T, F> {
+pub struct Kernel<'a, T, F, V = FactorMut<'a, F>> {
     /// Configuration.
     pub config: &'a Config<T>,
     /// Number of bearing channels `2 N_b`.
     pub nq: usize,
     /// Number of unbalance planes.
     pub np: usize,
-    /// Factor `R`, row-major `M x M`.
-    pub r: &'a mut [F],
-    /// Rotated right-hand side `p`.
-    pub p: &'a mut [F],
+    /// Filter state (factor `R` and rotated right-hand side `p`): a
+    /// [`FactorMut`] (dense or block, chosen at run time) or, statically, a
+    /// [`crate::factor::DenseMut`] or [`crate::blockqrd::BlockMut`].
+    pub factor: V,
+    /// The field `F` of the filter (`Complex<T>` or `T`).
+    pub field: core::marker::PhantomData<F>,
     /// Guard state.
     pub guard: &'a mut GuardState<T>,
 }
@@ -454,7 +462,17 @@ pub fn check_sizes<T: Real, F: IdField<T>>(
     Ok(())
 }
 
-impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
+impl<T: Real, F: IdField<T>, V: FilterState<F>> Kernel<'_, T, F, V> {
+    /// A block-structured factor must have the layout of the structure.
+    fn check_layout(&self) -> Result<(), IdentifyError> {
+        match self.factor.shape() {
+            Some(s) if s != BlockShape::of(self.config.structure, self.nq / 2, self.np) => {
+                Err(IdentifyError::Dimension)
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// Initialises the filter state: `R = sqrt(delta) I`, `w~ = 0`, guard reset.
     pub fn init(&mut self) -> Result<(), IdentifyError> {
         self.config.validate()?;
@@ -462,10 +480,11 @@ impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
             &self.config.structure,
             self.nq,
             self.np,
-            self.p.len(),
+            self.factor.unknowns(),
             self.config.structure.n_rows(self.nq / 2),
         )?;
-        qrdrls::init(self.r, self.p, self.config.delta, None)?;
+        self.check_layout()?;
+        self.factor.init(self.config.delta)?;
         *self.guard = GuardState::default();
         Ok(())
     }
@@ -491,9 +510,10 @@ impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
             return Err(IdentifyError::InvalidSpeed);
         }
         let order = cfg.structure.order;
-        let m = self.p.len();
+        let m = self.factor.unknowns();
         let n = d.len();
         check_sizes::<T, F>(&cfg.structure, self.nq, self.np, m, n)?;
+        self.check_layout()?;
         F::form(order, &cfg.scaling, eq, d, u)?;
         if cfg.normalise_rows {
             regressor::normalise_rows(u, d, n, m)?;
@@ -504,7 +524,7 @@ impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
             Some(w0) => (omega - w0).abs() >= cfg.steady.min_speed_step,
         };
         if excited && cfg.steady.min_diag_ratio > T::zero() {
-            let ratio = qrdrls::r_diag_ratio(self.r)?;
+            let ratio = self.factor.diag_ratio()?;
             if ratio < cfg.steady.min_diag_ratio {
                 excited = false;
             }
@@ -521,7 +541,7 @@ impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
                 relative_residual: T::zero(),
             });
         }
-        qrdrls::update_rows(self.r, self.p, u, d, lambda_used, xi, gamma)?;
+        self.factor.update_rows(u, d, lambda_used, xi, gamma)?;
         // Only now (the filter accepted the step) does the guard move.
         if excited {
             self.guard.anchor = Some(omega);
@@ -550,7 +570,7 @@ impl<T: Real, F: IdField<T>> Kernel<'_, T, F> {
 
     /// Current scaled weights `w~` into `w` (length `M`).
     pub fn weights(&self, w: &mut [F]) -> Result<(), IdentifyError> {
-        qrdrls::solve_weights(self.r, self.p, w)?;
+        self.factor.solve_weights(w)?;
         Ok(())
     }
 }
@@ -672,21 +692,80 @@ pub struct Estimates<T, const NQ: usize, const NP: usize> {
 /// let config = Config::<f32>::new(Structure::physical(1), ColumnScaling::identity());
 /// let id = PhysicalIdentifier::<f32, 4, 3, 21, 8>::new(config);
 /// ```
+///
+/// # Filter state
+///
+/// `R` is the filter's storage ([`Factor`]): [`DenseFactor`] (the default
+/// of the type, `M^2 + M` entries) or the block-structured [`BlockFactor`]
+/// with `NB = NQ` blocks of `W` channel coefficients and `S` shared
+/// unbalance unknowns ([`BlockShape::of`]; the aliases
+/// [`PaperBlockIdentifier`], [`PhysicalBlockIdentifier`]), which stores
+/// only the blocks and updates in time linear in `N_b`. The generated
+/// `type Id` of `rotorid tables` is the block-structured one. A block
+/// layout that is not the structure's is [`IdentifyError::Dimension`].
 #[derive(Debug, Clone, PartialEq)]
-pub struct Identifier<T, F, const NQ: usize, const NP: usize, const M: usize, const N: usize> {
+pub struct Identifier<
+    T,
+    F,
+    const NQ: usize,
+    const NP: usize,
+    const M: usize,
+    const N: usize,
+    R = DenseFactor<F, M>,
+> {
     config: Config<T>,
-    r: [[F; M]; M],
-    p: [F; M],
+    factor: R,
     guard: GuardState<T>,
+    _field: core::marker::PhantomData<F>,
 }
 
-/// Identifier with the paper's complex unknowns.
-pub type PaperIdentifier<T, const NQ: usize, const NP: usize, const M: usize, const N: usize> =
-    Identifier<T, Complex<T>, NQ, NP, M, N>;
+/// Identifier with the paper's complex unknowns (dense factor unless `R`
+/// says otherwise).
+pub type PaperIdentifier<
+    T,
+    const NQ: usize,
+    const NP: usize,
+    const M: usize,
+    const N: usize,
+    R = DenseFactor<Complex<T>, M>,
+> = Identifier<T, Complex<T>, NQ, NP, M, N, R>;
 
-/// Identifier with real K, C unknowns.
-pub type PhysicalIdentifier<T, const NQ: usize, const NP: usize, const M: usize, const N: usize> =
-    Identifier<T, T, NQ, NP, M, N>;
+/// Identifier with real K, C unknowns (dense factor unless `R` says
+/// otherwise).
+pub type PhysicalIdentifier<
+    T,
+    const NQ: usize,
+    const NP: usize,
+    const M: usize,
+    const N: usize,
+    R = DenseFactor<T, M>,
+> = Identifier<T, T, NQ, NP, M, N, R>;
+
+/// Paper-structure identifier with the block-structured filter: `W`
+/// coefficients per channel (`2 (P + 1)`), `S = N_p` shared unbalance
+/// unknowns (see [`BlockShape::of`]).
+pub type PaperBlockIdentifier<
+    T,
+    const NQ: usize,
+    const NP: usize,
+    const M: usize,
+    const N: usize,
+    const W: usize,
+    const S: usize,
+> = Identifier<T, Complex<T>, NQ, NP, M, N, BlockFactor<Complex<T>, NQ, W, S>>;
+
+/// Physical-structure identifier with the block-structured filter: `W`
+/// coefficients per channel (`4 P`), `S = 2 N_p` shared unbalance unknowns
+/// (see [`BlockShape::of`]).
+pub type PhysicalBlockIdentifier<
+    T,
+    const NQ: usize,
+    const NP: usize,
+    const M: usize,
+    const N: usize,
+    const W: usize,
+    const S: usize,
+> = Identifier<T, T, NQ, NP, M, N, BlockFactor<T, NQ, W, S>>;
 
 /// The structure of formulation `formulation` with `m` unknowns and `n`
 /// rows for `nq` channels and `np` planes; a compile-time error (in a const
@@ -727,8 +806,15 @@ const fn structure_of(
     s
 }
 
-impl<T: Real, F: IdField<T>, const NQ: usize, const NP: usize, const M: usize, const N: usize>
-    Identifier<T, F, NQ, NP, M, N>
+impl<
+        T: Real,
+        F: IdField<T>,
+        const NQ: usize,
+        const NP: usize,
+        const M: usize,
+        const N: usize,
+        R: Factor<F>,
+    > Identifier<T, F, NQ, NP, M, N, R>
 {
     /// The model structure the type determines: the formulation of `F`
     /// ([`IdField::FORMULATION`]) and the order that gives `M` unknowns for
@@ -756,9 +842,9 @@ impl<T: Real, F: IdField<T>, const NQ: usize, const NP: usize, const M: usize, c
         config.validate()?;
         let mut s = Identifier {
             config,
-            r: [[F::zero(); M]; M],
-            p: [F::zero(); M],
+            factor: R::zeroed(),
             guard: GuardState::default(),
+            _field: core::marker::PhantomData,
         };
         s.kernel().init()?;
         Ok(s)
@@ -779,14 +865,14 @@ impl<T: Real, F: IdField<T>, const NQ: usize, const NP: usize, const M: usize, c
         Self::new(Config::new(table.structure(), table.scaling()))
     }
 
-    fn kernel(&mut self) -> Kernel<'_, T, F> {
+    fn kernel(&mut self) -> Kernel<'_, T, F, R::View<'_>> {
         Kernel {
             config: &self.config,
             nq: NQ,
             np: NP,
-            r: self.r.as_flattened_mut(),
-            p: &mut self.p,
+            factor: self.factor.view_mut(),
             guard: &mut self.guard,
+            field: core::marker::PhantomData,
         }
     }
 
@@ -854,19 +940,23 @@ impl<T: Real, F: IdField<T>, const NQ: usize, const NP: usize, const M: usize, c
     /// The scaled weights `w~` (back-substitution).
     pub fn scaled_weights(&self) -> Result<[F; M], IdentifyError> {
         let mut w = [F::zero(); M];
-        qrdrls::solve_weights(self.r.as_flattened(), &self.p, &mut w)?;
+        self.factor.view().solve_weights(&mut w)?;
         Ok(w)
     }
 
-    /// The filter state: the triangular factor `R` and the rotated
-    /// right-hand side `p` (scaled unknowns).
-    pub fn state(&self) -> (&[[F; M]; M], &[F; M]) {
-        (&self.r, &self.p)
+    /// The filter state: its storage (the triangular factor `R` and the
+    /// rotated right-hand side `p`, scaled unknowns); for the dense
+    /// storage [`DenseFactor::parts`] gives the arrays.
+    pub fn state(&self) -> &R {
+        &self.factor
     }
 
     /// `min|R_ii| / max|R_ii|` of the factor.
     pub fn diag_ratio(&self) -> T {
-        qrdrls::r_diag_ratio(self.r.as_flattened()).unwrap_or_else(|_| T::zero())
+        self.factor
+            .view()
+            .diag_ratio()
+            .unwrap_or_else(|_| T::zero())
     }
 
     /// Physical estimates, bearing coefficients evaluated at `omega` (rad/s;
@@ -1210,7 +1300,7 @@ mod tests {
             let q = [Complex::new(q, -q); NQ];
             let _ = id.update_with_terms(700.0, &t.a, &t.b, &q);
         }
-        let before = (id.r, id.p, id.guard);
+        let before = (id.factor.clone(), id.guard);
         match id.estimates(700.0) {
             Ok(e) => {
                 for b in &e.bearings {
@@ -1228,7 +1318,7 @@ mod tests {
                 "{err:?}"
             ),
         }
-        assert_eq!((id.r, id.p, id.guard), before);
+        assert_eq!((id.factor.clone(), id.guard), before);
         // Finite weights whose unscaled value overflows f32.
         let w = [1e38f32; 22];
         let zero_b = BearingEstimate {
@@ -1260,7 +1350,7 @@ mod tests {
             PaperIdentifier::<f64, NQ, NP, 19, 4>::new(config(Structure::paper(1), 0.99, 1e-3))
                 .unwrap();
         run(&sys, &mut id);
-        let before = (id.r, id.p, id.guard);
+        let before = (id.factor.clone(), id.guard);
         let t = sys.terms_arrays::<f64>(700.0);
         let mut q = [C64::new(1e-6, 0.0); NQ];
         q[2].im = f64::NAN;
@@ -1283,7 +1373,7 @@ mod tests {
             id.update_with_terms(700.0, &tb.a, &tb.b, &q),
             Err(IdentifyError::NonFinite)
         );
-        assert_eq!((id.r, id.p, id.guard), before);
+        assert_eq!((id.factor.clone(), id.guard), before);
     }
 
     #[test]
@@ -1324,13 +1414,13 @@ mod tests {
         let q = sys.q(1000.0);
         let mut qa: [C64; NQ] = core::array::from_fn(|j| q[j]);
         id.update_with_terms(1000.0, &t.a, &t.b, &qa).unwrap();
-        let before = (id.r, id.p);
+        let before = id.factor.clone();
         for i in 0..50 {
             qa[0] *= 1.0 + 1e-3 * i as f64; // noisy data must not matter
             let rep = id.update_with_terms(1000.5, &t.a, &t.b, &qa).unwrap();
             assert!(!rep.excited);
         }
-        assert_eq!((id.r, id.p), before);
+        assert_eq!(id.factor, before);
         assert_eq!(id.guard().frozen, 50);
     }
 

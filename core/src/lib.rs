@@ -30,7 +30,9 @@ extern crate std;
 
 #[cfg(feature = "baseline")]
 pub mod baseline;
+pub mod blockqrd;
 pub mod crc32;
+pub mod factor;
 pub mod givens;
 pub mod identify;
 pub mod parametrization;

@@ -40,7 +40,7 @@ fn take_u16(data: &mut &[u8]) -> Option<u16> {
 fn bits<T: Real, F: IdField<T>, const M: usize, const N: usize>(
     id: &Identifier<T, F, NQ, NP, M, N>,
 ) -> Vec<u64> {
-    let (r, p) = id.state();
+    let (r, p) = id.state().parts();
     r.iter()
         .flatten()
         .chain(p.iter())
@@ -94,7 +94,7 @@ fn run<T: Real, F: IdField<T>, const M: usize, const N: usize>(
         let guard = *id.guard();
         match id.update(&view, omega, &q) {
             Ok(_) => {
-                let (r, p) = id.state();
+                let (r, p) = id.state().parts();
                 assert!(
                     r.iter()
                         .flatten()

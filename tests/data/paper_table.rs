@@ -23,8 +23,12 @@ pub const SCALING: rotorid_core::scaling::ColumnScaling<f64> = rotorid_core::sca
 pub const M: usize = STRUCTURE.n_unknowns(NQ / 2, NP);
 /// Rows `N` per update of the structure.
 pub const N: usize = STRUCTURE.n_rows(NQ / 2);
-/// The firmware identifier for this table: `Id::new(Config::new(STRUCTURE, SCALING))`.
-pub type Id = rotorid_core::identify::PhysicalIdentifier<f64, NQ, NP, M, N>;
+/// Block layout of the filter: `W` coefficients per channel, `S` shared unbalance unknowns.
+pub const W: usize = rotorid_core::blockqrd::BlockShape::of(STRUCTURE, NQ / 2, NP).width;
+/// Shared (unbalance) unknowns of the block layout.
+pub const S: usize = rotorid_core::blockqrd::BlockShape::of(STRUCTURE, NQ / 2, NP).shared;
+/// The firmware identifier for this table (block-structured filter): `Id::new(Config::new(STRUCTURE, SCALING))`.
+pub type Id = rotorid_core::identify::PhysicalBlockIdentifier<f64, NQ, NP, M, N, W, S>;
 /// A (N/m) and B (1/s^2) per speed (rad/s), with the poles (rad/s) of the reduced model.
 #[allow(clippy::approx_constant, clippy::excessive_precision, clippy::unreadable_literal)]
 pub static TABLE: rotorid_core::table::Table<f64, NQ, NP, NS> = rotorid_core::table::Table {

@@ -1,12 +1,15 @@
 //! The firmware path (core only: f32 table blob, const-generic identifier
 //! set up from the blob's structure and scaling, the `Id` type of a
-//! generated table source) against the desktop path (runtime sizes, f32) on
-//! the same sweep: bit-identical estimates.
+//! generated table source, block-structured filter) against the desktop
+//! path (runtime sizes, dense filter, f32) on the same sweep: bit-identical
+//! estimates.
 
 use crate::common::*;
 use num_complex::Complex;
+use rotorid::core::factor::Factor;
 use rotorid::core::identify::{
-    Config, IdField, Identifier, IdentifyError, PaperIdentifier, PhysicalIdentifier,
+    Config, IdField, Identifier, IdentifyError, PaperBlockIdentifier, PaperIdentifier,
+    PhysicalBlockIdentifier, PhysicalIdentifier,
 };
 use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
@@ -29,9 +32,9 @@ mod generated {
 }
 
 /// Runs the sweep through `id`, the terms from the blob.
-fn firmware_run<F: IdField<f32>, const M: usize, const N: usize>(
+fn firmware_run<F: IdField<f32>, const M: usize, const N: usize, R: Factor<F>>(
     blob: &[u8],
-    mut id: Identifier<f32, F, NQ, NP, M, N>,
+    mut id: Identifier<f32, F, NQ, NP, M, N, R>,
     meas: &rotorid::io::measurement::Measurements,
 ) -> rotorid::core::identify::Estimates<f32, NQ, NP> {
     let view = TableView::<f32>::parse(blob).unwrap();
@@ -111,9 +114,13 @@ fn firmware_and_desktop_paths_agree_in_f32() {
             ));
             firmware_run(&blob, id, &meas)
         } else {
-            let id = PaperIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view).unwrap();
+            let id = PaperBlockIdentifier::<f32, NQ, NP, 19, 4, 4, 3>::from_table(&view).unwrap();
             assert_eq!(id.config().structure, Structure::paper(1));
-            firmware_run(&blob, id, &meas)
+            let dense = PaperIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view).unwrap();
+            // Block-structured and dense filters: the same estimates.
+            let fw = firmware_run(&blob, id, &meas);
+            assert_eq!(fw, firmware_run(&blob, dense, &meas));
+            fw
         };
         let mut opts = Options::new(structure);
         opts.precision = Precision::F32;
@@ -137,7 +144,7 @@ fn firmware_and_desktop_paths_agree_in_f32() {
     // Type aliases are the same identifiers.
     let _ = PaperIdentifier::<f32, NQ, NP, 19, 4>::new;
     let _: fn(Config<f32>) -> Result<generated::Id, IdentifyError> =
-        PhysicalIdentifier::<f32, NQ, NP, 22, 8>::new;
+        PhysicalBlockIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::new;
 }
 
 /// The product paths end to end: `rotorid::tables::build` (banded

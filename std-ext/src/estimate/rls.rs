@@ -20,6 +20,7 @@ use crate::model::{BearingLaw, ModelError, RotorModel, Unbalance};
 use crate::reduce::ReductionError;
 use nalgebra::DMatrix;
 use num_complex::{Complex, Complex64};
+use rotorid_core::factor::FactorMut;
 use rotorid_core::identify::{
     check_sizes, estimates_into, Config, GuardState, IdField, IdentifyError as CoreError, Kernel,
     Scratch, SteadyPolicy, StepReport,
@@ -439,9 +440,12 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
             config: &self.config,
             nq: self.nq,
             np: self.np,
-            r: &mut self.r,
-            p: &mut self.p,
+            factor: FactorMut::Dense {
+                r: &mut self.r,
+                p: &mut self.p,
+            },
             guard: &mut self.guard,
+            field: std::marker::PhantomData,
         }
     }
 

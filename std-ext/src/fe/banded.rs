@@ -297,15 +297,32 @@ impl BandedMatrix {
         let ab = &mut self.ab;
         for j in 0..n {
             let km = kl.min(n - 1 - j);
-            // Pivot search in column j, rows j..=j+km (storage rows kv..=kv+km).
+            // Pivot search in column j, rows j..=j+km (storage rows kv..=kv+km),
+            // by the squared magnitude |a|^2 = re^2 + im^2: the same order as
+            // |a|, so the same pivots up to rounding ties, without the `hypot`
+            // of `norm()`, which took most of the factorisation time. Squares
+            // that overflow (|a| > 1e154) compare as infinite (the first is
+            // taken, a valid pivot); if all squares underflow to 0 the search
+            // is repeated with |a|. (LAPACK's |re| + |im| changes the pivots
+            // enough to move the reduced terms beyond round-off at the lowest
+            // speeds, see `tests/tables/reduction.rs`.)
             let col = j * ldab;
             let mut jp = 0usize;
             let mut best = -1.0f64;
             for p in 0..=km {
-                let a = ab[col + kv + p].norm();
+                let a = ab[col + kv + p].norm_sqr();
                 if a > best {
                     best = a;
                     jp = p;
+                }
+            }
+            if best == 0.0 {
+                for p in 0..=km {
+                    let a = ab[col + kv + p].norm();
+                    if a > best {
+                        best = a;
+                        jp = p;
+                    }
                 }
             }
             ipiv[j] = j + jp;

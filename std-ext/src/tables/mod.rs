@@ -487,7 +487,9 @@ impl ModelTable {
     /// pub const SCALING: rotorid_core::scaling::ColumnScaling<T> = ColumnScaling { .. };
     /// pub const M: usize = STRUCTURE.n_unknowns(NQ / 2, NP);
     /// pub const N: usize = STRUCTURE.n_rows(NQ / 2);
-    /// pub type Id = rotorid_core::identify::PhysicalIdentifier<T, NQ, NP, M, N>; // or PaperIdentifier
+    /// pub const W: usize = BlockShape::of(STRUCTURE, NQ / 2, NP).width;
+    /// pub const S: usize = BlockShape::of(STRUCTURE, NQ / 2, NP).shared;
+    /// pub type Id = rotorid_core::identify::PhysicalBlockIdentifier<T, NQ, NP, M, N, W, S>; // or PaperBlockIdentifier
     /// pub static TABLE: rotorid_core::table::Table<T, NQ, NP, NS> = ..;
     /// ```
     ///
@@ -564,8 +566,8 @@ impl ModelTable {
             list(&self.plane_nodes)
         );
         let (ctor, id_alias) = match self.structure.formulation {
-            Formulation::Physical => ("physical", "PhysicalIdentifier"),
-            Formulation::Paper => ("paper", "PaperIdentifier"),
+            Formulation::Physical => ("physical", "PhysicalBlockIdentifier"),
+            Formulation::Paper => ("paper", "PaperBlockIdentifier"),
         };
         let order = self.structure.order;
         let _ = writeln!(
@@ -607,11 +609,24 @@ impl ModelTable {
         let _ = writeln!(w, "pub const N: usize = STRUCTURE.n_rows(NQ / 2);");
         let _ = writeln!(
             w,
-            "/// The firmware identifier for this table: `Id::new(Config::new(STRUCTURE, SCALING))`."
+            "/// Block layout of the filter: `W` coefficients per channel, `S` shared unbalance unknowns."
         );
         let _ = writeln!(
             w,
-            "pub type Id = rotorid_core::identify::{id_alias}<{ty}, NQ, NP, M, N>;"
+            "pub const W: usize = rotorid_core::blockqrd::BlockShape::of(STRUCTURE, NQ / 2, NP).width;"
+        );
+        let _ = writeln!(w, "/// Shared (unbalance) unknowns of the block layout.");
+        let _ = writeln!(
+            w,
+            "pub const S: usize = rotorid_core::blockqrd::BlockShape::of(STRUCTURE, NQ / 2, NP).shared;"
+        );
+        let _ = writeln!(
+            w,
+            "/// The firmware identifier for this table (block-structured filter): `Id::new(Config::new(STRUCTURE, SCALING))`."
+        );
+        let _ = writeln!(
+            w,
+            "pub type Id = rotorid_core::identify::{id_alias}<{ty}, NQ, NP, M, N, W, S>;"
         );
         let _ = writeln!(w, "/// A (N/m) and B (1/s^2) per speed (rad/s), with the poles (rad/s) of the reduced model.");
         let _ = writeln!(

@@ -1,0 +1,109 @@
+#!/usr/bin/env bash
+# The Cortex-M4F firmware (examples/firmware): build it for
+# thumbv7em-none-eabihf, print its footprint, run it under QEMU's MPS2-AN386
+# board model (Cortex-M4 with FPU) and check that its estimates equal those
+# of the host f32 run of the same code (examples/firmware_host.rs).
+#
+#   .ci/firmware.sh            build, footprint, QEMU run, comparison
+#   FIRMWARE_ICOUNT=1 .ci/firmware.sh
+#                              also counts the instructions of each update
+#                              (QEMU one instruction per block, exec trace)
+#
+# Without qemu-system-arm (and no way to install it) the build and the
+# footprint still run and a loud warning says the QEMU check was skipped.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+FW=examples/firmware
+ELF=$FW/target/thumbv7em-none-eabihf/release/rotorid-firmware
+OUT=$(mktemp -d)
+trap 'rm -rf "$OUT"' EXIT
+
+banner() {
+  echo "!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!"
+  for line in "$@"; do echo "!! $line"; done
+  echo "!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!"
+}
+
+echo "-- firmware build (thumbv7em-none-eabihf, release)"
+rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 || true
+(cd "$FW" && cargo build --release)
+
+echo "-- footprint"
+# Section sizes (bytes) and the two data arrays (table, measured sweep).
+sec() {
+  local hex
+  hex=$(readelf -SW "$ELF" | sed 's/^ *\[ *[0-9]*\]//' | awk -v n="$1" '$1 == n { print $5 }')
+  echo $((16#${hex:-0}))
+}
+sym() { readelf -sW "$ELF" | awk -v n="$1" '$8 ~ n { s += $3 } END { print s + 0 }'; }
+vt=$(sec .vector_table); text=$(sec .text); rodata=$(sec .rodata)
+data=$(sec .data); bss=$(sec .bss); uninit=$(sec .uninit)
+table=$(sym '5table5TABLE'); sweep=$(sym '5sweep5SWEEP')
+code_flash=$((vt + text + rodata + data - table - sweep))
+echo "flash: .vector_table $vt + .text $text + .rodata $rodata + .data $data = $((vt + text + rodata + data)) bytes"
+echo "       of which the model table $table and the measured sweep $sweep: program $code_flash bytes"
+echo "static RAM: .data $data + .bss $bss + .uninit $uninit = $((data + bss + uninit)) bytes"
+if [ "$code_flash" -ge 32768 ] || [ $((data + bss + uninit)) -ge 8192 ]; then
+  echo "error: firmware over budget (32 KiB flash without tables, 8 KiB static RAM)" >&2
+  exit 1
+fi
+
+if ! command -v qemu-system-arm >/dev/null 2>&1; then
+  echo "-- qemu-system-arm missing: trying to install it"
+  if [ "$(id -u)" = 0 ]; then
+    (apt-get update -qq && apt-get install -y -qq qemu-system-arm) >/dev/null 2>&1 || true
+  elif command -v sudo >/dev/null 2>&1; then
+    (sudo -n apt-get update -qq && sudo -n apt-get install -y -qq qemu-system-arm) >/dev/null 2>&1 || true
+  fi
+fi
+if ! command -v qemu-system-arm >/dev/null 2>&1; then
+  banner "WARNING: qemu-system-arm is not available and could not be installed:" \
+         "the firmware was BUILT but NOT RUN; its estimates were NOT checked" \
+         "against the host f32 run."
+  exit 0
+fi
+
+QEMU=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -semihosting -nographic -kernel "$ELF")
+echo "-- firmware run: ${QEMU[*]}"
+timeout 300 "${QEMU[@]}" >"$OUT/target.txt"
+cat "$OUT/target.txt"
+
+echo "-- host run of the same code (f32)"
+cargo run --quiet --example firmware_host >"$OUT/host.txt"
+grep '^est ' "$OUT/target.txt" >"$OUT/target.est"
+grep '^est ' "$OUT/host.txt" >"$OUT/host.est"
+if [ ! -s "$OUT/target.est" ] || ! diff -u "$OUT/host.est" "$OUT/target.est"; then
+  echo "error: the firmware's estimates differ from the host f32 run (diff above: - host, + target)" >&2
+  exit 1
+fi
+echo "firmware (QEMU Cortex-M4F) and host f32 estimates identical: $(wc -l <"$OUT/target.est") lines"
+
+icount() {
+  local ELF=$1
+  addr=$(readelf -sW "$ELF" | awk '$8 == "rotorid_update_marker" { print $2 }')
+  marker=$(printf '%08x' $((16#$addr & ~1)))
+  rm -f "$OUT/trace"
+  mkfifo "$OUT/trace"
+  awk -v m="$marker" '
+    /^Trace/ {
+      split($0, a, "[][/]"); pc = a[3];
+      if (pc == m) { if (inside) { n++; s += c; if (c > mx) mx = c; if (!mn || c < mn) mn = c; inside = 0 } else { inside = 1; c = 0 } }
+      else if (inside) c++
+    }
+    END { if (n) printf "updates %d: mean %.0f, min %d, max %d instructions (from one marker call to the next)\n", n, s / n, mn, mx }
+  ' "$OUT/trace" &
+  awk_pid=$!
+  timeout 1200 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -semihosting -nographic \
+    -singlestep -d exec,nochain -D "$OUT/trace" -kernel "$ELF" >/dev/null
+  wait "$awk_pid"
+}
+
+if [ "${FIRMWARE_ICOUNT:-0}" = 1 ]; then
+  echo "-- instructions per update (QEMU, one instruction per translation block, exec trace)"
+  echo "block-structured filter (the firmware):"
+  icount "$ELF"
+  echo "dense filter (--features dense, same program otherwise):"
+  (cd "$FW" && cargo build --release --features dense --target-dir target/dense)
+  icount "$FW/target/dense/thumbv7em-none-eabihf/release/rotorid-firmware"
+fi

@@ -1,0 +1,335 @@
+//! The filter state of an identifier: the dense QRD/RLS factor
+//! ([`crate::qrdrls`], `M x M`) or the block-structured one
+//! ([`crate::blockqrd`], only the blocks), behind one interface.
+//!
+//! [`FactorMut`] / [`FactorRef`] are views on caller storage (slices), so
+//! the same identification step ([`crate::identify::Kernel`]) runs on the
+//! firmware's inline arrays and on the desktop's vectors. [`Factor`] is the
+//! inline storage a const-generic [`crate::identify::Identifier`] owns:
+//! [`DenseFactor`] (`M^2 + M` entries) or [`BlockFactor`] (`NB W^2 + NB W S
+//! + S^2 + 2 M` entries). Both give the same numbers (see
+//! [`crate::blockqrd`]); the dense one serves any row structure.
+
+use crate::blockqrd::{BlockFactor, BlockMut, BlockRef, BlockShape};
+use crate::qrdrls::{self, FilterError};
+use crate::Real;
+use core::fmt::Debug;
+use nalgebra::ComplexField;
+
+/// Mutable view of a filter state.
+#[derive(Debug)]
+pub enum FactorMut<'a, F> {
+    /// Dense factor: `r` row-major `M x M`, `p` (`M`).
+    Dense {
+        /// Factor `R`.
+        r: &'a mut [F],
+        /// Rotated right-hand side `p`.
+        p: &'a mut [F],
+    },
+    /// Block-structured factor.
+    Block(BlockMut<'a, F>),
+}
+
+/// Read-only view of a filter state.
+#[derive(Debug, Clone, Copy)]
+pub enum FactorRef<'a, F> {
+    /// Dense factor: `r` row-major `M x M`, `p` (`M`).
+    Dense {
+        /// Factor `R`.
+        r: &'a [F],
+        /// Rotated right-hand side `p`.
+        p: &'a [F],
+    },
+    /// Block-structured factor.
+    Block(BlockRef<'a, F>),
+}
+
+impl<F, T> FactorMut<'_, F>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    /// Number of unknowns `M`.
+    pub fn unknowns(&self) -> usize {
+        match self {
+            FactorMut::Dense { p, .. } => p.len(),
+            FactorMut::Block(b) => b.shape.unknowns(),
+        }
+    }
+
+    /// The block layout, `None` for the dense factor.
+    pub fn shape(&self) -> Option<BlockShape> {
+        match self {
+            FactorMut::Dense { .. } => None,
+            FactorMut::Block(b) => Some(b.shape),
+        }
+    }
+
+    /// `R = sqrt(delta) I`, `p = 0` ([`qrdrls::init`], [`BlockMut::init`]).
+    pub fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        match self {
+            FactorMut::Dense { r, p } => qrdrls::init(r, p, delta, None),
+            FactorMut::Block(b) => b.init(delta, None),
+        }
+    }
+
+    /// Folds in `N` rows ([`qrdrls::update_rows`], [`BlockMut::update_rows`]);
+    /// errors leave the state unchanged.
+    pub fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        match self {
+            FactorMut::Dense { r, p } => qrdrls::update_rows(r, p, u, d, lambda, xi, gamma),
+            FactorMut::Block(b) => b.update_rows(u, d, lambda, xi, gamma),
+        }
+    }
+
+    /// The read-only view.
+    pub fn as_ref(&self) -> FactorRef<'_, F> {
+        match self {
+            FactorMut::Dense { r, p } => FactorRef::Dense { r, p },
+            FactorMut::Block(b) => FactorRef::Block(b.as_ref()),
+        }
+    }
+}
+
+impl<F, T> FactorRef<'_, F>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    /// Back-substitution `R w = p` into `w` (`M` entries).
+    pub fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        match self {
+            FactorRef::Dense { r, p } => qrdrls::solve_weights(r, p, w),
+            FactorRef::Block(b) => b.solve_weights(w),
+        }
+    }
+
+    /// `min|R_ii| / max|R_ii|`.
+    pub fn diag_ratio(&self) -> Result<T, FilterError> {
+        match self {
+            FactorRef::Dense { r, .. } => qrdrls::r_diag_ratio(r),
+            FactorRef::Block(b) => Ok(b.diag_ratio()),
+        }
+    }
+}
+
+/// What the identification step needs of a filter state (implemented by
+/// the run-time dispatching [`FactorMut`] and, statically, by [`DenseMut`]
+/// and [`BlockMut`], so that a firmware build holds only the filter it
+/// uses).
+pub trait FilterState<F: ComplexField> {
+    /// Number of unknowns `M`.
+    fn unknowns(&self) -> usize;
+    /// The block layout, `None` for a dense factor.
+    fn shape(&self) -> Option<BlockShape>;
+    /// `R = sqrt(delta) I`, `p = 0`.
+    fn init(&mut self, delta: F::RealField) -> Result<(), FilterError>;
+    /// Folds in `N` rows; errors leave the state unchanged.
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: F::RealField,
+        xi: &mut [F],
+        gamma: &mut [F::RealField],
+    ) -> Result<(), FilterError>;
+    /// Back-substitution `R w = p` into `w` (`M` entries).
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError>;
+    /// `min|R_ii| / max|R_ii|`.
+    fn diag_ratio(&self) -> Result<F::RealField, FilterError>;
+}
+
+impl<F, T> FilterState<F> for FactorMut<'_, F>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn unknowns(&self) -> usize {
+        FactorMut::unknowns(self)
+    }
+    fn shape(&self) -> Option<BlockShape> {
+        FactorMut::shape(self)
+    }
+    fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        FactorMut::init(self, delta)
+    }
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        FactorMut::update_rows(self, u, d, lambda, xi, gamma)
+    }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        self.as_ref().solve_weights(w)
+    }
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        self.as_ref().diag_ratio()
+    }
+}
+
+/// Mutable view of a dense state: `r` row-major `M x M`, `p` (`M`).
+#[derive(Debug)]
+pub struct DenseMut<'a, F> {
+    /// Factor `R`.
+    pub r: &'a mut [F],
+    /// Rotated right-hand side `p`.
+    pub p: &'a mut [F],
+}
+
+impl<F, T> FilterState<F> for DenseMut<'_, F>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn unknowns(&self) -> usize {
+        self.p.len()
+    }
+    fn shape(&self) -> Option<BlockShape> {
+        None
+    }
+    fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        qrdrls::init(self.r, self.p, delta, None)
+    }
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        qrdrls::update_rows(self.r, self.p, u, d, lambda, xi, gamma)
+    }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        qrdrls::solve_weights(self.r, self.p, w)
+    }
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        qrdrls::r_diag_ratio(self.r)
+    }
+}
+
+impl<F, T> FilterState<F> for BlockMut<'_, F>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn unknowns(&self) -> usize {
+        self.shape.unknowns()
+    }
+    fn shape(&self) -> Option<BlockShape> {
+        Some(self.shape)
+    }
+    fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        BlockMut::init(self, delta, None)
+    }
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        BlockMut::update_rows(self, u, d, lambda, xi, gamma)
+    }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        self.as_ref().solve_weights(w)
+    }
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        Ok(self.as_ref().diag_ratio())
+    }
+}
+
+/// Inline storage of a filter state, owned by a const-generic identifier.
+pub trait Factor<F: ComplexField>: Clone + Debug + PartialEq {
+    /// The mutable view the identification step works on.
+    type View<'a>: FilterState<F>
+    where
+        Self: 'a;
+    /// All zero (the identifier initialises it).
+    fn zeroed() -> Self;
+    /// Mutable view (static dispatch).
+    fn view_mut(&mut self) -> Self::View<'_>;
+    /// Read-only view.
+    fn view(&self) -> FactorRef<'_, F>;
+}
+
+/// Dense `M x M` factor and `p`: `M^2 + M` entries of `F`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DenseFactor<F, const M: usize> {
+    r: [[F; M]; M],
+    p: [F; M],
+}
+
+impl<F, const M: usize> DenseFactor<F, M> {
+    /// The triangular factor `R` and the rotated right-hand side `p`.
+    pub fn parts(&self) -> (&[[F; M]; M], &[F; M]) {
+        (&self.r, &self.p)
+    }
+}
+
+impl<F, T, const M: usize> Factor<F> for DenseFactor<F, M>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    type View<'a>
+        = DenseMut<'a, F>
+    where
+        Self: 'a;
+
+    fn zeroed() -> Self {
+        DenseFactor {
+            r: [[F::zero(); M]; M],
+            p: [F::zero(); M],
+        }
+    }
+
+    fn view_mut(&mut self) -> DenseMut<'_, F> {
+        DenseMut {
+            r: self.r.as_flattened_mut(),
+            p: &mut self.p,
+        }
+    }
+
+    fn view(&self) -> FactorRef<'_, F> {
+        FactorRef::Dense {
+            r: self.r.as_flattened(),
+            p: &self.p,
+        }
+    }
+}
+
+impl<F, T, const NB: usize, const W: usize, const S: usize> Factor<F> for BlockFactor<F, NB, W, S>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    type View<'a>
+        = BlockMut<'a, F>
+    where
+        Self: 'a;
+
+    fn zeroed() -> Self {
+        BlockFactor::zeroed()
+    }
+
+    fn view_mut(&mut self) -> BlockMut<'_, F> {
+        BlockFactor::view_mut(self)
+    }
+
+    fn view(&self) -> FactorRef<'_, F> {
+        FactorRef::Block(BlockFactor::view(self))
+    }
+}

@@ -1,0 +1,102 @@
+//! The host half of the Cortex-M4F firmware (`examples/firmware/`): runs the
+//! firmware's identification (`examples/firmware/src/run.rs`, the same
+//! source) over the same generated f32 table and sweep on the host, and
+//! prints the same `est` lines; `.ci/firmware.sh` checks that the QEMU run
+//! prints them identically.
+//!
+//! ```sh
+//! cargo run --release --example firmware_host
+//! cargo run --release --example firmware_host -- --write-sweep examples/firmware/src/sweep.rs
+//! ```
+//!
+//! `--write-sweep` writes the firmware's measured sweep: the paper rotor
+//! simulated at 1000..12000 rpm in steps of 100 rpm with 0.1 % noise
+//! (seed 1), as f32 phasors. The table beside it comes from
+//! `rotorid tables --model paper --rpm-min 1000 --rpm-max 12000 --rpm-step 250 --f32`.
+
+/// The generated table (`TABLE`, `STRUCTURE`, `SCALING`, `type Id`).
+#[allow(dead_code)]
+mod table {
+    include!("firmware/src/table.rs");
+}
+
+/// The measured sweep (`SWEEP`).
+mod sweep {
+    include!("firmware/src/sweep.rs");
+}
+
+#[path = "firmware/src/run.rs"]
+mod run;
+
+/// The firmware's identifier type (the generated `type Id`).
+type FwId = table::Id;
+
+use std::fmt::Write as _;
+
+/// No hooks on the host.
+struct NoProbe;
+
+impl run::Probe for NoProbe {}
+
+/// Writes the sweep source (speeds in rad/s, phasors in m, f32).
+fn write_sweep(path: &str) -> Result<(), Box<dyn std::error::Error>> {
+    let model = rotorid::model::RotorModel::paper();
+    let opts = rotorid::simulate::SimOptions {
+        speeds_rpm: (10..=120).map(|i| 100.0 * i as f64).collect(),
+        noise: 0.0,
+        seed: 1,
+        effects: Default::default(),
+    };
+    let mut meas = rotorid::simulate::simulate(&model, &opts)?;
+    rotorid::simulate::add_noise(&mut meas, 0.001, 1)?;
+    let mut s = String::new();
+    writeln!(
+        s,
+        "// The paper rotor's 1X responses at its bearings (b1_y, b1_z, b2_y, b2_z), \
+         1000..12000 rpm, 0.1 % noise, f32;\n// written by `cargo run --example firmware_host -- --write-sweep`: do not edit."
+    )?;
+    writeln!(s, "/// (speed in rad/s, phasors in m) per measurement.")?;
+    writeln!(
+        s,
+        "pub static SWEEP: [(f32, [rotorid_core::Complex<f32>; 4]); {}] = [",
+        meas.samples.len()
+    )?;
+    for smp in &meas.samples {
+        let q: Vec<String> = smp
+            .q
+            .iter()
+            .map(|z| {
+                format!(
+                    "rotorid_core::Complex {{ re: {:?}, im: {:?} }}",
+                    z.re as f32, z.im as f32
+                )
+            })
+            .collect();
+        writeln!(s, "    ({:?}, [{}]),", smp.omega as f32, q.join(", "))?;
+    }
+    writeln!(s, "];")?;
+    std::fs::write(path, s)?;
+    println!("wrote {path} ({} measurements)", meas.samples.len());
+    Ok(())
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if let [flag, path] = args.as_slice() {
+        if flag == "--write-sweep" {
+            if let Err(e) = write_sweep(path) {
+                eprintln!("error: {e}");
+                std::process::exit(2);
+            }
+            return;
+        }
+    }
+    let mut out = String::new();
+    match run::run(&mut out, &mut NoProbe) {
+        Ok(_) => print!("{out}"),
+        Err(e) => {
+            eprintln!("error: {e}");
+            std::process::exit(2);
+        }
+    }
+}
