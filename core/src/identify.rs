@@ -421,7 +421,7 @@ impl<T: Real> GuardState<T> {
     }
 
     /// Records an excited step at `omega`.
-    fn record_excited(&mut self, omega: T) {
+    pub(crate) fn record_excited(&mut self, omega: T) {
         // `excited % COVERAGE_STEPS` fits in usize whatever usize's width.
         let slot = (self.excited % COVERAGE_STEPS as u64) as usize;
         self.recent[slot] = omega;

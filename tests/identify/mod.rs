@@ -8,6 +8,7 @@ mod firmware;
 mod noise;
 mod output_error;
 mod paper;
+mod prefilter;
 mod std_dev;
 mod steady;
 mod table_grid;

@@ -130,12 +130,15 @@ fn physical(c: &Case, id: &Identification) -> Vec<f64> {
         .collect()
 }
 
-fn crb(c: &Case) -> Vec<f64> {
+/// The CRB standard deviations of the physical parameters at relative
+/// noise `noise`, from the Fisher information at the true parameters (SI
+/// units).
+pub(super) fn crb(c: &Case, noise: f64) -> Vec<f64> {
     let pr = &c.predictor;
     let f = fisher_information(pr, &c.clean.samples, &c.terms, &c.truth, 1e-6).unwrap();
     let cov = f.cholesky().unwrap().inverse();
     (0..pr.n_params())
-        .map(|i| NOISE * cov[(i, i)].sqrt() * pr.param.scale(pr.params[i].unknown))
+        .map(|i| noise * cov[(i, i)].sqrt() * pr.param.scale(pr.params[i].unknown))
         .collect()
 }
 
@@ -168,7 +171,7 @@ fn steady_stretches_leave_the_estimates_where_the_sweep_put_them() {
         1,
         uniform_rpm(5.0, 15000.0, 5.0).unwrap(),
     );
-    let crb = crb(&c);
+    let crb = crb(&c, NOISE);
     let truth: Vec<f64> = (0..crb.len())
         .map(|i| c.truth[i] * c.predictor.param.scale(c.predictor.params[i].unknown))
         .collect();
