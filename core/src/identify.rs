@@ -36,23 +36,26 @@
 //! <= Omega_max`, gives rows that are, to the order of interpolation,
 //! combinations of the rows of those steps: forgetting for it shrinks every
 //! other direction by `lambda` and adds nothing new. A speed outside that
-//! range extends the span. The rule (speed coverage):
+//! range extends the span. The rule (speed coverage), with `Omega_k` the
+//! speeds of the last [`COVERAGE_STEPS`] excited steps (a ring in
+//! [`GuardState`]; the first step is excited):
 //!
 //! ```text
-//! excited(n)  <=>  Omega(n) > max_k Omega_k + margin
-//!             or   Omega(n) < min_k Omega_k - margin,
+//! held(n)  <=>  |Omega(n) - Omega_k| <= margin for some k
+//!          or   lo < Omega(n) < hi with lo, hi neighbouring Omega_k and
+//!               hi - lo <= max(margin, GAP Omega(n))     (GAP = 1 %).
 //! ```
 //!
-//! `k` over the last [`COVERAGE_STEPS`] excited steps (a ring of speeds in
-//! [`GuardState`]; the first step is excited). A sweep in either direction,
-//! at any step size, extends the range at every sample: no sample is held.
-//! A constant speed, or any dither inside a band (`9000 <-> 9011 rpm`),
-//! is held once the band's edges are among the last excited speeds: at
-//! most [`COVERAGE_STEPS`] steps forget there, whatever the length of the
-//! stretch. When a sweep turns back (run-up then coast-down), the samples
-//! that re-cover the last [`COVERAGE_STEPS`] excited speeds are held, the
-//! rest forget again. Optionally, the factor's conditioning indicator
-//! `min|R_ii| / max|R_ii|` must also be above `min_diag_ratio`.
+//! A sweep in either direction, at any step size, reaches beyond the
+//! recent speeds at every sample: no sample is held; after a jump (a
+//! repeated run-up starting again from the bottom) the gap to the old
+//! speeds is wide, so the new sweep is kept too. A constant speed, or a
+//! dither between speeds (`9000 <-> 9011 rpm`), is held once its speeds
+//! are among the recent ones: at most one step per distinct speed forgets
+//! there, whatever the length of the stretch. When a sweep turns back (run-up then coast-down),
+//! the samples that re-cover the last [`COVERAGE_STEPS`] excited speeds are
+//! held, the rest forget again. Optionally, the factor's conditioning
+//! indicator `min|R_ii| / max|R_ii|` must also be above `min_diag_ratio`.
 //!
 //! A held step is skipped by default (the estimates stay exactly where the
 //! last excited step left them), or folded in with `lambda = 1`
@@ -179,20 +182,24 @@ pub enum SteadyAction {
     FreezeForgetting,
 }
 
-/// Number of most recent excited speeds whose range a step must extend to
-/// be excited (see the module documentation).
+/// Number of most recent excited speeds a step is compared with (see the
+/// module documentation).
 pub const COVERAGE_STEPS: usize = 4;
+
+/// Relative width of a gap between recent excited speeds below which a
+/// speed inside it counts as covered (1 % of the speed).
+pub const GAP: f64 = 0.01;
 
 /// Poor-excitation guard (see the module documentation).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SteadyPolicy<T> {
-    /// Speed-coverage criterion on: a step forgets only if its speed lies
-    /// outside the range of the last [`COVERAGE_STEPS`] excited speeds by
-    /// more than `margin`. `false`: every step forgets (unless
+    /// Speed-coverage criterion on: a step forgets only if its speed is new
+    /// for the last [`COVERAGE_STEPS`] excited speeds (see the module
+    /// documentation). `false`: every step forgets (unless
     /// `min_diag_ratio` holds it).
     pub coverage: bool,
-    /// Margin (rad/s, `>= 0`) by which a speed must leave the covered range
-    /// to count as new; `0` (the default) takes any speed outside it. A
+    /// Margin (rad/s, `>= 0`): a speed within it of a recent excited speed
+    /// is not new; `0` (the default) holds only repeated speeds. A
     /// margin above the measurement jitter of the speed keeps jitter from
     /// counting as new speeds.
     pub margin: T,
@@ -407,17 +414,29 @@ impl<T: Real> GuardState<T> {
         &self.recent[..n]
     }
 
-    /// Whether `omega` lies outside `[min - margin, max + margin]` of the
-    /// recent excited speeds (always before the first excited step).
+    /// Whether `omega` is a new speed for the recent excited speeds
+    /// `Omega_k`: not within `margin` of any of them, and not inside a gap
+    /// between two of them (neighbours in speed) narrower than
+    /// `max(margin, GAP * omega)` (always before the first excited step).
     pub fn extends_coverage(&self, omega: T, margin: T) -> bool {
         let recent = self.recent_speeds();
-        let Some(&first) = recent.first() else {
-            return true;
-        };
-        let (lo, hi) = recent
+        if recent.iter().any(|&w| (omega - w).abs() <= margin) {
+            return false;
+        }
+        let below = recent
             .iter()
-            .fold((first, first), |(lo, hi), &w| (lo.min(w), hi.max(w)));
-        omega > hi + margin || omega < lo - margin
+            .filter(|&&w| w < omega)
+            .copied()
+            .reduce(T::max);
+        let above = recent
+            .iter()
+            .filter(|&&w| w > omega)
+            .copied()
+            .reduce(T::min);
+        match (below, above) {
+            (Some(lo), Some(hi)) => hi - lo > margin.max(T::lit(GAP) * omega.abs()),
+            _ => true,
+        }
     }
 
     /// Records an excited step at `omega`.
@@ -1203,6 +1222,7 @@ mod tests {
         let mut c = config::<f64>(Structure::paper(1), 0.9, 1e-7);
         c.steady = SteadyPolicy {
             action: SteadyAction::FreezeForgetting,
+            margin: 0.1, // above the 0.02 rad/s jitter
             ..SteadyPolicy::default_guard()
         };
         let mut id = PaperIdentifier::<f64, NQ, NP, 19, 4>::new(c).unwrap();
@@ -1219,10 +1239,7 @@ mod tests {
             assert_eq!(rep.lambda_used, if i == 0 { 0.9 } else { 1.0 });
         }
         assert_eq!(id.guard().frozen, 99);
-        // Inside the range of the last excited speeds (1000..1500): held;
-        // beyond it: excited.
-        let rep = id.update_with_terms(1005.0, &t.a, &t.b, &qa).unwrap();
-        assert!(!rep.excited);
+        // Beyond the last excited speeds: excited.
         let rep = id.update_with_terms(1500.5, &t.a, &t.b, &qa).unwrap();
         assert!(rep.excited);
     }
@@ -1250,7 +1267,12 @@ mod tests {
             down,
             [false, false, false, false, true, true, true, true, true, true]
         );
-        // Dither between two speeds: at most the two edges forget.
+        // A jump down: the gap to the old speeds is wide, a new sweep up
+        // from there is kept.
+        let before = g.excited;
+        assert!((0..50).all(|i| step(&mut g, 500.0 + i as f64)));
+        assert_eq!(g.excited - before, 50);
+        // Dither between two speeds: at most the two speeds forget.
         let before = g.excited;
         for i in 0..10_000 {
             step(&mut g, if i % 2 == 0 { 942.0 } else { 943.2 });
@@ -1261,8 +1283,13 @@ mod tests {
         g.record_excited(100.0);
         assert!(!g.extends_coverage(100.5, 1.0));
         assert!(g.extends_coverage(101.5, 1.0));
+        g.record_excited(110.0);
+        // A gap of 10 is wider than max(1, 1 % of 105); a margin of 20
+        // covers 105 from 100.
+        assert!(g.extends_coverage(105.0, 1.0));
+        assert!(!g.extends_coverage(105.0, 20.0));
         assert!(g.extends_coverage(98.5, 1.0));
-        assert_eq!(g.recent_speeds(), &[100.0]);
+        assert_eq!(g.recent_speeds(), &[100.0, 110.0]);
     }
 
     #[test]
@@ -1280,7 +1307,7 @@ mod tests {
         let before = (id.r, id.p);
         for i in 0..50 {
             qa[0] *= 1.0 + 1e-3 * i as f64; // noisy data must not matter
-            let rep = id.update_with_terms(1000.5, &t.a, &t.b, &qa).unwrap();
+            let rep = id.update_with_terms(1000.0, &t.a, &t.b, &qa).unwrap();
             assert!(!rep.excited);
         }
         assert_eq!((id.r, id.p), before);

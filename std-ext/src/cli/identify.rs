@@ -61,9 +61,9 @@ pub struct IdentifyArgs {
     /// speeds evenly; better with noise proportional to the response).
     #[arg(long)]
     pub normalise_rows: bool,
-    /// Steady-running guard: a sample counts as new (forgets) only if its
-    /// speed lies more than this many rpm outside the range of the last 4
-    /// new samples; the others are skipped.
+    /// Steady-running guard: a sample whose speed is within this many rpm
+    /// of one of the last 4 new samples (or closely between two of them)
+    /// is skipped; the others count as new and forget.
     #[arg(
         long,
         default_value_t = 0.0,
