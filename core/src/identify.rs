@@ -29,16 +29,44 @@
 //! equations: they carry no information on the other `M - 2 N_b`
 //! directions of `w`. With `lambda < 1` the factor `R` keeps shrinking by
 //! `sqrt(lambda)` per step in those directions, until noise alone steers the
-//! estimates there (wind-up). The guard [`SteadyPolicy`] therefore freezes
-//! forgetting: a step is *excited* only if the speed has moved by at least
-//! `min_speed_step` from the speed of the last excited step (an anchor, so
-//! that a slow ramp still forgets in proportion to the speed it covers) and,
-//! optionally, the factor's conditioning indicator `min|R_ii| / max|R_ii|`
-//! is above `min_diag_ratio`. A step that is not excited is still folded in,
-//! but with `lambda = 1`: nothing is forgotten, new data still average the
-//! noise in the directions they excite, and the directions they do not
-//! excite keep the information of the sweep. Hours at constant speed then
-//! leave the estimates where the sweep put them.
+//! estimates there (wind-up). The guard [`SteadyPolicy`] therefore lets a
+//! step forget only when it brings speeds the memory does not hold yet.
+//!
+//! What a step adds: the rows `U(Omega)` are smooth (rational) functions
+//! of the speed, so the information a step brings beyond the factor's is
+//! the part of `U(Omega)` outside the span of the rows already folded in.
+//! A speed inside the range the recent steps covered, `Omega_min <= Omega
+//! <= Omega_max`, gives rows that are, to the order of interpolation,
+//! combinations of the rows of those steps: forgetting for it shrinks every
+//! other direction by `lambda` and adds nothing new. A speed outside that
+//! range extends the span. The rule (speed coverage), with `Omega_k` the
+//! speeds of the last [`COVERAGE_STEPS`] excited steps (a ring in
+//! [`GuardState`]; the first step is excited):
+//!
+//! ```text
+//! held(n)  <=>  |Omega(n) - Omega_k| <= margin for some k
+//!          or   lo < Omega(n) < hi with lo, hi neighbouring Omega_k and
+//!               hi - lo <= max(margin, GAP Omega(n))     (GAP = 1 %).
+//! ```
+//!
+//! A sweep in either direction, at any step size, reaches beyond the
+//! recent speeds at every sample: no sample is held; after a jump (a
+//! repeated run-up starting again from the bottom) the gap to the old
+//! speeds is wide, so the new sweep is kept too. A constant speed, or a
+//! dither between speeds (`9000 <-> 9011 rpm`), is held once its speeds
+//! are among the recent ones: at most one step per distinct speed forgets
+//! there, whatever the length of the stretch. When a sweep turns back (run-up then coast-down),
+//! the samples that re-cover the last [`COVERAGE_STEPS`] excited speeds are
+//! held, the rest forget again. Optionally, the factor's conditioning
+//! indicator `min|R_ii| / max|R_ii|` must also be above `min_diag_ratio`.
+//!
+//! A held step is skipped by default (the estimates stay exactly where the
+//! last excited step left them), or folded in with `lambda = 1`
+//! ([`SteadyAction`]). Skipping also discards the noise averaging repeated
+//! samples at one speed could give: the price of hours at one speed never
+//! outweighing the sweep (folded in, 20000 samples at one speed pull the
+//! estimates toward that speed's equation-error fit, see
+//! [`SteadyAction::FreezeForgetting`]).
 //!
 //! Two drivers share this code: [`Identifier`] (const-generic, inline
 //! arrays, firmware) and any caller with runtime-sized buffers through
@@ -171,19 +199,33 @@ pub enum SteadyAction {
     /// stretches the repeated equations of that one speed outweigh the
     /// sweep, so with noisy data the estimates drift toward that speed's
     /// (errors-in-variables biased) least-squares fit: measured with 1%
-    /// noise and 20000 samples at 9000 rpm after a sweep, unbalance errors
-    /// grow 2x (physical) to 7x (paper structure), see
-    /// `tests/identify/steady.rs`; without a guard they grow by 100x to 3000x.
+    /// noise, lambda 0.99 and 20000 samples at 9000 rpm after a 300-speed
+    /// sweep, unbalance errors grew 2x (physical) to 7x (paper structure);
+    /// without a guard by 100x to 3000x.
     FreezeForgetting,
 }
+
+/// Number of most recent excited speeds a step is compared with (see the
+/// module documentation).
+pub const COVERAGE_STEPS: usize = 4;
+
+/// Relative width of a gap between recent excited speeds below which a
+/// speed inside it counts as covered (1 % of the speed).
+pub const GAP: f64 = 0.01;
 
 /// Poor-excitation guard (see the module documentation).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SteadyPolicy<T> {
-    /// Minimum speed change (rad/s) from the last excited step for a step to
-    /// forget with the configured `lambda`. `0` disables this criterion
-    /// (every step forgets).
-    pub min_speed_step: T,
+    /// Speed-coverage criterion on: a step forgets only if its speed is new
+    /// for the last [`COVERAGE_STEPS`] excited speeds (see the module
+    /// documentation). `false`: every step forgets (unless
+    /// `min_diag_ratio` holds it).
+    pub coverage: bool,
+    /// Margin (rad/s, `>= 0`): a speed within it of a recent excited speed
+    /// is not new; `0` (the default) holds only repeated speeds. A
+    /// margin above the measurement jitter of the speed keeps jitter from
+    /// counting as new speeds.
+    pub margin: T,
     /// Minimum `min|R_ii| / max|R_ii|` of the factor (before the step) for
     /// it to forget. `0` disables this criterion.
     pub min_diag_ratio: T,
@@ -195,18 +237,20 @@ impl<T: Real> SteadyPolicy<T> {
     /// No guard: every step uses the configured `lambda` (the paper).
     pub fn off() -> Self {
         SteadyPolicy {
-            min_speed_step: T::zero(),
+            coverage: false,
+            margin: T::zero(),
             min_diag_ratio: T::zero(),
             action: SteadyAction::FreezeForgetting,
         }
     }
 
-    /// The default guard: a step is excited only if the speed has moved by
-    /// 10 rpm (1.047 rad/s) since the last excited step; no conditioning
-    /// criterion; unexcited steps are skipped.
+    /// The default guard: a step is excited only if its speed lies outside
+    /// the range of the last [`COVERAGE_STEPS`] excited speeds (no margin);
+    /// no conditioning criterion; unexcited steps are skipped.
     pub fn default_guard() -> Self {
         SteadyPolicy {
-            min_speed_step: T::lit(10.0 * core::f64::consts::PI / 30.0),
+            coverage: true,
+            margin: T::zero(),
             min_diag_ratio: T::zero(),
             action: SteadyAction::Skip,
         }
@@ -302,7 +346,7 @@ impl<T: Real> Config<T> {
             return Err(IdentifyError::InvalidDelta);
         }
         let ok = |x: T| x.is_finite() && x >= T::zero();
-        if !(ok(self.steady.min_speed_step) && ok(self.steady.min_diag_ratio)) {
+        if !(ok(self.steady.margin) && ok(self.steady.min_diag_ratio)) {
             return Err(IdentifyError::InvalidConfig);
         }
         Ok(())
@@ -393,15 +437,60 @@ pub struct StepReport<T> {
     pub relative_residual: T,
 }
 
-/// Excitation-guard state: the speed of the last excited step.
+/// Excitation-guard state: the speeds of the last excited steps.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GuardState<T> {
-    /// Speed of the last step that forgot (rad/s), `None` before the first.
-    pub anchor: Option<T>,
+    /// Speeds (rad/s) of the last [`COVERAGE_STEPS`] excited steps, a ring:
+    /// the first `min(excited, COVERAGE_STEPS)` entries are valid, the next
+    /// one written is `excited % COVERAGE_STEPS`.
+    pub recent: [T; COVERAGE_STEPS],
+    /// Number of excited steps so far.
+    pub excited: u64,
     /// Number of steps folded in.
     pub steps: u64,
     /// Number of those steps with forgetting frozen.
     pub frozen: u64,
+}
+
+impl<T: Real> GuardState<T> {
+    /// The valid part of [`Self::recent`].
+    pub fn recent_speeds(&self) -> &[T] {
+        let n = usize::try_from(self.excited).map_or(COVERAGE_STEPS, |n| n.min(COVERAGE_STEPS));
+        &self.recent[..n]
+    }
+
+    /// Whether `omega` is a new speed for the recent excited speeds
+    /// `Omega_k`: not within `margin` of any of them, and not inside a gap
+    /// between two of them (neighbours in speed) narrower than
+    /// `max(margin, GAP * omega)` (always before the first excited step).
+    pub fn extends_coverage(&self, omega: T, margin: T) -> bool {
+        let recent = self.recent_speeds();
+        if recent.iter().any(|&w| (omega - w).abs() <= margin) {
+            return false;
+        }
+        let below = recent
+            .iter()
+            .filter(|&&w| w < omega)
+            .copied()
+            .reduce(T::max);
+        let above = recent
+            .iter()
+            .filter(|&&w| w > omega)
+            .copied()
+            .reduce(T::min);
+        match (below, above) {
+            (Some(lo), Some(hi)) => hi - lo > margin.max(T::lit(GAP) * omega.abs()),
+            _ => true,
+        }
+    }
+
+    /// Records an excited step at `omega`.
+    pub(crate) fn record_excited(&mut self, omega: T) {
+        // `excited % COVERAGE_STEPS` fits in usize whatever usize's width.
+        let slot = (self.excited % COVERAGE_STEPS as u64) as usize;
+        self.recent[slot] = omega;
+        self.excited = self.excited.saturating_add(1);
+    }
 }
 
 /// The identification step on caller buffers (runtime or fixed sizes):
@@ -519,10 +608,8 @@ impl<T: Real, F: IdField<T>, V: FilterState<F>> Kernel<'_, T, F, V> {
             regressor::normalise_rows(u, d, n, m)?;
         }
         // Excitation guard.
-        let mut excited = match self.guard.anchor {
-            None => true,
-            Some(w0) => (omega - w0).abs() >= cfg.steady.min_speed_step,
-        };
+        let mut excited =
+            !cfg.steady.coverage || self.guard.extends_coverage(omega, cfg.steady.margin);
         if excited && cfg.steady.min_diag_ratio > T::zero() {
             let ratio = self.factor.diag_ratio()?;
             if ratio < cfg.steady.min_diag_ratio {
@@ -544,7 +631,7 @@ impl<T: Real, F: IdField<T>, V: FilterState<F>> Kernel<'_, T, F, V> {
         self.factor.update_rows(u, d, lambda_used, xi, gamma)?;
         // Only now (the filter accepted the step) does the guard move.
         if excited {
-            self.guard.anchor = Some(omega);
+            self.guard.record_excited(omega);
         } else {
             self.guard.frozen += 1;
         }
@@ -1382,6 +1469,7 @@ mod tests {
         let mut c = config::<f64>(Structure::paper(1), 0.9, 1e-7);
         c.steady = SteadyPolicy {
             action: SteadyAction::FreezeForgetting,
+            margin: 0.1, // above the 0.02 rad/s jitter
             ..SteadyPolicy::default_guard()
         };
         let mut id = PaperIdentifier::<f64, NQ, NP, 19, 4>::new(c).unwrap();
@@ -1398,8 +1486,57 @@ mod tests {
             assert_eq!(rep.lambda_used, if i == 0 { 0.9 } else { 1.0 });
         }
         assert_eq!(id.guard().frozen, 99);
-        let rep = id.update_with_terms(1005.0, &t.a, &t.b, &qa).unwrap();
+        // Beyond the last excited speeds: excited.
+        let rep = id.update_with_terms(1500.5, &t.a, &t.b, &qa).unwrap();
         assert!(rep.excited);
+    }
+
+    #[test]
+    fn coverage_guard_keeps_sweeps_and_holds_dither() {
+        let margin = 0.0;
+        let mut g = GuardState::<f64>::default();
+        let step = |g: &mut GuardState<f64>, w: f64| {
+            let e = g.extends_coverage(w, margin);
+            if e {
+                g.record_excited(w);
+            }
+            e
+        };
+        // Sweeps up, at 1 and 0.1 rad/s steps, then down: every speed new.
+        assert!((0..1000).all(|i| step(&mut g, i as f64)));
+        assert!((0..1000).all(|i| step(&mut g, 1000.0 + 0.1 * i as f64)));
+        // Turning back: the last 4 excited speeds (1099.6..1099.9) are
+        // re-covered, then the coast-down is new again.
+        let down: Vec<bool> = (1..=10)
+            .map(|i| step(&mut g, 1100.0 - 0.1 * i as f64))
+            .collect();
+        assert_eq!(
+            down,
+            [false, false, false, false, true, true, true, true, true, true]
+        );
+        // A jump down: the gap to the old speeds is wide, a new sweep up
+        // from there is kept.
+        let before = g.excited;
+        assert!((0..50).all(|i| step(&mut g, 500.0 + i as f64)));
+        assert_eq!(g.excited - before, 50);
+        // Dither between two speeds: at most the two speeds forget.
+        let before = g.excited;
+        for i in 0..10_000 {
+            step(&mut g, if i % 2 == 0 { 942.0 } else { 943.2 });
+        }
+        assert!(g.excited - before <= 2, "{}", g.excited - before);
+        // A margin: speeds must leave the range by more than it.
+        let mut g = GuardState::<f32>::default();
+        g.record_excited(100.0);
+        assert!(!g.extends_coverage(100.5, 1.0));
+        assert!(g.extends_coverage(101.5, 1.0));
+        g.record_excited(110.0);
+        // A gap of 10 is wider than max(1, 1 % of 105); a margin of 20
+        // covers 105 from 100.
+        assert!(g.extends_coverage(105.0, 1.0));
+        assert!(!g.extends_coverage(105.0, 20.0));
+        assert!(g.extends_coverage(98.5, 1.0));
+        assert_eq!(g.recent_speeds(), &[100.0, 110.0]);
     }
 
     #[test]
@@ -1417,7 +1554,7 @@ mod tests {
         let before = id.factor.clone();
         for i in 0..50 {
             qa[0] *= 1.0 + 1e-3 * i as f64; // noisy data must not matter
-            let rep = id.update_with_terms(1000.5, &t.a, &t.b, &qa).unwrap();
+            let rep = id.update_with_terms(1000.0, &t.a, &t.b, &qa).unwrap();
             assert!(!rep.excited);
         }
         assert_eq!(id.factor, before);
@@ -1431,7 +1568,8 @@ mod tests {
         // A fresh factor has ratio 1; after one step (4 rows, 19 unknowns)
         // most of R is still sqrt(delta) while the excited rows are large.
         c.steady = SteadyPolicy {
-            min_speed_step: 0.0,
+            coverage: false,
+            margin: 0.0,
             min_diag_ratio: 1e-6,
             action: SteadyAction::FreezeForgetting,
         };

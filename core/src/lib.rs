@@ -12,6 +12,8 @@
 //!   scale, how it enters the bearing dynamic stiffness or the forcing.
 //! * [`identify`]: bearing stiffness, damping and unbalance identification
 //!   from measured 1X responses at the bearings.
+//! * [`prefilter`]: the same recursive identification on equations weighted
+//!   as the output error (near the maximum-likelihood estimate).
 //!
 //! Everything is SI inside (m, kg, s, N, rad/s). A physical signal is
 //! `y(t) = Re{ Y exp(j Omega t) }`.
@@ -36,6 +38,7 @@ pub mod factor;
 pub mod givens;
 pub mod identify;
 pub mod parametrization;
+pub mod prefilter;
 pub mod qrdrls;
 pub mod regressor;
 pub mod scalar;

@@ -60,7 +60,6 @@ fn setup() -> Setup {
     let mut options = Options::new(param.structure);
     options.scaling = Some(param.scaling);
     options.record_history = false;
-    options.steady.min_speed_step = 0.0;
     Setup {
         model,
         meas,

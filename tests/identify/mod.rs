@@ -9,6 +9,7 @@ mod noise;
 mod output_error;
 mod paper;
 mod precision;
+mod prefilter;
 mod std_dev;
 mod steady;
 mod table_grid;

@@ -14,12 +14,15 @@ use rotorid::simulate::{add_noise, simulate, SimOptions};
 use rotorid::tables::grid::uniform_rpm;
 use rotorid::units::rpm_to_rad_s;
 
-struct Case {
-    model: RotorModel,
-    clean: Measurements,
-    terms: Vec<Terms>,
-    predictor: Predictor,
-    truth: Vec<f64>,
+/// A noise-free sweep of a model with its reduced terms, the physical
+/// structure's predictor and the true parameters (shared with the
+/// steady-running and firmware-estimator tests).
+pub(super) struct Case {
+    pub(super) model: RotorModel,
+    pub(super) clean: Measurements,
+    pub(super) terms: Vec<Terms>,
+    pub(super) predictor: Predictor,
+    pub(super) truth: Vec<f64>,
 }
 
 /// The true scaled weights of the physical structure of `order` for a
@@ -65,7 +68,7 @@ fn truth_weights(p: &Parametrization, model: &RotorModel) -> Vec<Complex64> {
         .collect()
 }
 
-fn case(model: RotorModel, order: usize, rpm: Vec<f64>) -> Case {
+pub(super) fn case(model: RotorModel, order: usize, rpm: Vec<f64>) -> Case {
     let clean = simulate(
         &model,
         &SimOptions {
@@ -148,7 +151,6 @@ fn monte_carlo(c: &Case, noise: f64, seeds: std::ops::Range<u64>, lambda: f64) -
         opts.lambda = lambda;
         opts.scaling = Some(pr.param.scaling);
         opts.record_history = false;
-        opts.steady.min_speed_step = 0.0;
         let lookup: std::collections::HashMap<u64, Terms> = m
             .samples
             .iter()

@@ -108,15 +108,19 @@ pub struct IdentifyArgs {
     /// speeds evenly; better with noise proportional to the response).
     #[arg(long)]
     pub normalise_rows: bool,
-    /// Skip samples whose speed is within this many rpm of the last
-    /// excited sample (steady running); 0 disables the guard.
+    /// Steady-running guard: a sample whose speed is within this many rpm
+    /// of one of the last 4 new samples (or closely between two of them)
+    /// is skipped; the others count as new and forget.
     #[arg(
         long,
-        default_value_t = 10.0,
+        default_value_t = 0.0,
         value_name = "RPM",
         allow_negative_numbers = true
     )]
-    pub steady_rpm: f64,
+    pub steady_margin: f64,
+    /// No steady-running guard: every sample forgets (the paper).
+    #[arg(long)]
+    pub no_steady_guard: bool,
     /// Raw SI unknowns (no column scaling), as in the paper.
     #[arg(long)]
     pub no_scaling: bool,
@@ -188,13 +192,14 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         EstimatorArg::Rls => Estimator::Rls,
     };
     opts.normalise_rows = args.normalise_rows;
-    if !(args.steady_rpm >= 0.0 && args.steady_rpm.is_finite()) {
+    if !(args.steady_margin >= 0.0 && args.steady_margin.is_finite()) {
         return Err(CliError::new(format!(
-            "--steady-rpm must be finite and >= 0, got {}",
-            args.steady_rpm
+            "--steady-margin must be finite and >= 0, got {}",
+            args.steady_margin
         )));
     }
-    opts.steady.min_speed_step = crate::units::rpm_to_rad_s(args.steady_rpm);
+    opts.steady.margin = crate::units::rpm_to_rad_s(args.steady_margin);
+    opts.steady.coverage = !args.no_steady_guard;
     if args.no_scaling {
         opts.scaling = Some(crate::core::scaling::ColumnScaling::identity());
     }

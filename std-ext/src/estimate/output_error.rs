@@ -228,6 +228,12 @@ enum WeightsFrom<'a> {
 /// parameters (see [`pass`]): `ga`, `gb` hold each parameter's scalar
 /// (`-dz q_col` or `da`), `m = H^-H D^2 H^-1`, `mb = M B`,
 /// `bmb = B^H M B`; only `k >= i` when `upper`.
+///
+/// The three blocks are gathered once into the Hermitian
+/// `E = [M, M B; (M B)^H, B^H M B]` (`(nq + np)^2`, column-major, in
+/// `scratch`), each parameter's row or plane into its index of `E`, so
+/// that every entry is one look-up and one product, written down the
+/// columns of `out` (the same values as entry by entry).
 #[allow(clippy::too_many_arguments)]
 fn add_products(
     out: &mut DMatrix<f64>,
@@ -238,25 +244,50 @@ fn add_products(
     mb: &DMatrix<Complex64>,
     bmb: &DMatrix<Complex64>,
     upper: bool,
+    scratch: &mut Products,
 ) {
     let np = entries.len();
-    for i in 0..np {
-        let gi = ga[i].conj();
-        let from = if upper { i } else { 0 };
-        for k in from..np {
-            let mik = match (entries[i], entries[k]) {
-                (Entry::Bearing { row: ri, .. }, Entry::Bearing { row: rk, .. }) => m[(ri, rk)],
-                (Entry::Bearing { row: ri, .. }, Entry::Unbalance { plane, .. }) => mb[(ri, plane)],
-                (Entry::Unbalance { plane, .. }, Entry::Bearing { row: rk, .. }) => {
-                    mb[(rk, plane)].conj()
-                }
-                (Entry::Unbalance { plane: pi, .. }, Entry::Unbalance { plane: pk, .. }) => {
-                    bmb[(pi, pk)]
-                }
+    let (nq, npl) = (m.nrows(), mb.ncols());
+    let n = nq + npl;
+    let e = &mut scratch.e;
+    e.clear();
+    e.resize(n * n, Complex64::new(0.0, 0.0));
+    for c in 0..n {
+        for r in 0..n {
+            e[c * n + r] = match (r < nq, c < nq) {
+                (true, true) => m[(r, c)],
+                (true, false) => mb[(r, c - nq)],
+                (false, true) => mb[(c, r - nq)].conj(),
+                (false, false) => bmb[(r - nq, c - nq)],
             };
-            out[(i, k)] += (gi * mik * gb[k]).re;
         }
     }
+    let idx = &mut scratch.idx;
+    idx.clear();
+    idx.extend(entries.iter().map(|en| match *en {
+        Entry::Bearing { row, .. } => row,
+        Entry::Unbalance { plane, .. } => nq + plane,
+    }));
+    let gi: &mut Vec<Complex64> = &mut scratch.gc;
+    gi.clear();
+    gi.extend(ga.iter().map(|g| g.conj()));
+    let data = out.as_mut_slice();
+    for (k, (&gbk, &ik)) in gb.iter().zip(idx.iter()).enumerate() {
+        let col_e = &e[ik * n..(ik + 1) * n];
+        let rows = if upper { k + 1 } else { np };
+        let col = &mut data[k * np..k * np + rows];
+        for ((o, &g), &ii) in col.iter_mut().zip(gi.iter()).zip(idx.iter()) {
+            *o += (g * col_e[ii] * gbk).re;
+        }
+    }
+}
+
+/// Reused buffers of [`add_products`].
+#[derive(Default)]
+struct Products {
+    e: Vec<Complex64>,
+    idx: Vec<usize>,
+    gc: Vec<Complex64>,
 }
 
 /// `-Re(G_i^H v)` for every parameter, with `bv = B^H v`.
@@ -333,6 +364,7 @@ fn pass(
         cost: 0.0,
     };
     let mut used = Vec::with_capacity(samples.len());
+    let mut scratch = Products::default();
     for (n, ((s, t), en)) in samples.iter().zip(terms).zip(entries).enumerate() {
         let p = pr.predict_with(s.omega, t, en, theta, false)?;
         let wn: Vec<f64> = match weights {
@@ -359,7 +391,17 @@ fn pass(
             let (m, mb, bmb) = weighted_products(&p.h_inv, b, &wn);
             let g = column_scalars(en, &p.q);
             add_gradient(&mut out.gradient, en, &g, &v, &bv);
-            add_products(&mut out.normal, en, &g, &g, &m, &mb, &bmb, true);
+            add_products(
+                &mut out.normal,
+                en,
+                &g,
+                &g,
+                &m,
+                &mb,
+                &bmb,
+                true,
+                &mut scratch,
+            );
         }
         used.push(wn);
     }
@@ -377,6 +419,7 @@ fn iv_pass(data: &Data<'_>, theta: &[f64]) -> Result<Vec<f64>, OutputErrorError>
     let np = pr.n_params();
     let mut m = DMatrix::<f64>::zeros(np, np);
     let mut v = DVector::<f64>::zeros(np);
+    let mut scratch = Products::default();
     for ((s, t), entries) in data.samples.iter().zip(data.terms).zip(&data.entries) {
         let (a, b) = t;
         let p = pr.predict_with(s.omega, t, entries, theta, false)?;
@@ -390,7 +433,17 @@ fn iv_pass(data: &Data<'_>, theta: &[f64]) -> Result<Vec<f64>, OutputErrorError>
         let gz = column_scalars(entries, &p.q);
         let gx = column_scalars(entries, &qm);
         let (mm, mb, bmb) = weighted_products(&p.h_inv, b, &w);
-        add_products(&mut m, entries, &gz, &gx, &mm, &mb, &bmb, false);
+        add_products(
+            &mut m,
+            entries,
+            &gz,
+            &gx,
+            &mm,
+            &mb,
+            &bmb,
+            false,
+            &mut scratch,
+        );
         // v_i = Re(Z_i^H D^2 y0) = -Re(Gz_i^H H^-H D^2 H^-1 A q_meas).
         let y0 = &p.h_inv * (a * &qm);
         let mut dy = y0;

@@ -582,7 +582,8 @@ fn run<T: Real, F: IdField<T> + Widen>(
         scaling: scaling_t,
         normalise_rows: options.normalise_rows,
         steady: SteadyPolicy {
-            min_speed_step: T::lit(options.steady.min_speed_step),
+            coverage: options.steady.coverage,
+            margin: T::lit(options.steady.margin),
             min_diag_ratio: T::lit(options.steady.min_diag_ratio),
             action: options.steady.action,
         },

@@ -1,0 +1,484 @@
+//! Prefiltered recursive identification: the QRD/RLS with real unknowns
+//! (the `physical` structure) on equations weighted as the output error
+//! is, so that a recursive pass comes close to the maximum-likelihood
+//! estimate without the batch solve.
+//!
+//! # Why the plain equations are badly weighted
+//!
+//! At speed `Omega` the bearing equation `(A + Z_B(w)) q = B a(w)` gives
+//! the equation error of the regression ([`crate::regressor`])
+//!
+//! ```text
+//! e(w) = U(q) w - d(q) = +-[ (A + Z_B(w)) q - B a(w) ] = +-H(w) (q - q(w)),
+//! H(w) = A(Omega) + Z_B(Omega; w),     q(w) = H(w)^-1 B(Omega) a(w),
+//! ```
+//!
+//! for any measured `q`. The measurement noise is proportional to the
+//! response (`q = q_true + s |q_true| eps`, `eps` standard complex
+//! Gaussian), so the output error `q - q(w)` divided by `|q(w)|` is white
+//! with variance `s^2` at the true `w`, while the equation error
+//! multiplies it by `H`, whose size swings by orders of magnitude over the
+//! sweep (it is near-singular at the rotor's resonances and large where the
+//! shaft with its bearing points held resonates). Least squares on `e`
+//! weighs the speeds by `|H| |q|`: far from the noise's own weighting.
+//!
+//! # The prefilter
+//!
+//! With a previous estimate `w_prev` (of an earlier pass over the sweep,
+//! or of an earlier sweep), each speed's complex equations are multiplied
+//! by
+//!
+//! ```text
+//! P(Omega) = diag(1 / max(|q_hat_i|, f max_k |q_hat_k|)) H(w_prev)^-1,
+//! q_hat = H(w_prev)^-1 B a(w_prev),   f = FLOOR (1e-6),
+//! ```
+//!
+//! so that `P e(w) = diag(1/|q_hat|) H(w_prev)^-1 H(w) (q - q(w))`, which
+//! is the relative output error when `w = w_prev`: the sum of squares the
+//! filter minimises is, to first order around `w_prev`, the output-error
+//! (maximum-likelihood) criterion. Each complex equation `i` of the
+//! physical structure is a pair of real rows (real and imaginary parts,
+//! [`crate::regressor::form_physical`]); `P` mixes the complex rows
+//! `g_i = u_(2i) + j u_(2i+1)` and `d_i = d_(2i) + j d_(2i+1)` and splits
+//! them again. The unknowns stay real and enter linearly: the update is
+//! the same Givens QRD/RLS ([`crate::qrdrls::update_rows`]) with the same
+//! forgetting factor, regularisation and steady-running guard as
+//! [`crate::identify`]. Passes repeat with `w_prev` set to the last
+//! estimate ([`PrefilteredIdentifier::next_pass`]): a fixed point of the
+//! iteration is a Steiglitz-McBride-type estimate. The noisy `q` still
+//! enters `U` (errors in variables), which the prefilter does not remove.
+//!
+//! Cost per speed over the plain step: one complex `2 N_b x 2 N_b`
+//! Gauss-Jordan inversion and the `2 N_b x 2 N_b` mixing of the `M + 1`
+//! columns. No heap: every buffer is an inline array of the const sizes.
+
+use crate::identify::{
+    check_sizes, estimates_into, Config, Estimates, GuardState, IdField, IdentifyError,
+    SteadyAction, StepReport,
+};
+use crate::parametrization::{
+    bearing_estimate, unbalance_estimate, BearingEstimate, Formulation, UnbalanceEstimate,
+};
+use crate::qrdrls::{self, FilterError};
+use crate::regressor::{self, Equations};
+use crate::scalar::Real;
+use crate::table::BearingTable;
+use num_complex::Complex;
+
+/// Relative floor of the weights: a channel's predicted response counts as
+/// at least `FLOOR` times the largest one at that speed (a node of the
+/// response must not get an unbounded weight).
+pub const FLOOR: f64 = 1e-6;
+
+fn abs<T: Real>(z: Complex<T>) -> T {
+    z.re.hypot(z.im)
+}
+
+/// The prefilter of one speed: `P = diag(1/|q_hat|) H(w_prev)^-1`
+/// (`NQ x NQ`, complex; see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prefilter<T, const NQ: usize> {
+    /// `P`, row-major.
+    pub p: [[Complex<T>; NQ]; NQ],
+    /// The predicted response `q_hat = H(w_prev)^-1 B a(w_prev)` (m).
+    pub q_hat: [Complex<T>; NQ],
+}
+
+impl<T: Real, const NQ: usize> Prefilter<T, NQ> {
+    /// The prefilter at `omega` (rad/s) for the terms `a`, `b` and the
+    /// previous scaled weights `w_prev` of the physical `structure` with
+    /// `config`'s scaling. Errors: sizes ([`IdentifyError::Dimension`]),
+    /// non-finite input ([`IdentifyError::NonFinite`]), `H(w_prev)`
+    /// singular or a zero predicted response
+    /// ([`IdentifyError::Filter`] with [`FilterError::Singular`]).
+    pub fn new<const NP: usize>(
+        config: &Config<T>,
+        omega: T,
+        a: &[[Complex<T>; NQ]; NQ],
+        b: &[[Complex<T>; NP]; NQ],
+        w_prev: &[T],
+    ) -> Result<Self, IdentifyError> {
+        let st = &config.structure;
+        if st.formulation != Formulation::Physical || NQ == 0 || NQ % 2 != 0 {
+            return Err(IdentifyError::Dimension);
+        }
+        let finite = |z: &Complex<T>| z.re.is_finite() && z.im.is_finite();
+        if !omega.is_finite()
+            || !a.iter().flatten().all(finite)
+            || !b.iter().flatten().all(finite)
+            || !w_prev.iter().all(|x| x.is_finite())
+        {
+            return Err(IdentifyError::NonFinite);
+        }
+        let nb = NQ / 2;
+        // H = A + Z_B(w_prev), Z_B = K + j Omega C per bearing block.
+        let mut h = *a;
+        for m in 0..nb {
+            let be: BearingEstimate<T> =
+                bearing_estimate(st, &config.scaling, w_prev, nb, NP, m, omega)?;
+            for e in 0..4 {
+                let (r, c) = (2 * m + e / 2, 2 * m + e % 2);
+                h[r][c] += Complex::new(be.k[e], omega * be.c[e]);
+            }
+        }
+        // rhs = B a(w_prev).
+        let mut rhs = [Complex::new(T::zero(), T::zero()); NQ];
+        for k in 0..NP {
+            let u: UnbalanceEstimate<T> =
+                unbalance_estimate(st, &config.scaling, w_prev, nb, NP, k)?;
+            for (ri, bi) in rhs.iter_mut().zip(b.iter()) {
+                *ri += bi[k] * u.a;
+            }
+        }
+        // Gauss-Jordan with partial pivoting on [H | I | rhs].
+        let zero = Complex::new(T::zero(), T::zero());
+        let mut inv = [[zero; NQ]; NQ];
+        for (i, row) in inv.iter_mut().enumerate() {
+            row[i] = Complex::new(T::one(), T::zero());
+        }
+        let singular = IdentifyError::Filter(FilterError::Singular);
+        for col in 0..NQ {
+            let mut piv = col;
+            let mut best = abs(h[col][col]);
+            for (r, hr) in h.iter().enumerate().skip(col + 1) {
+                let v = abs(hr[col]);
+                if v > best {
+                    best = v;
+                    piv = r;
+                }
+            }
+            if !(best > T::zero() && best.is_finite()) {
+                return Err(singular);
+            }
+            h.swap(col, piv);
+            inv.swap(col, piv);
+            rhs.swap(col, piv);
+            let d = Complex::new(T::one(), T::zero()) / h[col][col];
+            for c in 0..NQ {
+                h[col][c] *= d;
+                inv[col][c] *= d;
+            }
+            rhs[col] *= d;
+            for r in 0..NQ {
+                if r == col {
+                    continue;
+                }
+                let f = h[r][col];
+                if f == zero {
+                    continue;
+                }
+                for c in 0..NQ {
+                    let (hc, ic) = (h[col][c], inv[col][c]);
+                    h[r][c] -= f * hc;
+                    inv[r][c] -= f * ic;
+                }
+                let rc = rhs[col];
+                rhs[r] -= f * rc;
+            }
+        }
+        let q_hat = rhs;
+        let big = q_hat.iter().fold(T::zero(), |m, z| m.max(abs(*z)));
+        if !(big > T::zero() && big.is_finite()) {
+            return Err(singular);
+        }
+        let floor = big * T::lit(FLOOR);
+        let mut p = inv;
+        for (row, q) in p.iter_mut().zip(q_hat.iter()) {
+            let s = T::one() / abs(*q).max(floor);
+            for x in row.iter_mut() {
+                *x = x.scale(s);
+            }
+        }
+        if !p.iter().flatten().all(finite) {
+            return Err(singular);
+        }
+        Ok(Prefilter { p, q_hat })
+    }
+
+    /// Applies `P` to the real rows of the physical structure in place:
+    /// `d` (length `2 NQ`), `u` (row-major `2 NQ x m`), complex equation
+    /// `i` in rows `2i` (real part) and `2i + 1` (imaginary part).
+    pub fn apply(&self, d: &mut [T], u: &mut [T], m: usize) -> Result<(), IdentifyError> {
+        if d.len() != 2 * NQ || u.len() != 2 * NQ * m {
+            return Err(IdentifyError::Dimension);
+        }
+        let zero = Complex::new(T::zero(), T::zero());
+        let mut g = [zero; NQ];
+        for j in 0..=m {
+            // Column j of U, or d for j = m, as NQ complex values.
+            for (i, gi) in g.iter_mut().enumerate() {
+                *gi = if j < m {
+                    Complex::new(u[2 * i * m + j], u[(2 * i + 1) * m + j])
+                } else {
+                    Complex::new(d[2 * i], d[2 * i + 1])
+                };
+            }
+            for (i, pr) in self.p.iter().enumerate() {
+                let mut acc = zero;
+                for (pil, gl) in pr.iter().zip(g.iter()) {
+                    acc += *pil * *gl;
+                }
+                if j < m {
+                    u[2 * i * m + j] = acc.re;
+                    u[(2 * i + 1) * m + j] = acc.im;
+                } else {
+                    d[2 * i] = acc.re;
+                    d[2 * i + 1] = acc.im;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The prefiltered firmware identifier of the physical structure: `NQ =
+/// 2 N_b` channels, `NP` planes, `M` real unknowns, `N = 2 NQ` real rows,
+/// inline storage. It holds the factor of the current pass and the scaled
+/// weights `w_prev` of the previous estimate that build each speed's
+/// [`Prefilter`].
+///
+/// ```
+/// use rotorid_core::identify::{Config, PhysicalIdentifier};
+/// use rotorid_core::prefilter::PrefilteredIdentifier;
+/// # use rotorid_core::identify::IdentifyError;
+/// # mod table { include!("../../tests/data/paper_table_f32.rs"); }
+/// # use table::{SCALING, STRUCTURE, TABLE};
+/// # fn main() -> Result<(), IdentifyError> {
+/// # let q = [rotorid_core::Complex::new(1e-6f32, 2e-7); 4];
+/// # let sweep = [(630.0f32, q), (700.0, q), (780.0, q)];
+/// let config = Config::new(STRUCTURE, SCALING).with_lambda(1.0);
+/// // Pass 0: the plain QRD/RLS.
+/// let mut plain = PhysicalIdentifier::<f32, 4, 3, 22, 8>::new(config)?;
+/// for (omega, q) in &sweep {
+///     plain.update(&TABLE, *omega, q)?;
+/// }
+/// // Pass 1, 2, ...: prefiltered with the previous pass's estimate.
+/// let mut id = PrefilteredIdentifier::<f32, 4, 3, 22, 8>::new(config, plain.scaled_weights()?)?;
+/// for _pass in 0..2 {
+///     for (omega, q) in &sweep {
+///         id.update(&TABLE, *omega, q)?;
+///     }
+///     id.next_pass()?;
+/// }
+/// let est = id.previous_estimates(700.0)?;
+/// # let _ = est.bearings[0].k[0];
+/// # Ok(())
+/// # }
+/// ```
+#[derive(Debug, Clone)]
+pub struct PrefilteredIdentifier<
+    T,
+    const NQ: usize,
+    const NP: usize,
+    const M: usize,
+    const N: usize,
+> {
+    config: Config<T>,
+    r: [[T; M]; M],
+    p: [T; M],
+    prev: [T; M],
+    guard: GuardState<T>,
+}
+
+impl<T: Real + IdField<T>, const NQ: usize, const NP: usize, const M: usize, const N: usize>
+    PrefilteredIdentifier<T, NQ, NP, M, N>
+{
+    /// A fresh pass with the previous scaled weights `w_prev` (e.g. of a
+    /// plain [`crate::identify::PhysicalIdentifier`] pass). `config` must be
+    /// of the physical structure with `M` unknowns and `N` rows for `NQ`,
+    /// `NP`.
+    pub fn new(config: Config<T>, w_prev: [T; M]) -> Result<Self, IdentifyError> {
+        config.validate()?;
+        check_sizes::<T, T>(&config.structure, NQ, NP, M, N)?;
+        if N != 2 * NQ {
+            return Err(IdentifyError::Dimension);
+        }
+        if !w_prev.iter().all(|x| x.is_finite()) {
+            return Err(IdentifyError::NonFinite);
+        }
+        let mut s = PrefilteredIdentifier {
+            config,
+            r: [[T::zero(); M]; M],
+            p: [T::zero(); M],
+            prev: w_prev,
+            guard: GuardState::default(),
+        };
+        qrdrls::init(s.r.as_flattened_mut(), &mut s.p, config.delta, None)?;
+        Ok(s)
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &Config<T> {
+        &self.config
+    }
+
+    /// The guard state of the current pass.
+    pub fn guard(&self) -> &GuardState<T> {
+        &self.guard
+    }
+
+    /// The previous scaled weights the prefilter is built from.
+    pub fn previous_weights(&self) -> &[T; M] {
+        &self.prev
+    }
+
+    /// One measurement with the terms looked up in `table` at `omega`.
+    /// Errors leave the state untouched.
+    pub fn update<TB: BearingTable<T, NQ, NP>>(
+        &mut self,
+        table: &TB,
+        omega: T,
+        q: &[Complex<T>; NQ],
+    ) -> Result<StepReport<T>, IdentifyError> {
+        if !omega.is_finite() || q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
+            return Err(IdentifyError::NonFinite);
+        }
+        let terms = table.terms(omega).map_err(IdentifyError::Table)?;
+        self.update_with_terms(omega, &terms.a, &terms.b, q)
+    }
+
+    /// One measurement with given terms `A(omega)`, `B(omega)`: rows formed
+    /// as in [`crate::identify`], prefiltered, folded in. Errors leave the
+    /// state untouched.
+    pub fn update_with_terms(
+        &mut self,
+        omega: T,
+        a: &[[Complex<T>; NQ]; NQ],
+        b: &[[Complex<T>; NP]; NQ],
+        q: &[Complex<T>; NQ],
+    ) -> Result<StepReport<T>, IdentifyError> {
+        if !omega.is_finite() || q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
+            return Err(IdentifyError::NonFinite);
+        }
+        if omega < T::zero() {
+            return Err(IdentifyError::InvalidSpeed);
+        }
+        let cfg = self.config;
+        let eq = Equations {
+            omega,
+            a: a.as_flattened(),
+            b: b.as_flattened(),
+            q,
+            nq: NQ,
+            np: NP,
+        };
+        let mut d = [T::zero(); N];
+        let mut u = [[T::zero(); M]; N];
+        regressor::form_physical(
+            cfg.structure.order,
+            &cfg.scaling,
+            &eq,
+            &mut d,
+            u.as_flattened_mut(),
+        )?;
+        let pf = Prefilter::<T, NQ>::new::<NP>(&cfg, omega, a, b, &self.prev)?;
+        pf.apply(&mut d, u.as_flattened_mut(), M)?;
+        let excited = !cfg.steady.coverage || self.guard.extends_coverage(omega, cfg.steady.margin);
+        if !excited && cfg.steady.action == SteadyAction::Skip {
+            self.guard.frozen += 1;
+            self.guard.steps += 1;
+            return Ok(StepReport {
+                omega,
+                excited,
+                lambda_used: T::zero(),
+                relative_residual: T::zero(),
+            });
+        }
+        let lambda_used = if excited { cfg.lambda } else { T::one() };
+        let mut xi = [T::zero(); N];
+        let mut gamma = [T::zero(); N];
+        qrdrls::update_rows(
+            self.r.as_flattened_mut(),
+            &mut self.p,
+            u.as_flattened(),
+            &d,
+            lambda_used,
+            &mut xi,
+            &mut gamma,
+        )?;
+        if excited {
+            self.guard.record_excited(omega);
+        } else {
+            self.guard.frozen += 1;
+        }
+        self.guard.steps += 1;
+        let en = xi.iter().fold(T::zero(), |s, x| s + *x * *x);
+        let dn = d.iter().fold(T::zero(), |s, x| s + *x * *x);
+        let relative_residual = if dn > T::zero() {
+            (en / dn).sqrt()
+        } else {
+            T::zero()
+        };
+        Ok(StepReport {
+            omega,
+            excited,
+            lambda_used,
+            relative_residual,
+        })
+    }
+
+    /// The scaled weights `w~` of the current pass (back-substitution).
+    pub fn scaled_weights(&self) -> Result<[T; M], IdentifyError> {
+        let mut w = [T::zero(); M];
+        qrdrls::solve_weights(self.r.as_flattened(), &self.p, &mut w)?;
+        Ok(w)
+    }
+
+    /// Ends the pass: its estimate becomes `w_prev`, the factor and the
+    /// guard start afresh. On error (singular factor) nothing changes.
+    pub fn next_pass(&mut self) -> Result<(), IdentifyError> {
+        let w = self.scaled_weights()?;
+        qrdrls::init(
+            self.r.as_flattened_mut(),
+            &mut self.p,
+            self.config.delta,
+            None,
+        )?;
+        self.prev = w;
+        self.guard = GuardState::default();
+        Ok(())
+    }
+
+    /// Physical estimates of the current pass, bearings at `omega` (rad/s).
+    pub fn estimates(&self, omega: T) -> Result<Estimates<T, NQ, NP>, IdentifyError> {
+        let w = self.scaled_weights()?;
+        self.estimates_of(&w, omega)
+    }
+
+    /// Physical estimates of `w_prev` (after [`Self::next_pass`], the
+    /// last pass's), bearings at `omega` (rad/s).
+    pub fn previous_estimates(&self, omega: T) -> Result<Estimates<T, NQ, NP>, IdentifyError> {
+        self.estimates_of(&self.prev, omega)
+    }
+
+    fn estimates_of(&self, w: &[T; M], omega: T) -> Result<Estimates<T, NQ, NP>, IdentifyError> {
+        let zero_b = BearingEstimate {
+            k: [T::zero(); 4],
+            c: [T::zero(); 4],
+            im_z0: None,
+            re_z1: None,
+        };
+        let mut bearings: heapless::Vec<BearingEstimate<T>, NQ> = heapless::Vec::new();
+        for _ in 0..NQ / 2 {
+            bearings
+                .push(zero_b)
+                .map_err(|_| IdentifyError::Dimension)?;
+        }
+        let mut unbalance =
+            [UnbalanceEstimate::from_phasor(Complex::new(T::zero(), T::zero())); NP];
+        estimates_into(
+            &self.config,
+            w,
+            NQ,
+            NP,
+            omega,
+            &mut bearings,
+            &mut unbalance,
+        )?;
+        Ok(Estimates {
+            omega,
+            bearings,
+            unbalance,
+        })
+    }
+}
