@@ -374,6 +374,15 @@ fn a_pair_is_found() {
         d.residual_nominal(),
         d.residual_extended()
     );
+    for h in &d.hypotheses {
+        println!(
+            "  {} {:.3e} {:.1} {}",
+            h.label,
+            h.residual(),
+            h.statistic,
+            h.significant
+        );
+    }
     assert!(d.effects.contains(&Effect::ProbeRunout), "{:?}", d.effects);
     assert!(
         d.effects.contains(&Effect::ExtraUnbalancePlane),

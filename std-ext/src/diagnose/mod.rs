@@ -33,8 +33,8 @@
 //!    significant hypotheses the one of least `BIC = S / sigma^2 + P ln(2N)`
 //!    is chosen. When the chosen model's residual noise is still above the
 //!    model-free noise level ([`crate::estimate::noise`]) by more than a
-//!    chi-square per degree of freedom of [`MISFIT_CHI2`], the best pairs
-//!    of the four strongest effects are tried, and if none fits, the
+//!    chi-square per degree of freedom of [`MISFIT_CHI2`], the strongest
+//!    effect is paired with each other significant one, and if none fits, the
 //!    answer is `unexplained`.
 //! 4. **Observability** ([`observe`]): from the Fisher information, the
 //!    smallest size of each effect these sensors and speeds can detect,
@@ -832,22 +832,32 @@ pub fn diagnose(
         None => misfit(&nominal),
     };
     if chosen_misfit {
-        // Pairs of the four strongest significant effects.
+        // Pairs of the strongest effect with each other significant one.
         let mut strong: Vec<usize> = (0..hyps.len()).filter(|&i| hyps[i].significant).collect();
         strong.sort_by(|&a, &b| hyps[b].statistic.total_cmp(&hyps[a].statistic));
-        strong.truncate(4);
         let mut pair_best: Option<Candidate> = None;
-        for (x, &i) in strong.iter().enumerate() {
-            for &k in strong.iter().skip(x + 1) {
-                if let Some(c) = fit_pair(
-                    model,
-                    &omegas,
-                    samples,
-                    &data,
-                    &hyps[i],
-                    &hyps[k],
-                    &mut e_terms_cache,
-                )? {
+        let mut trials: Vec<(Candidate, Candidate)> = Vec::new();
+        // The strongest effect with every other significant one.
+        for &i in strong.iter().take(1) {
+            for &k in strong.iter().skip(1) {
+                trials.push((hyps[i].clone(), hyps[k].clone()));
+                // A node searched against the nominal model may be wrong
+                // when another effect dominates: search it again on top of
+                // the other effect's fit.
+                for (a, b) in [(&hyps[i], &hyps[k]), (&hyps[k], &hyps[i])] {
+                    if a.model.ext.contains(&Extension::EScale) {
+                        continue;
+                    }
+                    for nb in rescreen(model, &data, a, b)? {
+                        trials.push((a.clone(), nb));
+                    }
+                }
+            }
+        }
+        for (a, b) in &trials {
+            {
+                if let Some(c) = fit_pair(model, &omegas, samples, &data, a, b, &mut e_terms_cache)?
+                {
                     // By BIC: a pair with a lean law beats one whose
                     // extra bearing orders merely absorb the second effect.
                     if pair_best.as_ref().is_none_or(|b| bic_of(&c) < bic_of(b)) {
@@ -960,6 +970,56 @@ fn oe_start(
     Ok((pr, oe.theta))
 }
 
+/// `b` (a node-searched effect) with its node searched again on top of
+/// `a`'s fit: the two best nodes, each as a candidate whose effect
+/// parameters start at zero.
+fn rescreen(
+    model: &RotorModel,
+    data: &FitData<'_>,
+    a: &Candidate,
+    b: &Candidate,
+) -> Result<Vec<Candidate>, DiagnoseError> {
+    let kind = match b.model.ext.as_slice() {
+        [Extension::Plane { .. }] => 0,
+        [Extension::Bow { .. }] => 1,
+        _ => return Ok(Vec::new()),
+    };
+    let n_nodes = model.n_nodes();
+    let nodes: Vec<usize> = if kind == 1 {
+        (1..n_nodes.saturating_sub(1)).collect()
+    } else {
+        (0..n_nodes).filter(|n| !model.planes.contains(n)).collect()
+    };
+    let make = |node: usize| {
+        if kind == 1 {
+            Extension::Bow { node }
+        } else {
+            Extension::Plane { node }
+        }
+    };
+    let ranked = match screen(&a.model, data, &a.fit.theta, &nodes, &make) {
+        Ok(r) => r,
+        Err(_) => return Ok(Vec::new()),
+    };
+    let nom = b.model.pr.n_params();
+    Ok(ranked
+        .into_iter()
+        .take(2)
+        .filter(|&n| b.model.ext != [make(n)])
+        .map(|n| {
+            let mut c = b.clone();
+            c.model.ext = vec![make(n)];
+            c.fit.theta.truncate(nom);
+            c.fit.theta.extend([0.0, 0.0]);
+            c.label = match kind {
+                1 => format!("bow with its offset at node {}", n + 1),
+                _ => format!("extra unbalance plane at node {}", n + 1),
+            };
+            c
+        })
+        .collect())
+}
+
 /// A pair of hypotheses fitted together, from their own estimates.
 fn fit_pair(
     model: &RotorModel,
@@ -1034,8 +1094,8 @@ fn fit_pair(
 }
 
 /// Ranks `nodes` by the drop in `S` that one Gauss-Newton step from the
-/// nominal estimate predicts when the node's effect is added (all
-/// nominal parameters free): `g_s^T G_ss^-1 g_s` over the nominal columns
+/// estimate `theta0` of `base` predicts when the node's effect is added
+/// (all of `base`'s parameters free): `g_s^T G_ss^-1 g_s` over the nominal columns
 /// and the node's two, from one Jacobian holding every node's columns.
 fn screen(
     base: &ExtendedModel,
@@ -1045,7 +1105,12 @@ fn screen(
     make: &dyn Fn(usize) -> Extension,
 ) -> Result<Vec<usize>, DiagnoseError> {
     let all = ExtendedModel {
-        ext: nodes.iter().map(|&n| make(n)).collect(),
+        ext: base
+            .ext
+            .iter()
+            .copied()
+            .chain(nodes.iter().map(|&n| make(n)))
+            .collect(),
         ..base.clone()
     };
     let mut theta = theta0.to_vec();
@@ -1060,7 +1125,7 @@ fn screen(
     let p0 = base.n_params();
     let mut scored: Vec<(f64, usize)> = Vec::new();
     for (k, &node) in nodes.iter().enumerate() {
-        let o = all.offset(k);
+        let o = all.offset(base.ext.len() + k);
         let idx: Vec<usize> = (0..p0).chain([o, o + 1]).collect();
         let gs = nalgebra::DVector::from_iterator(idx.len(), idx.iter().map(|&i| g[i]));
         let gss = DMatrix::from_fn(idx.len(), idx.len(), |a, b| gram[(idx[a], idx[b])]);
