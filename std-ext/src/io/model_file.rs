@@ -77,7 +77,8 @@ use crate::io::ross::RossError;
 use crate::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
 use crate::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, BowPoint, Disk, Material, ModelError,
-    Pedestal, ProbeReference, RotorModel, ShaftBow, ShaftElement, Unbalance,
+    Pedestal, ProbeReference, ProportionalDamping, RotorModel, ShaftBow, ShaftElement,
+    TableInterpolation, Unbalance,
 };
 use crate::units::rpm_to_rad_s;
 
@@ -628,6 +629,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
                 BearingLaw::Table {
                     speeds: t.rpm.iter().map(|&r| rpm_to_rad_s(r)).collect(),
                     coefficients,
+                    interpolation: TableInterpolation::LinearHold,
                 }
             }
             (None, None, None, Some(p)) => {
@@ -727,6 +729,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         unbalance,
         bow,
         probes,
+        rotor_damping: ProportionalDamping::default(),
     };
     model.validate()?;
 

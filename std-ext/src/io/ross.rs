@@ -60,7 +60,7 @@ use thiserror::Error;
 
 use crate::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, Disk, Material, ModelError, Pedestal,
-    RotorModel, ShaftElement,
+    ProportionalDamping, RotorModel, ShaftElement, TableInterpolation,
 };
 
 /// Error reading a ROSS rotor file, naming the element.
@@ -186,6 +186,7 @@ struct RossBearing {
     tag: Option<String>,
     scale_factor: Option<f64>,
     color: Option<String>,
+    interpolation: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -196,9 +197,43 @@ struct RossPointMass {
     m: Option<f64>,
     mx: Option<f64>,
     my: Option<f64>,
+    mz: Option<f64>,
     tag: Option<String>,
+    scale_factor: Option<f64>,
     color: Option<String>,
 }
+
+/// The rotor-level `[parameters]` table of ROSS 3 files.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct RossParameters {
+    default_damping_ratio: Option<f64>,
+    modal_damping_ratio: Option<toml::Value>,
+    alpha: Option<f64>,
+    beta: Option<f64>,
+    min_w: Option<f64>,
+    max_w: Option<f64>,
+    rated_w: Option<f64>,
+}
+
+/// Keys that ROSS's `MagneticBearingElement` adds to the bearing table it
+/// saves under the `BearingElement_*` class name.
+const MAGNETIC_KEYS: [&str; 13] = [
+    "ag",
+    "g0",
+    "i0",
+    "nw",
+    "k_amp",
+    "k_sense",
+    "kp_pid",
+    "ki_pid",
+    "kd_pid",
+    "n_f",
+    "sensor_node",
+    "sensors_axis_rotation",
+    "alpha",
+];
 
 fn element<T: serde::de::DeserializeOwned>(name: &str, v: &toml::Value) -> Result<T, RossError> {
     serde_path_to_error::deserialize(v.clone()).map_err(|e| {
@@ -261,6 +296,18 @@ fn bearing_law(name: &str, b: &RossBearing) -> Result<BearingLaw, RossError> {
             return Err(RossError::Field {
                 element: name.into(),
                 reason: "give only one of frequency, speed, w".into(),
+            })
+        }
+    };
+    let interpolation = match b.interpolation.as_deref() {
+        // ROSS 2.x files carry no key: rotorid's linear table, held beyond.
+        None => TableInterpolation::LinearHold,
+        Some("pchip") => TableInterpolation::Pchip,
+        Some("linear") => TableInterpolation::LinearExtrapolate,
+        Some(other) => {
+            return Err(RossError::Field {
+                element: name.into(),
+                reason: format!("interpolation = \"{other}\" (expected \"pchip\" or \"linear\")"),
             })
         }
     };
@@ -328,6 +375,7 @@ fn bearing_law(name: &str, b: &RossBearing) -> Result<BearingLaw, RossError> {
             Ok(BearingLaw::Table {
                 speeds: pairs.iter().map(|p| p.0).collect(),
                 coefficients: pairs.iter().map(|p| p.1).collect(),
+                interpolation,
             })
         }
     }
@@ -367,6 +415,26 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
     let mut disks: Vec<(String, RossDisk)> = Vec::new();
     let mut bearings: Vec<(String, RossBearing)> = Vec::new();
     let mut masses: Vec<(String, RossPointMass)> = Vec::new();
+    let parameters: RossParameters = match table.get("parameters") {
+        Some(v) => element("parameters", v)?,
+        None => RossParameters::default(),
+    };
+    if parameters.modal_damping_ratio.is_some() {
+        return Err(unsupported(
+            "parameters",
+            "modal_damping_ratio (modal damping of the rotor)",
+        ));
+    }
+    let rotor_damping = ProportionalDamping {
+        alpha: parameters.alpha.unwrap_or(0.0),
+        beta: parameters.beta.unwrap_or(0.0),
+    };
+    if !(rotor_damping.alpha.is_finite() && rotor_damping.beta.is_finite()) {
+        return Err(RossError::Field {
+            element: "parameters".into(),
+            reason: "alpha and beta must be finite".into(),
+        });
+    }
     for (key, value) in &table {
         if key == "ross_version" || key == "parameters" {
             continue;
@@ -381,7 +449,23 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         match class {
             "ShaftElement" => shafts.push((key.clone(), element(key, value)?)),
             "DiskElement" => disks.push((key.clone(), element(key, value)?)),
-            "BearingElement" => bearings.push((key.clone(), element(key, value)?)),
+            "BearingElement" => {
+                let magnetic: Vec<&str> = MAGNETIC_KEYS
+                    .iter()
+                    .copied()
+                    .filter(|k| value.get(*k).is_some())
+                    .collect();
+                if !magnetic.is_empty() {
+                    return Err(unsupported(
+                        key,
+                        format!(
+                            "magnetic bearings are not supported (a MagneticBearingElement, saved with its controller keys {})",
+                            magnetic.join(", ")
+                        ),
+                    ));
+                }
+                bearings.push((key.clone(), element(key, value)?))
+            }
             "PointMass" => masses.push((key.clone(), element(key, value)?)),
             "SealElement" | "LabyrinthSeal" | "HoleePatternSeal" | "HolePatternSeal" => {
                 return Err(unsupported(
@@ -390,7 +474,10 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                 ))
             }
             "MagneticBearingElement" => {
-                return Err(unsupported(key, "magnetic bearings (controller dynamics)"))
+                return Err(unsupported(
+                    key,
+                    "magnetic bearings are not supported (controller dynamics)",
+                ))
             }
             other => {
                 return Err(unsupported(
@@ -608,10 +695,15 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                         "cross-coupled pedestal support (kxy, kyx, cxy, cyx must be 0)",
                     ));
                 }
+                // ROSS's rotor damping alpha M0 covers the point masses too:
+                // alpha m of viscous damping to ground on each direction.
                 Some(Pedestal {
                     mass,
                     k: [gc.k[0], gc.k[3]],
-                    c: [gc.c[0], gc.c[3]],
+                    c: [
+                        gc.c[0] + rotor_damping.alpha * mass,
+                        gc.c[3] + rotor_damping.alpha * mass,
+                    ],
                 })
             }
         };
@@ -643,6 +735,7 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         unbalance: Vec::new(),
         bow: None,
         probes: crate::model::ProbeReference::Relative,
+        rotor_damping,
     };
     model.validate()?;
     Ok(model)
@@ -748,6 +841,7 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
             BearingLaw::Table {
                 speeds,
                 coefficients,
+                ..
             } => (Some(speeds.as_slice()), coefficients.clone()),
             BearingLaw::Polynomial { .. } | BearingLaw::DynamicStiffness { .. } => {
                 return Err(unsupported(
@@ -807,6 +901,7 @@ mod tests {
         m.bearings[1].law = BearingLaw::Table {
             speeds: vec![0.0, 1000.0],
             coefficients: vec![c0, c1],
+            interpolation: TableInterpolation::LinearHold,
         };
         let r = parse_ross(&to_ross_toml(&m).unwrap()).unwrap();
         assert_eq!(r.bearings, m.bearings);
