@@ -47,6 +47,7 @@ fn uniform_beam(theory: BeamTheory, length: f64, d: f64, n_el: usize) -> RotorMo
         bow: None,
         probes: rotorid::model::ProbeReference::Relative,
         rotor_damping: rotorid::model::ProportionalDamping::default(),
+        shaft_layers: Vec::new(),
     }
 }
 

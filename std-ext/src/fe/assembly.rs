@@ -29,7 +29,8 @@
 //!
 //! and more generally, for eigenvalues `s`, `Z(s) = K + s (C + Omega G) + s^2 M`.
 //! `M`, `G`, `K` of the shaft are the Timoshenko (default) or
-//! Euler-Bernoulli elements of [`crate::fe::shaft`]; disks add `M` and `G`
+//! Euler-Bernoulli elements of [`crate::fe::shaft`] (coaxial layers add
+//! their own element matrices to their element's); disks add `M` and `G`
 //! ([`crate::fe::disk`]); bearings add `K(Omega)` and `C(Omega)` ([`crate::fe::bearing`]).
 //! Rotor-level proportional damping ([`crate::model::ProportionalDamping`])
 //! adds `C_R = alpha M_R + beta K_R` (shaft and disks, N s/m) to `C`.
@@ -135,6 +136,18 @@ impl FeModel {
         for (e_idx, e) in model.shaft.iter().enumerate() {
             let em = element_matrices(e, model.theory);
             let base = 4 * e_idx;
+            for a in 0..8 {
+                for b in 0..8 {
+                    let k = bidx(base + a, base + b);
+                    m_band[k] += em.m[a][b];
+                    g_band[k] += em.g[a][b];
+                    k_band[k] += em.k[a][b];
+                }
+            }
+        }
+        for l in &model.shaft_layers {
+            let em = element_matrices(&l.section, model.theory);
+            let base = 4 * l.element;
             for a in 0..8 {
                 for b in 0..8 {
                     let k = bidx(base + a, base + b);

@@ -730,6 +730,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         bow,
         probes,
         rotor_damping: ProportionalDamping::default(),
+        shaft_layers: Vec::new(),
     };
     model.validate()?;
 

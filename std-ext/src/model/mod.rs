@@ -461,6 +461,22 @@ pub struct RotorModel {
     /// Rotor-level proportional damping of the shaft and disks (zero for
     /// rotorid's own model files; ROSS's `[parameters] alpha, beta`).
     pub rotor_damping: ProportionalDamping,
+    /// Extra coaxial layers on shaft elements (empty for rotorid's own
+    /// model files; ROSS's shaft elements sharing an `n`).
+    pub shaft_layers: Vec<ShaftLayer>,
+}
+
+/// An extra coaxial layer on a shaft element (a sleeve, possibly of another
+/// material): a uniform tube between the same two nodes whose element
+/// matrices (same beam theory, its own section and material) are added to
+/// those of [`RotorModel::shaft`]`[element]`, as ROSS does with shaft
+/// elements that share an `n`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShaftLayer {
+    /// Index of the shaft element it lies on (0-based).
+    pub element: usize,
+    /// The layer's section and material; `length` equals the element's.
+    pub section: ShaftElement,
 }
 
 /// Rotor-level proportional (Rayleigh) damping of the shaft and disks:
@@ -586,6 +602,7 @@ impl RotorModel {
             bow: None,
             probes: ProbeReference::Relative,
             rotor_damping: ProportionalDamping::default(),
+            shaft_layers: Vec::new(),
         }
     }
 
@@ -748,6 +765,37 @@ impl RotorModel {
                     }
                 }
             }
+        }
+        for (i, l) in self.shaft_layers.iter().enumerate() {
+            let f = |name: &str| format!("shaft_layers[{}].{name}", i + 1);
+            let Some(e) = self.shaft.get(l.element) else {
+                return Err(ModelError::invalid(
+                    f("element"),
+                    format!("no shaft element {}", l.element + 1),
+                ));
+            };
+            if l.section.length != e.length {
+                return Err(ModelError::invalid(
+                    f("length"),
+                    format!(
+                        "{} differs from its element's {}",
+                        l.section.length, e.length
+                    ),
+                ));
+            }
+            pos(f("outer_diameter"), l.section.outer_diameter)?;
+            if !(l.section.inner_diameter.is_finite()
+                && l.section.inner_diameter >= 0.0
+                && l.section.inner_diameter < l.section.outer_diameter)
+            {
+                return Err(ModelError::invalid(
+                    f("inner_diameter"),
+                    "must be in [0, outer_diameter)",
+                ));
+            }
+            pos(f("material.e"), l.section.material.e)?;
+            pos(f("material.g"), l.section.material.g)?;
+            pos(f("material.rho"), l.section.material.rho)?;
         }
         finite("rotor_damping.alpha".into(), self.rotor_damping.alpha)?;
         finite("rotor_damping.beta".into(), self.rotor_damping.beta)?;
