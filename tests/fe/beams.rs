@@ -46,6 +46,8 @@ fn uniform_beam(theory: BeamTheory, length: f64, d: f64, n_el: usize) -> RotorMo
         unbalance: vec![],
         bow: None,
         probes: rotorid::model::ProbeReference::Relative,
+        rotor_damping: rotorid::model::ProportionalDamping::default(),
+        shaft_layers: Vec::new(),
     }
 }
 

@@ -55,6 +55,8 @@ fn disk_gyroscopic_split_matches_rigid_disk_closed_form() {
         unbalance: vec![],
         bow: None,
         probes: rotorid::model::ProbeReference::Relative,
+        rotor_damping: rotorid::model::ProportionalDamping::default(),
+        shaft_layers: Vec::new(),
     };
     let fe = FeModel::new(&model).unwrap();
     let ei = light.e * Section::tube(d, 0.0, 0.3).inertia;

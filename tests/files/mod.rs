@@ -5,4 +5,5 @@ mod measurement;
 mod model;
 mod robustness;
 mod ross;
+mod ross_fixtures;
 mod simulate;

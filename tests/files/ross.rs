@@ -4,7 +4,7 @@
 use crate::common::{example, tmp};
 use rotorid::io::model_file::{load_model, ModelFileError};
 use rotorid::io::ross::{parse_ross, RossError};
-use rotorid::model::{BearingLaw, RotorModel};
+use rotorid::model::{BearingLaw, RotorModel, TableInterpolation};
 
 #[test]
 fn paper_ross_equals_builtin_paper_field_by_field() {
@@ -68,11 +68,14 @@ fn speed_table_becomes_bearing_table() {
     let BearingLaw::Table {
         speeds,
         coefficients,
+        interpolation,
     } = &m.bearings[0].law
     else {
         panic!("table expected")
     };
     assert_eq!(speeds, &vec![0.0, 1570.8]);
+    // No `interpolation` key (ROSS 2.x): linear, held beyond the table.
+    assert_eq!(*interpolation, TableInterpolation::LinearHold);
     assert_eq!(coefficients[0].k[0], 1e7);
     assert_eq!(coefficients[1].k[0], 5e7);
     assert_eq!(coefficients[1].k[3], 7e7);
@@ -125,6 +128,24 @@ fn unsupported_content_is_refused_naming_the_element() {
     assert!(refuse(&seal).starts_with("SealElement_S: not supported"));
     let mag = paper_ross() + "[\"MagneticBearingElement_M\"]\nn = 3\n";
     assert!(refuse(&mag).starts_with("MagneticBearingElement_M: not supported"));
+    // ROSS 3 saves magnetic bearings as BearingElement with controller keys.
+    let amb = paper_ross().replacen("n = 0\nkxx", "n = 0\nag = 0.0001\nkp_pid = 1e5\nkxx", 1);
+    let e = refuse(&amb);
+    assert!(
+        e.starts_with("BearingElement_Bearing 0: ")
+            && e.contains("magnetic bearings are not supported")
+            && e.contains("ag, kp_pid"),
+        "{e}"
+    );
+    let modal = paper_ross().replacen(
+        "[parameters]\n",
+        "[parameters]\nmodal_damping_ratio = 0.1\n",
+        1,
+    );
+    assert!(refuse(&modal).starts_with("parameters: not supported: modal_damping_ratio"));
+    let bad_interp =
+        paper_ross().replacen("n = 0\nkxx", "n = 0\ninterpolation = \"cubic\"\nkxx", 1);
+    assert!(refuse(&bad_interp).contains("interpolation = \"cubic\""));
     let other = paper_ross() + "[\"GearElement_G\"]\nn = 3\n";
     assert!(refuse(&other).contains("GearElement"));
     let mass = paper_ross().replacen("mxx = [0.0]", "mxx = [3.0]", 1);
@@ -140,7 +161,7 @@ fn unsupported_content_is_refused_naming_the_element() {
 }
 
 #[test]
-fn coaxial_layers_merge_when_contiguous() {
+fn coaxial_layers_become_shaft_layers() {
     let layer = r#"
 ["ShaftElement_Sleeve 2"]
 L = 0.05
@@ -151,21 +172,23 @@ odr = 0.14
 n = 2
 
 ["ShaftElement_Sleeve 2".material]
-name = "steel"
-rho = 7800.0
-E = 200000000000.0
-G_s = 76923076923.07692
+name = "aluminium"
+rho = 2700.0
+E = 70000000000.0
+G_s = 26000000000.0
 "#;
     let m = parse_ross(&(paper_ross() + layer)).unwrap();
-    assert_eq!(m.shaft[2].outer_diameter, 0.14);
-    assert_eq!(m.shaft[2].inner_diameter, 0.0);
-    assert_eq!(m.shaft.len(), 26);
-    let soft = (paper_ross() + layer).replacen(
-        "[\"ShaftElement_Sleeve 2\".material]\nname = \"steel\"\nrho = 7800.0\nE = 200000000000.0",
-        "[\"ShaftElement_Sleeve 2\".material]\nname = \"rubber\"\nrho = 7800.0\nE = 2000000.0",
-        1,
+    assert_eq!(m.shaft, RotorModel::paper().shaft);
+    assert_eq!(m.shaft_layers.len(), 1);
+    let l = &m.shaft_layers[0];
+    assert_eq!(l.element, 2);
+    assert_eq!(
+        (l.section.inner_diameter, l.section.outer_diameter),
+        (0.1, 0.14)
     );
-    assert!(refuse(&soft).contains("different material"));
+    assert_eq!(l.section.material.e, 70e9);
+    let longer = (paper_ross() + layer).replacen("L = 0.05\nidl = 0.1", "L = 0.06\nidl = 0.1", 1);
+    assert!(refuse(&longer).contains("coaxial layer of element n = 2 with length"));
 }
 
 #[test]

@@ -29,8 +29,11 @@
 //!
 //! and more generally, for eigenvalues `s`, `Z(s) = K + s (C + Omega G) + s^2 M`.
 //! `M`, `G`, `K` of the shaft are the Timoshenko (default) or
-//! Euler-Bernoulli elements of [`crate::fe::shaft`]; disks add `M` and `G`
+//! Euler-Bernoulli elements of [`crate::fe::shaft`] (coaxial layers add
+//! their own element matrices to their element's); disks add `M` and `G`
 //! ([`crate::fe::disk`]); bearings add `K(Omega)` and `C(Omega)` ([`crate::fe::bearing`]).
+//! Rotor-level proportional damping ([`crate::model::ProportionalDamping`])
+//! adds `C_R = alpha M_R + beta K_R` (shaft and disks, N s/m) to `C`.
 //!
 //! # Forcing
 //!
@@ -109,6 +112,8 @@ pub struct FeModel {
     m_band: Vec<f64>,
     g_band: Vec<f64>,
     k_band: Vec<f64>,
+    /// Rotor damping `C_R = alpha M + beta K` (shaft + disks), same storage.
+    c_band: Vec<f64>,
 }
 
 const KL: usize = HALF_BANDWIDTH;
@@ -140,6 +145,18 @@ impl FeModel {
                 }
             }
         }
+        for l in &model.shaft_layers {
+            let em = element_matrices(&l.section, model.theory);
+            let base = 4 * l.element;
+            for a in 0..8 {
+                for b in 0..8 {
+                    let k = bidx(base + a, base + b);
+                    m_band[k] += em.m[a][b];
+                    g_band[k] += em.g[a][b];
+                    k_band[k] += em.k[a][b];
+                }
+            }
+        }
         for d in &model.disks {
             let dm = disk_matrices(d);
             let base = 4 * d.node;
@@ -151,6 +168,12 @@ impl FeModel {
                 }
             }
         }
+        let (alpha, beta) = (model.rotor_damping.alpha, model.rotor_damping.beta);
+        let c_band = m_band
+            .iter()
+            .zip(&k_band)
+            .map(|(&m, &k)| alpha * m + beta * k)
+            .collect();
         let mut pedestal_index = Vec::with_capacity(model.bearings.len());
         let mut n_pedestals = 0;
         for b in &model.bearings {
@@ -169,6 +192,7 @@ impl FeModel {
             m_band,
             g_band,
             k_band,
+            c_band,
         })
     }
 
@@ -247,7 +271,7 @@ impl FeModel {
         }
     }
 
-    /// `K + s Omega G + s^2 M` of shaft and disks in band storage.
+    /// `K + s (C_R + Omega G) + s^2 M` of shaft and disks in band storage.
     fn rotor_band(&self, omega: f64, s: Complex64) -> Vec<Complex64> {
         let sg = s * omega;
         let s2 = s * s;
@@ -255,13 +279,16 @@ impl FeModel {
             .iter()
             .zip(&self.g_band)
             .zip(&self.m_band)
-            .map(|((&k, &g), &m)| sg * g + s2 * m + k)
+            .zip(&self.c_band)
+            .map(|(((&k, &g), &m), &c)| sg * g + s * c + s2 * m + k)
             .collect()
     }
 
-    /// Dynamic stiffness of shaft and disks ONLY (no bearings, pedestals or
-    /// shaft damping) at speed `omega` (rad/s), harmonic at `omega`:
-    /// `Z_R = K - Omega^2 M + j Omega^2 G`, order `4 N_nodes`, `kl = ku = 7`.
+    /// Dynamic stiffness of shaft and disks ONLY (no bearings or pedestals)
+    /// at speed `omega` (rad/s), harmonic at `omega`:
+    /// `Z_R = K - Omega^2 M + j Omega (Omega G + C_R)`, order `4 N_nodes`,
+    /// `kl = ku = 7`; `C_R` is the rotor's proportional damping, zero unless
+    /// the model has one.
     pub fn rotor_dynamic_stiffness(&self, omega: f64) -> BandedMatrix {
         let ab = self.rotor_band(omega, Complex64::new(0.0, omega));
         BandedMatrix::from_storage(self.n_shaft_dof(), KL, KL, ab)
@@ -442,10 +469,11 @@ impl FeModel {
         d
     }
 
-    /// Dense damping of the whole system at speed `omega`: bearings
-    /// `C(Omega)` and pedestal damping (no shaft damping), order `n_dof` (N s/m).
+    /// Dense damping of the whole system at speed `omega`: rotor damping
+    /// `C_R = alpha M + beta K` of shaft and disks, bearings `C(Omega)` and
+    /// pedestal damping, order `n_dof` (N s/m).
     pub fn damping_matrix(&self, omega: f64) -> DMatrix<f64> {
-        let mut d = DMatrix::zeros(self.n_dof(), self.n_dof());
+        let mut d = self.band_to_dense(&self.c_band);
         self.add_supports(&mut d, omega, false);
         d
     }

@@ -81,7 +81,8 @@ use crate::model::plausible::{
 };
 use crate::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, BowPoint, Disk, Material, ModelError,
-    Pedestal, ProbeReference, RotorModel, ShaftBow, ShaftElement, Unbalance,
+    Pedestal, ProbeReference, ProportionalDamping, RotorModel, ShaftBow, ShaftElement,
+    TableInterpolation, Unbalance,
 };
 use crate::units::rpm_to_rad_s;
 
@@ -665,6 +666,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
                 BearingLaw::Table {
                     speeds: t.rpm.iter().map(|&r| rpm_to_rad_s(r)).collect(),
                     coefficients,
+                    interpolation: TableInterpolation::LinearHold,
                 }
             }
             (None, None, None, Some(p)) => {
@@ -764,6 +766,8 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         unbalance,
         bow,
         probes,
+        rotor_damping: ProportionalDamping::default(),
+        shaft_layers: Vec::new(),
     };
     model.validate()?;
 

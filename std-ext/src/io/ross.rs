@@ -1,8 +1,12 @@
 //! Reading (and writing) rotors in the TOML format of ROSS, the Python
-//! rotordynamics package (`Rotor.save`, format 2.x: a top-level
-//! `ross_version` key and one table per element named `"<Class>_<tag>"`,
-//! holding the arguments of the element's constructor; older files without
-//! `ross_version` are recognised by their `ShaftElement_*` tables).
+//! rotordynamics package (`Rotor.save`, formats 2.x and 3.x: a top-level
+//! `ross_version` key, a `[parameters]` table and one table per element
+//! named `"<Class>_<tag>"`, holding the arguments of the element's
+//! constructor; older files without `ross_version` are recognised by their
+//! `ShaftElement_*` tables). Every key ROSS writes is either honoured,
+//! ignored because it has no effect here (`tag`, `color`, `scale_factor`,
+//! axial `kzz`, `czz`, `mz`, `default_damping_ratio`, `min_w`, `max_w`,
+//! `rated_w`), or refused with the element's name and a reason.
 //!
 //! # Mapping
 //!
@@ -10,42 +14,55 @@
 //!   x with transverse y and z. The map is the cyclic permutation
 //!   `ROSS (x, y, z) -> ours (y, z, x)`, which keeps the frame right-handed
 //!   and the sense of rotation: ROSS `kxx, kxy, kyx, kyy` are our
-//!   `kyy, kyz, kzy, kzz` (same for damping), ROSS `cxx..` likewise.
-//!   ROSS's axial `kzz, czz` act on a DOF our beam model does not have and
-//!   are ignored.
+//!   `kyy, kyz, kzy, kzz` (same for damping). Phasors are the same
+//!   (`x(t) = Re{X e^(j Omega t)}`), so ROSS's response `X`, `Y` at a node
+//!   are our `Y`, `Z`.
 //! - **Nodes.** ROSS numbers nodes from 0, as our code does internally
 //!   (our files and reports show them + 1). ROSS shaft element `n` joins
 //!   nodes `n` and `n + 1`; element `n` becomes our shaft element `n`.
 //! - **Shaft elements** (`ShaftElement_*`: `L`, `idl`, `odl`, `idr`, `odr`,
-//!   `n`, `material = {name, rho, E, G_s, Poisson}`, `shear_effects`,
+//!   `n`, `material = {name, rho, E, G_s, Poisson, color}`, `shear_effects`,
 //!   `rotary_inertia`, `gyroscopic`, `shear_method_calc`, `alpha`, `beta`,
 //!   `axial_force`, `torque`): `shear_effects = true` -> Timoshenko (with
 //!   Cowper's shear coefficient, ROSS's `"cowper"`), `false` ->
-//!   Euler-Bernoulli; all elements must agree. Tapered elements
-//!   (`idl != idr` or `odl != odr`) are **refused** (split them into
-//!   uniform elements in ROSS first): averaging diameters would silently
-//!   change the stiffness the identification relies on. Several elements
-//!   with the same `n` (ROSS's coaxial layers) are merged into one tube
-//!   when they are contiguous (one's outer diameter is the next one's
-//!   inner) and of the same material; otherwise refused. Refused too:
-//!   proportional damping (`alpha`, `beta` non-zero), axial force, torque,
+//!   Euler-Bernoulli; all elements must agree. Several elements with the
+//!   same `n` are coaxial layers: the innermost is the element, the others
+//!   [`ShaftLayer`]s whose matrices are added to it (as ROSS sums them; any
+//!   materials). **Refused**: tapered elements (`idl != idr` or
+//!   `odl != odr`; split them into uniform elements in ROSS first),
+//!   per-element damping (`alpha`, `beta` non-zero), axial force, torque,
 //!   `rotary_inertia = false`, `gyroscopic = false`, a shear method other
 //!   than Cowper's.
+//! - **Rotor damping** (`[parameters] alpha` (1/s), `beta` (s)): ROSS's
+//!   `C0 = alpha M0 + beta K0` over shaft, disks and point masses becomes
+//!   [`RotorModel::rotor_damping`] (shaft and disks) plus `alpha m` added
+//!   to the damping to ground of each pedestal mass. The response and
+//!   Campbell analyses include it; the reduction used for identification
+//!   refuses it. `modal_damping_ratio` is refused.
 //! - **Disks** (`DiskElement_*`: `n`, `m`, `Id`, `Ip`): as given.
 //! - **Bearings** (`BearingElement_*`: `n`, `kxx`, `kxy`, `kyx`, `kyy`,
-//!   `cxx`, ... as numbers or arrays over `frequency` (rad/s; older files
-//!   call it `speed` or `w`), `n_link`, and the mass coefficients `mxx`,
+//!   `cxx`, ... as arrays (length 1: constant) over `speed` (rotor speed,
+//!   rad/s; ROSS 3), `frequency` (whirl frequency in ROSS 3, speed in ROSS
+//!   2) or `w`, `interpolation`, `n_link`, and the mass coefficients `mxx`,
 //!   ...): one value -> [`BearingLaw::Constant`]; arrays -> a
-//!   [`BearingLaw::Table`] against speed (rotorid interpolates linearly
-//!   and holds the end values beyond the table; ROSS uses its own
-//!   interpolation). `kyy`/`cyy` default to `kxx`/`cxx` as in ROSS. Non-zero
-//!   bearing mass coefficients are refused.
+//!   [`BearingLaw::Table`] evaluated at the rotor speed. Every analysis here
+//!   is synchronous (whirl frequency = speed), where ROSS's `speed` and
+//!   `frequency` tables give the same numbers; a table on both axes is
+//!   refused. `interpolation = "pchip"` -> [`TableInterpolation::Pchip`]
+//!   (ROSS 3's default: PCHIP inside, linear extrapolation with the end
+//!   slopes beyond), `"linear"` -> [`TableInterpolation::LinearExtrapolate`],
+//!   no key (ROSS 2.x) -> [`TableInterpolation::LinearHold`].
+//!   `kyy`/`cyy` default to `kxx`/`cxx` as in ROSS. Non-zero bearing mass
+//!   coefficients are refused. Magnetic bearings, which ROSS saves as
+//!   `BearingElement_*` with controller keys (`ag`, `g0`, `i0`, `k_amp`,
+//!   `kp_pid`, ...), are refused by those keys.
 //! - **Pedestals.** The ROSS pattern "bearing at shaft node s with
 //!   `n_link = p`, a `PointMass` at node p, and a bearing at node p (no
 //!   link) to ground" becomes a bearing at s on a [`Pedestal`] (mass `m`,
 //!   or `mx = my`; stiffness `[kxx, kyy]` and damping `[cxx, cyy]` of the
-//!   ground bearing, which must be constant with no cross-coupling). Any
-//!   other use of `n_link` or `PointMass` is refused.
+//!   ground bearing, which must be constant with no cross-coupling). A
+//!   point mass with `mx != my` is refused (a pedestal has one mass), as is
+//!   any other use of `n_link` or `PointMass`.
 //! - **Unbalance planes.** A ROSS rotor carries none; the disk nodes are
 //!   taken as the planes to identify.
 //! - Every other class (seals, magnetic, ball/roller, fluid-film bearings,
@@ -63,7 +80,7 @@ use crate::model::plausible::{
 };
 use crate::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, Disk, Material, ModelError, Pedestal,
-    RotorModel, ShaftElement,
+    ProportionalDamping, RotorModel, ShaftElement, ShaftLayer, TableInterpolation,
 };
 
 /// Error reading a ROSS rotor file, naming the element.
@@ -189,6 +206,7 @@ struct RossBearing {
     tag: Option<String>,
     scale_factor: Option<f64>,
     color: Option<String>,
+    interpolation: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -199,9 +217,43 @@ struct RossPointMass {
     m: Option<f64>,
     mx: Option<f64>,
     my: Option<f64>,
+    mz: Option<f64>,
     tag: Option<String>,
+    scale_factor: Option<f64>,
     color: Option<String>,
 }
+
+/// The rotor-level `[parameters]` table of ROSS 3 files.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct RossParameters {
+    default_damping_ratio: Option<f64>,
+    modal_damping_ratio: Option<toml::Value>,
+    alpha: Option<f64>,
+    beta: Option<f64>,
+    min_w: Option<f64>,
+    max_w: Option<f64>,
+    rated_w: Option<f64>,
+}
+
+/// Keys that ROSS's `MagneticBearingElement` adds to the bearing table it
+/// saves under the `BearingElement_*` class name.
+const MAGNETIC_KEYS: [&str; 13] = [
+    "ag",
+    "g0",
+    "i0",
+    "nw",
+    "k_amp",
+    "k_sense",
+    "kp_pid",
+    "ki_pid",
+    "kd_pid",
+    "n_f",
+    "sensor_node",
+    "sensors_axis_rotation",
+    "alpha",
+];
 
 fn element<T: serde::de::DeserializeOwned>(name: &str, v: &toml::Value) -> Result<T, RossError> {
     serde_path_to_error::deserialize(v.clone()).map_err(|e| {
@@ -264,6 +316,18 @@ fn bearing_law(name: &str, b: &RossBearing) -> Result<BearingLaw, RossError> {
             return Err(RossError::Field {
                 element: name.into(),
                 reason: "give only one of frequency, speed, w".into(),
+            })
+        }
+    };
+    let interpolation = match b.interpolation.as_deref() {
+        // ROSS 2.x files carry no key: rotorid's linear table, held beyond.
+        None => TableInterpolation::LinearHold,
+        Some("pchip") => TableInterpolation::Pchip,
+        Some("linear") => TableInterpolation::LinearExtrapolate,
+        Some(other) => {
+            return Err(RossError::Field {
+                element: name.into(),
+                reason: format!("interpolation = \"{other}\" (expected \"pchip\" or \"linear\")"),
             })
         }
     };
@@ -331,6 +395,7 @@ fn bearing_law(name: &str, b: &RossBearing) -> Result<BearingLaw, RossError> {
             Ok(BearingLaw::Table {
                 speeds: pairs.iter().map(|p| p.0).collect(),
                 coefficients: pairs.iter().map(|p| p.1).collect(),
+                interpolation,
             })
         }
     }
@@ -382,6 +447,26 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
     let mut disks: Vec<(String, RossDisk)> = Vec::new();
     let mut bearings: Vec<(String, RossBearing)> = Vec::new();
     let mut masses: Vec<(String, RossPointMass)> = Vec::new();
+    let parameters: RossParameters = match table.get("parameters") {
+        Some(v) => element("parameters", v)?,
+        None => RossParameters::default(),
+    };
+    if parameters.modal_damping_ratio.is_some() {
+        return Err(unsupported(
+            "parameters",
+            "modal_damping_ratio (modal damping of the rotor)",
+        ));
+    }
+    let rotor_damping = ProportionalDamping {
+        alpha: parameters.alpha.unwrap_or(0.0),
+        beta: parameters.beta.unwrap_or(0.0),
+    };
+    if !(rotor_damping.alpha.is_finite() && rotor_damping.beta.is_finite()) {
+        return Err(RossError::Field {
+            element: "parameters".into(),
+            reason: "alpha and beta must be finite".into(),
+        });
+    }
     for (key, value) in &table {
         if key == "ross_version" || key == "parameters" {
             continue;
@@ -396,7 +481,24 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         match class {
             "ShaftElement" => shafts.push((key.clone(), element(key, value)?)),
             "DiskElement" => disks.push((key.clone(), element(key, value)?)),
-            "BearingElement" => bearings.push((key.clone(), element(key, value)?)),
+            "BearingElement" => {
+                let magnetic: Vec<&str> = MAGNETIC_KEYS
+                    .iter()
+                    .copied()
+                    .filter(|k| value.get(*k).is_some())
+                    .collect();
+                if !magnetic.is_empty() {
+                    let more = if magnetic.len() > 3 { ", ..." } else { "" };
+                    return Err(unsupported(
+                        key,
+                        format!(
+                            "magnetic bearings are not supported (a MagneticBearingElement, saved with its controller keys {}{more})",
+                            magnetic[..magnetic.len().min(3)].join(", ")
+                        ),
+                    ));
+                }
+                bearings.push((key.clone(), element(key, value)?))
+            }
             "PointMass" => masses.push((key.clone(), element(key, value)?)),
             "SealElement" | "LabyrinthSeal" | "HoleePatternSeal" | "HolePatternSeal" => {
                 return Err(unsupported(
@@ -405,7 +507,10 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                 ))
             }
             "MagneticBearingElement" => {
-                return Err(unsupported(key, "magnetic bearings (controller dynamics)"))
+                return Err(unsupported(
+                    key,
+                    "magnetic bearings are not supported (controller dynamics)",
+                ))
             }
             other => {
                 return Err(unsupported(
@@ -496,6 +601,7 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         ));
     }
     let mut shaft = Vec::new();
+    let mut shaft_layers = Vec::new();
     for (expect, (n, mut layers)) in by_n.into_iter().enumerate() {
         let first = layers[0].0.clone();
         if n != expect {
@@ -504,32 +610,27 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                 reason: format!("n = {n}: shaft elements must be numbered 0, 1, 2, ... without gaps (expected {expect})"),
             });
         }
+        // The innermost section is the element; the others are layers whose
+        // matrices are added to it (ROSS sums the matrices of elements that
+        // share an `n`).
         layers.sort_by(|a, b| a.1.inner_diameter.total_cmp(&b.1.inner_diameter));
-        let (_, mut merged) = layers[0].clone();
+        let base = layers[0].1.clone();
         for (name, l) in &layers[1..] {
-            if l.length != merged.length {
-                return Err(unsupported(
-                    name,
-                    format!("coaxial layer of element n = {n} with a different length"),
-                ));
-            }
-            if l.material != merged.material {
-                return Err(unsupported(
-                    name,
-                    format!("coaxial layer of element n = {n} in a different material"),
-                ));
-            }
-            if l.inner_diameter != merged.outer_diameter {
+            if l.length != base.length {
                 return Err(unsupported(
                     name,
                     format!(
-                        "coaxial layer of element n = {n} not contiguous with the one inside it"
+                        "coaxial layer of element n = {n} with length {} != {}",
+                        l.length, base.length
                     ),
                 ));
             }
-            merged.outer_diameter = l.outer_diameter;
+            shaft_layers.push(ShaftLayer {
+                element: n,
+                section: l.clone(),
+            });
         }
-        shaft.push(merged);
+        shaft.push(base);
     }
     let n_nodes = shaft.len() + 1;
 
@@ -610,10 +711,17 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                 if !used_pm.insert(p) {
                     return Err(unsupported(pm_name, "point mass linked to two bearings"));
                 }
+                // `mz` (axial) acts on a DOF the lateral model does not have.
                 let mass = match (pm.m, pm.mx, pm.my) {
                     (Some(m), None, None) => m,
                     (None, Some(mx), Some(my)) if mx == my => mx,
                     (Some(m), Some(mx), Some(my)) if mx == m && my == m => m,
+                    (_, Some(mx), Some(my)) if mx != my => {
+                        return Err(unsupported(
+                            pm_name,
+                            format!("point mass with mx = {mx} kg != my = {my} kg (a pedestal has one mass for both directions)"),
+                        ))
+                    }
                     _ => {
                         return Err(unsupported(
                             pm_name,
@@ -631,10 +739,15 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                         "cross-coupled pedestal support (kxy, kyx, cxy, cyx must be 0)",
                     ));
                 }
+                // ROSS's rotor damping alpha M0 covers the point masses too:
+                // alpha m of viscous damping to ground on each direction.
                 Some(Pedestal {
                     mass,
                     k: [gc.k[0], gc.k[3]],
-                    c: [gc.c[0], gc.c[3]],
+                    c: [
+                        gc.c[0] + rotor_damping.alpha * mass,
+                        gc.c[3] + rotor_damping.alpha * mass,
+                    ],
                 })
             }
         };
@@ -666,6 +779,8 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         unbalance: Vec::new(),
         bow: None,
         probes: crate::model::ProbeReference::Relative,
+        rotor_damping,
+        shaft_layers,
     };
     model.validate()?;
     Ok(model)
@@ -690,8 +805,10 @@ fn arr(v: &[f64]) -> String {
 }
 
 /// Writes a model as a ROSS rotor file (format 2.x), the inverse of
-/// [`parse_ross`]: shaft elements, disks, bearings (constant or tables over
-/// `frequency`), pedestals as a linked `PointMass` with a bearing to ground.
+/// [`parse_ross`]: shaft elements and their coaxial layers, disks,
+/// bearings (constant or tables over `frequency`, with `interpolation` for
+/// PCHIP and extrapolated linear tables), pedestals as a linked
+/// `PointMass` with a bearing to ground, rotor damping in `[parameters]`.
 /// Polynomial bearing laws, unbalance and bow have no ROSS equivalent here
 /// and are refused.
 pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
@@ -702,13 +819,35 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
         "# ROSS rotor file (format 2.x) written by rotorid: {}",
         model.name
     );
-    let _ = writeln!(s, "ross_version = \"2.0.0\"\n\n[parameters]\n");
-    let shear = model.theory == BeamTheory::Timoshenko;
-    for (i, e) in model.shaft.iter().enumerate() {
-        let key = format!("ShaftElement_ShaftElement {i}");
+    let _ = writeln!(s, "ross_version = \"2.0.0\"\n\n[parameters]");
+    let damping = model.rotor_damping;
+    if !damping.is_zero() {
         let _ = writeln!(
             s,
-            "[\"{key}\"]\nL = {}\nidl = {}\nodl = {}\nidr = {}\nodr = {}\nn = {i}\naxial_force = 0\ntorque = 0\nshear_effects = {shear}\nrotary_inertia = true\ngyroscopic = true\nshear_method_calc = \"cowper\"\ntag = \"ShaftElement {i}\"\nalpha = 0.0\nbeta = 0.0\n",
+            "alpha = {}\nbeta = {}",
+            f(damping.alpha),
+            f(damping.beta)
+        );
+    }
+    let _ = writeln!(s);
+    let shear = model.theory == BeamTheory::Timoshenko;
+    let sections = model
+        .shaft
+        .iter()
+        .enumerate()
+        .map(|(i, e)| (i, e, format!("ShaftElement {i}")));
+    let layers = model.shaft_layers.iter().enumerate().map(|(j, l)| {
+        (
+            l.element,
+            &l.section,
+            format!("ShaftElement {} layer {j}", l.element),
+        )
+    });
+    for (i, e, tag) in sections.chain(layers) {
+        let key = format!("ShaftElement_{tag}");
+        let _ = writeln!(
+            s,
+            "[\"{key}\"]\nL = {}\nidl = {}\nodl = {}\nidr = {}\nodr = {}\nn = {i}\naxial_force = 0\ntorque = 0\nshear_effects = {shear}\nrotary_inertia = true\ngyroscopic = true\nshear_method_calc = \"cowper\"\ntag = \"{tag}\"\nalpha = 0.0\nbeta = 0.0\n",
             f(e.length),
             f(e.inner_diameter),
             f(e.outer_diameter),
@@ -739,7 +878,7 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
                          tag: &str,
                          n: usize,
                          link: Option<usize>,
-                         speeds: Option<&[f64]>,
+                         speeds: Option<(&[f64], TableInterpolation)>,
                          co: &[BearingCoefficients]| {
         let _ = writeln!(s, "[\"BearingElement_{tag}\"]\nn = {n}");
         if let Some(p) = link {
@@ -760,18 +899,32 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
         for key in ["kzz", "czz", "mxx", "mxy", "myx", "myy", "mzz"] {
             let _ = writeln!(s, "{key} = {}", arr(&zeros));
         }
-        if let Some(w) = speeds {
+        if let Some((w, kind)) = speeds {
             let _ = writeln!(s, "frequency = {}", arr(w));
+            match kind {
+                TableInterpolation::LinearHold => {}
+                TableInterpolation::LinearExtrapolate => {
+                    let _ = writeln!(s, "interpolation = \"linear\"");
+                }
+                TableInterpolation::Pchip => {
+                    let _ = writeln!(s, "interpolation = \"pchip\"");
+                }
+            }
         }
         let _ = writeln!(s, "tag = \"{tag}\"\nscale_factor = 1\n");
     };
     for (i, b) in model.bearings.iter().enumerate() {
-        let (speeds, co): (Option<&[f64]>, Vec<BearingCoefficients>) = match &b.law {
+        type Axis<'a> = Option<(&'a [f64], TableInterpolation)>;
+        let (speeds, co): (Axis, Vec<BearingCoefficients>) = match &b.law {
             BearingLaw::Constant(c) => (None, vec![*c]),
             BearingLaw::Table {
                 speeds,
                 coefficients,
-            } => (Some(speeds.as_slice()), coefficients.clone()),
+                interpolation,
+            } => (
+                Some((speeds.as_slice(), *interpolation)),
+                coefficients.clone(),
+            ),
             BearingLaw::Polynomial { .. } | BearingLaw::DynamicStiffness { .. } => {
                 return Err(unsupported(
                     &format!("bearing {}", i + 1),
@@ -790,9 +943,15 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
                 "[\"PointMass_Pedestal {i}\"]\nn = {p}\nm = {}\ntag = \"Pedestal {i}\"\n",
                 f(ped.mass)
             );
+            // The reader adds the rotor damping alpha m of the point mass.
             let g = BearingCoefficients {
                 k: [ped.k[0], 0.0, 0.0, ped.k[1]],
-                c: [ped.c[0], 0.0, 0.0, ped.c[1]],
+                c: [
+                    ped.c[0] - damping.alpha * ped.mass,
+                    0.0,
+                    0.0,
+                    ped.c[1] - damping.alpha * ped.mass,
+                ],
             };
             bearing_table(&mut s, &format!("Support {i}"), p, None, None, &[g]);
         }
@@ -830,6 +989,7 @@ mod tests {
         m.bearings[1].law = BearingLaw::Table {
             speeds: vec![0.0, 1000.0],
             coefficients: vec![c0, c1],
+            interpolation: TableInterpolation::LinearHold,
         };
         let r = parse_ross(&to_ross_toml(&m).unwrap()).unwrap();
         assert_eq!(r.bearings, m.bearings);

@@ -150,13 +150,15 @@ pub struct BearingCoefficients {
 pub enum BearingLaw {
     /// The same coefficients at every speed.
     Constant(BearingCoefficients),
-    /// A table against speed, interpolated linearly between entries and held
-    /// constant beyond the ends. `speeds` strictly increasing (rad/s).
+    /// A table against speed, interpolated between entries as `interpolation`
+    /// says. `speeds` strictly increasing (rad/s).
     Table {
         /// Speeds (rad/s).
         speeds: Vec<f64>,
         /// Coefficients at each speed.
         coefficients: Vec<BearingCoefficients>,
+        /// How values between and beyond the entries are obtained.
+        interpolation: TableInterpolation,
     },
     /// Polynomials in Omega: `K(Omega) = sum_p k[p] Omega^p`,
     /// `C(Omega) = sum_p c[p] Omega^p` (the paper's Eq. 49 is
@@ -179,6 +181,140 @@ pub enum BearingLaw {
     },
 }
 
+/// How a [`BearingLaw::Table`] is evaluated between and beyond its speeds
+/// `x_0 < x_1 < ... < x_(n-1)` with values `y_i` (one coefficient at a time).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TableInterpolation {
+    /// Linear between entries, `y = y_i + t (y_(i+1) - y_i)` with
+    /// `t = (x - x_i) / (x_(i+1) - x_i)`, and held at the end values beyond
+    /// the table (rotorid's own model files).
+    #[default]
+    LinearHold,
+    /// Linear between entries and linear extrapolation of the first and last
+    /// segments beyond the table (ROSS's `interpolation = "linear"`, SciPy's
+    /// `interp1d(..., fill_value="extrapolate")`).
+    LinearExtrapolate,
+    /// Monotone piecewise cubic Hermite interpolation (Fritsch-Carlson, as
+    /// SciPy's `PchipInterpolator`) between entries and, beyond the table,
+    /// the straight line through the end point with the interpolant's end
+    /// slope: `y = y_0 + d_0 (x - x_0)` below, `y = y_(n-1) + d_(n-1) (x -
+    /// x_(n-1))` above (ROSS 3's `interpolation = "pchip"`). Two entries give
+    /// the straight line through them, one entry a constant. See
+    /// [`pchip_slopes`] for the slopes `d_i`.
+    Pchip,
+}
+
+impl TableInterpolation {
+    /// Value at `x` of the table `(xs, ys)` (`xs` strictly increasing, same
+    /// length as `ys`, at least one entry; an empty table gives 0).
+    pub fn eval(self, xs: &[f64], ys: &[f64], x: f64) -> f64 {
+        let n = xs.len().min(ys.len());
+        if n == 0 {
+            return 0.0;
+        }
+        if n == 1 {
+            return ys[0];
+        }
+        match self {
+            TableInterpolation::LinearHold | TableInterpolation::LinearExtrapolate => {
+                if self == TableInterpolation::LinearHold {
+                    if x <= xs[0] {
+                        return ys[0];
+                    }
+                    if x >= xs[n - 1] {
+                        return ys[n - 1];
+                    }
+                }
+                // Segment i: the one containing x, or the end segment beyond.
+                let i = xs[..n].partition_point(|&s| s <= x).clamp(1, n - 1) - 1;
+                let t = (x - xs[i]) / (xs[i + 1] - xs[i]);
+                ys[i] + t * (ys[i + 1] - ys[i])
+            }
+            TableInterpolation::Pchip => {
+                let d = pchip_slopes(&xs[..n], &ys[..n]);
+                if x < xs[0] {
+                    return ys[0] + d[0] * (x - xs[0]);
+                }
+                if x > xs[n - 1] {
+                    return ys[n - 1] + d[n - 1] * (x - xs[n - 1]);
+                }
+                let i = xs[..n].partition_point(|&s| s <= x).clamp(1, n - 1) - 1;
+                let h = xs[i + 1] - xs[i];
+                let t = (x - xs[i]) / h;
+                // Cubic Hermite basis on [x_i, x_(i+1)].
+                let t2 = t * t;
+                let t3 = t2 * t;
+                let h00 = 2.0 * t3 - 3.0 * t2 + 1.0;
+                let h10 = t3 - 2.0 * t2 + t;
+                let h01 = -2.0 * t3 + 3.0 * t2;
+                let h11 = t3 - t2;
+                h00 * ys[i] + h10 * h * d[i] + h01 * ys[i + 1] + h11 * h * d[i + 1]
+            }
+        }
+    }
+}
+
+/// Derivatives `d_i` of the monotone cubic Hermite interpolant at the table
+/// points, exactly as SciPy's `PchipInterpolator` (Fritsch-Carlson with
+/// Moler's end conditions). With `h_k = x_(k+1) - x_k` and secants
+/// `m_k = (y_(k+1) - y_k) / h_k`:
+///
+/// - interior point `k`: `d_k = 0` if `m_(k-1)` and `m_k` differ in sign or
+///   either is 0, else the weighted harmonic mean
+///   `(w_1 + w_2) / d_k = w_1 / m_(k-1) + w_2 / m_k` with
+///   `w_1 = 2 h_k + h_(k-1)`, `w_2 = h_k + 2 h_(k-1)`;
+/// - end point (shown for the left end): the one-sided three-point estimate
+///   `d_0 = ((2 h_0 + h_1) m_0 - h_0 m_1) / (h_0 + h_1)`, set to 0 if its
+///   sign differs from `m_0`'s, and to `3 m_0` if `m_0`, `m_1` differ in
+///   sign and `|d_0| > 3 |m_0|`;
+/// - two points: `d_0 = d_1 = m_0` (a straight line).
+///
+/// Units: those of `y` per unit of `x`.
+pub fn pchip_slopes(xs: &[f64], ys: &[f64]) -> Vec<f64> {
+    let n = xs.len().min(ys.len());
+    if n < 2 {
+        return vec![0.0; n];
+    }
+    let h: Vec<f64> = (0..n - 1).map(|k| xs[k + 1] - xs[k]).collect();
+    let m: Vec<f64> = (0..n - 1).map(|k| (ys[k + 1] - ys[k]) / h[k]).collect();
+    if n == 2 {
+        return vec![m[0]; 2];
+    }
+    let sign = |v: f64| {
+        if v > 0.0 {
+            1
+        } else if v < 0.0 {
+            -1
+        } else {
+            0
+        }
+    };
+    let mut d = vec![0.0; n];
+    for k in 1..n - 1 {
+        let (m0, m1) = (m[k - 1], m[k]);
+        if sign(m0) != sign(m1) || m0 == 0.0 || m1 == 0.0 {
+            d[k] = 0.0;
+        } else {
+            let w1 = 2.0 * h[k] + h[k - 1];
+            let w2 = h[k] + 2.0 * h[k - 1];
+            d[k] = 1.0 / ((w1 / m0 + w2 / m1) / (w1 + w2));
+        }
+    }
+    let edge = |h0: f64, h1: f64, m0: f64, m1: f64| {
+        let d = ((2.0 * h0 + h1) * m0 - h0 * m1) / (h0 + h1);
+        if sign(d) != sign(m0) {
+            0.0
+        } else if sign(m0) != sign(m1) && d.abs() > 3.0 * m0.abs() {
+            3.0 * m0
+        } else {
+            d
+        }
+    };
+    d[0] = edge(h[0], h[1], m[0], m[1]);
+    d[n - 1] = edge(h[n - 2], h[n - 3], m[n - 2], m[n - 3]);
+    d
+}
+
 impl BearingLaw {
     /// Coefficients at speed `omega` (rad/s).
     pub fn at(&self, omega: f64) -> BearingCoefficients {
@@ -187,26 +323,27 @@ impl BearingLaw {
             BearingLaw::Table {
                 speeds,
                 coefficients,
+                interpolation,
             } => {
-                let n = speeds.len();
-                if n == 0 {
-                    return BearingCoefficients::default();
-                }
-                if omega <= speeds[0] {
-                    return coefficients[0];
-                }
-                if omega >= speeds[n - 1] {
-                    return coefficients[n - 1];
-                }
-                // First index with speeds[i] > omega; 1 <= i <= n-1 here.
-                let i = speeds.partition_point(|&s| s <= omega);
-                let (s0, s1) = (speeds[i - 1], speeds[i]);
-                let t = (omega - s0) / (s1 - s0);
-                let (a, b) = (coefficients[i - 1], coefficients[i]);
                 let mut out = BearingCoefficients::default();
-                for j in 0..4 {
-                    out.k[j] = a.k[j] + t * (b.k[j] - a.k[j]);
-                    out.c[j] = a.c[j] + t * (b.c[j] - a.c[j]);
+                let mut column = Vec::with_capacity(speeds.len());
+                for j in 0..8 {
+                    column.clear();
+                    column.extend(coefficients.iter().map(
+                        |c| {
+                            if j < 4 {
+                                c.k[j]
+                            } else {
+                                c.c[j - 4]
+                            }
+                        },
+                    ));
+                    let v = interpolation.eval(speeds, &column, omega);
+                    if j < 4 {
+                        out.k[j] = v;
+                    } else {
+                        out.c[j - 4] = v;
+                    }
                 }
                 out
             }
@@ -322,6 +459,46 @@ pub struct RotorModel {
     pub bow: Option<ShaftBow>,
     /// What the bearing probes measure (matters only under pedestals).
     pub probes: ProbeReference,
+    /// Rotor-level proportional damping of the shaft and disks (zero for
+    /// rotorid's own model files; ROSS's `[parameters] alpha, beta`).
+    pub rotor_damping: ProportionalDamping,
+    /// Extra coaxial layers on shaft elements (empty for rotorid's own
+    /// model files; ROSS's shaft elements sharing an `n`).
+    pub shaft_layers: Vec<ShaftLayer>,
+}
+
+/// An extra coaxial layer on a shaft element (a sleeve, possibly of another
+/// material): a uniform tube between the same two nodes whose element
+/// matrices (same beam theory, its own section and material) are added to
+/// those of [`RotorModel::shaft`]`[element]`, as ROSS does with shaft
+/// elements that share an `n`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShaftLayer {
+    /// Index of the shaft element it lies on (0-based).
+    pub element: usize,
+    /// The layer's section and material; `length` equals the element's.
+    pub section: ShaftElement,
+}
+
+/// Rotor-level proportional (Rayleigh) damping of the shaft and disks:
+/// `C_R = alpha M_R + beta K_R`, with `M_R` the mass matrix of shaft and
+/// disks and `K_R` the shaft stiffness (bearings and pedestals excluded),
+/// as ROSS applies its `[parameters] alpha, beta`. It adds `j Omega C_R` to
+/// the harmonic dynamic stiffness, i.e. a loss factor `beta Omega` on the
+/// shaft's elasticity and a viscous `alpha` per unit mass.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ProportionalDamping {
+    /// Mass-proportional coefficient alpha (1/s).
+    pub alpha: f64,
+    /// Stiffness-proportional coefficient beta (s).
+    pub beta: f64,
+}
+
+impl ProportionalDamping {
+    /// True when both coefficients are zero (no rotor damping).
+    pub fn is_zero(&self) -> bool {
+        self.alpha == 0.0 && self.beta == 0.0
+    }
 }
 
 /// What a bearing probe measures.
@@ -425,6 +602,8 @@ impl RotorModel {
             unbalance,
             bow: None,
             probes: ProbeReference::Relative,
+            rotor_damping: ProportionalDamping::default(),
+            shaft_layers: Vec::new(),
         }
     }
 
@@ -534,6 +713,7 @@ impl RotorModel {
                 BearingLaw::Table {
                     speeds,
                     coefficients,
+                    ..
                 } => {
                     if speeds.is_empty() || speeds.len() != coefficients.len() {
                         return Err(ModelError::invalid(
@@ -587,6 +767,39 @@ impl RotorModel {
                 }
             }
         }
+        for (i, l) in self.shaft_layers.iter().enumerate() {
+            let f = |name: &str| format!("shaft_layers[{}].{name}", i + 1);
+            let Some(e) = self.shaft.get(l.element) else {
+                return Err(ModelError::invalid(
+                    f("element"),
+                    format!("no shaft element {}", l.element + 1),
+                ));
+            };
+            if l.section.length != e.length {
+                return Err(ModelError::invalid(
+                    f("length"),
+                    format!(
+                        "{} differs from its element's {}",
+                        l.section.length, e.length
+                    ),
+                ));
+            }
+            pos(f("outer_diameter"), l.section.outer_diameter)?;
+            if !(l.section.inner_diameter.is_finite()
+                && l.section.inner_diameter >= 0.0
+                && l.section.inner_diameter < l.section.outer_diameter)
+            {
+                return Err(ModelError::invalid(
+                    f("inner_diameter"),
+                    "must be in [0, outer_diameter)",
+                ));
+            }
+            pos(f("material.e"), l.section.material.e)?;
+            pos(f("material.g"), l.section.material.g)?;
+            pos(f("material.rho"), l.section.material.rho)?;
+        }
+        finite("rotor_damping.alpha".into(), self.rotor_damping.alpha)?;
+        finite("rotor_damping.beta".into(), self.rotor_damping.beta)?;
         for (i, &p) in self.planes.iter().enumerate() {
             on_shaft(format!("planes[{}]", i + 1), p)?;
             if self.planes[..i].contains(&p) {
@@ -656,10 +869,67 @@ mod tests {
         let law = BearingLaw::Table {
             speeds: vec![10.0, 20.0],
             coefficients: vec![a, b],
+            interpolation: TableInterpolation::LinearHold,
         };
         assert_eq!(law.at(15.0).k[2], 2.0);
         assert_eq!(law.at(0.0).c[0], 2.0);
         assert_eq!(law.at(99.0).c[0], 6.0);
+    }
+
+    /// Reference values computed once with ROSS 3.1.0's `_AxisInterpolator`
+    /// (SciPy 1.18.1 `PchipInterpolator` inside the table, linear
+    /// extrapolation with the end derivatives outside): a non-uniform table
+    /// with a flat part, a local extremum and a sign change.
+    #[test]
+    fn pchip_matches_scipy_and_ross_extrapolation() {
+        let x = [100.0, 250.0, 300.0, 520.0, 800.0, 810.0];
+        let y = [1.0e6, 1.6e6, 1.55e6, 1.55e6, 3.9e6, -2.0e5];
+        let d_ref = [7750.0, 0.0, 0.0, 0.0, 0.0, -424427.3399014778];
+        let d = pchip_slopes(&x, &y);
+        for (a, b) in d.iter().zip(d_ref) {
+            assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0), "{a} {b}");
+        }
+        let at = [
+            0.0, 100.0, 175.0, 260.0, 300.0, 410.0, 600.0, 805.0, 810.0, 1000.0,
+        ];
+        let v_ref = [
+            225000.0,
+            1000000.0,
+            1445312.5,
+            1594800.0,
+            1550000.0,
+            1550000.0,
+            2015889.2128279884,
+            2380534.1748768473,
+            -199999.99999999953,
+            -80841194.58128078,
+        ];
+        for (w, r) in at.iter().zip(v_ref) {
+            let v = TableInterpolation::Pchip.eval(&x, &y, *w);
+            assert!((v - r).abs() <= 1e-12 * r.abs(), "at {w}: {v} vs {r}");
+        }
+        // Three points with a sign change of the secants (end slope limited).
+        let (x3, y3) = ([1.0, 2.0, 4.0], [3.0, -1.0, 5.0]);
+        let p3 = [
+            9.333333333333332,
+            0.20833333333333337,
+            0.08333333333333326,
+            20.333333333333336,
+        ];
+        let l3 = [7.0, 1.0, 2.0, 11.0];
+        for (i, w) in [0.0, 1.5, 3.0, 6.0].iter().enumerate() {
+            let v = TableInterpolation::Pchip.eval(&x3, &y3, *w);
+            assert!((v - p3[i]).abs() <= 1e-13 * p3[i].abs(), "{v} {}", p3[i]);
+            let v = TableInterpolation::LinearExtrapolate.eval(&x3, &y3, *w);
+            assert!((v - l3[i]).abs() <= 1e-13 * l3[i].abs(), "{v} {}", l3[i]);
+        }
+        // Two points: the straight line, extended.
+        for (w, r) in [(0.0, 0.0), (2.0, 4.0), (5.0, 10.0)] {
+            let v = TableInterpolation::Pchip.eval(&[1.0, 3.0], &[2.0, 6.0], w);
+            assert!((v - r).abs() <= 1e-14, "{v} {r}");
+        }
+        // One point: constant.
+        assert_eq!(TableInterpolation::Pchip.eval(&[5.0], &[7.0], 100.0), 7.0);
     }
 
     #[test]

@@ -8,7 +8,8 @@
 //! bearing nodes, `2 N_b` entries ordered `b1_y, b1_z, b2_y, ...`) and
 //! `q_i` (every other shaft DOF, the rotations at the bearing nodes
 //! included). With `Z_R = K - Omega^2 M + j Omega^2 G` the dynamic stiffness
-//! of shaft and disks only (no bearings, no pedestals, no shaft damping),
+//! of shaft and disks only (no bearings, no pedestals, no shaft damping: models with rotor-level
+//! proportional damping are refused),
 //! `Z_B` the bearings' dynamic stiffness (acting on `q_B` only) and the
 //! unbalance force `f = Omega^2 T a = [f_i; f_B]` (`T`: `1` at a plane's `y`
 //! DOF, `-j` at its `z` DOF; `a_k = m_k e_k exp(j alpha_k)`), the harmonic
@@ -187,6 +188,22 @@ fn dense_k_h(fe: &FeModel) -> (DMatrix<f64>, DMatrix<Complex64>) {
     (k, h)
 }
 
+/// The split formulation needs `Z_R = K - Omega^2 H` with `H` independent
+/// of speed; rotor-level proportional damping (`C_R = alpha M + beta K`)
+/// breaks that, so the reduction (and the identification and tables built
+/// on it) refuses such models rather than dropping the damping.
+fn refuse_rotor_damping(fe: &FeModel) -> Result<(), ReductionError> {
+    let d = fe.model().rotor_damping;
+    if d.is_zero() {
+        Ok(())
+    } else {
+        Err(ReductionError::Invalid(format!(
+            "rotor-level proportional damping (alpha = {}, beta = {}) is not supported by the reduction to the bearings used for identification; it is used by the response and Campbell analyses only",
+            d.alpha, d.beta
+        )))
+    }
+}
+
 /// Splits the shaft DOFs into bearing DOFs `q_B` (channel order) and the
 /// interior `q_i` (increasing), checking the bearing nodes.
 fn partition(fe: &FeModel, model: &RotorModel) -> Result<(Vec<usize>, Vec<usize>), ReductionError> {
@@ -340,6 +357,7 @@ impl<'a> Reducer<'a> {
         t: DMatrix<Complex64>,
     ) -> Result<Self, ReductionError> {
         let (bearing, interior) = partition(fe, model)?;
+        refuse_rotor_damping(fe)?;
         if t.nrows() != fe.n_shaft_dof() {
             return Err(ReductionError::Invalid(format!(
                 "load columns have {} rows, the shaft has {} DOFs",
@@ -564,6 +582,7 @@ impl DenseReducer {
     /// Prepares the dense matrices and the static parts.
     pub fn new(fe: &FeModel, model: &RotorModel) -> Result<Self, ReductionError> {
         let (bearing, interior) = partition(fe, model)?;
+        refuse_rotor_damping(fe)?;
         let n = fe.n_shaft_dof();
         let shaft = |d: DMatrix<f64>| d.view((0, 0), (n, n)).into_owned();
         let (k, m, g) = (
