@@ -212,6 +212,20 @@ impl Candidate {
     pub fn residual(&self) -> f64 {
         self.fit.residual()
     }
+
+    /// The likelihood-ratio test against the nominal fit: the drop in `S`
+    /// in units of `sigma2` against the chi-square quantile of the extra
+    /// parameters at the rate `alpha`.
+    fn judge(&mut self, nominal: &Fit, sigma2: f64, alpha: f64) {
+        let dp = self
+            .fit
+            .n_params()
+            .saturating_sub(nominal.n_params())
+            .max(1);
+        self.statistic = (nominal.s - self.fit.s) / sigma2;
+        self.threshold = chi2_quantile_upper(dp as f64, alpha);
+        self.significant = self.statistic > self.threshold;
+    }
 }
 
 /// The size of an identified effect, with standard deviations.
@@ -319,6 +333,8 @@ pub struct Diagnosis {
     pub chosen: Option<usize>,
     /// `sigma^2` used for the statistics.
     pub sigma2: f64,
+    /// The false-alarm rate of the choice.
+    pub false_alarm: f64,
     /// Observability of each hypothesis.
     pub observability: Vec<observe::Observability>,
     /// What must be known before trusting the result.
@@ -794,14 +810,7 @@ pub fn diagnose(
     let alternatives: usize = hyps.iter().map(|c| c.alternatives).sum::<usize>().max(1);
     let alpha = opts.false_alarm / alternatives as f64;
     for c in &mut hyps {
-        let dp = c
-            .fit
-            .n_params()
-            .saturating_sub(nominal.fit.n_params())
-            .max(1);
-        c.statistic = (nominal.fit.s - c.fit.s) / sigma2;
-        c.threshold = chi2_quantile_upper(dp as f64, alpha);
-        c.significant = c.statistic > c.threshold;
+        c.judge(&nominal.fit, sigma2, alpha);
     }
     let noise_level = crate::estimate::noise::relative_noise_level(samples);
     let misfit = |c: &Candidate| -> bool {
@@ -868,14 +877,7 @@ pub fn diagnose(
         }
         match pair_best {
             Some(mut c) if !misfit(&c) => {
-                let dp = c
-                    .fit
-                    .n_params()
-                    .saturating_sub(nominal.fit.n_params())
-                    .max(1);
-                c.statistic = (nominal.fit.s - c.fit.s) / sigma2;
-                c.threshold = chi2_quantile_upper(dp as f64, alpha);
-                c.significant = c.statistic > c.threshold;
+                c.judge(&nominal.fit, sigma2, alpha);
                 effect = c.effects[0];
                 hyps.push(c);
                 chosen = Some(hyps.len() - 1);
@@ -913,6 +915,7 @@ pub fn diagnose(
         hypotheses: hyps,
         chosen,
         sigma2,
+        false_alarm: opts.false_alarm,
         observability: Vec::new(),
         warnings,
         terms: Vec::new(),

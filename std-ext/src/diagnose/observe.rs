@@ -129,6 +129,19 @@ fn where_min(
     )
 }
 
+/// The statistic a 2-parameter effect must reach: the chi-square quantile
+/// at the choice's false-alarm rate split over the alternatives tried.
+fn detection_threshold(d: &Diagnosis) -> f64 {
+    let alternatives: usize = d
+        .hypotheses
+        .iter()
+        .filter(|c| c.effects.len() == 1)
+        .map(|c| c.alternatives)
+        .sum::<usize>()
+        .max(1);
+    chi2_quantile_upper(2.0, d.false_alarm / alternatives as f64)
+}
+
 /// What would tell `a` from `b`.
 pub fn suggestion(a: Effect, b: Effect) -> &'static str {
     use Effect::*;
@@ -156,14 +169,7 @@ pub fn analyse(d: &Diagnosis, data: &FitData<'_>) -> Vec<Observability> {
     let base = &nominal.model;
     let theta0 = &nominal.fit.theta;
     let n_nodes = data.terms.first().map_or(0, |t| t.b_node.ncols());
-    let alternatives: usize = d
-        .hypotheses
-        .iter()
-        .filter(|c| c.effects.len() == 1)
-        .map(|c| c.alternatives)
-        .sum::<usize>()
-        .max(1);
-    let t2 = chi2_quantile_upper(2.0, 1e-3 / alternatives as f64);
+    let t2 = detection_threshold(d);
     let planes = &base.pr.param.plane_nodes;
     let mut out = Vec::new();
     for effect in Effect::BANK {
@@ -290,14 +296,7 @@ pub fn min_detectable_single(d: &Diagnosis, data: &FitData<'_>, ext: Extension) 
         Extension::Bow { .. } | Extension::Runout => base.scales.q,
         _ => return None,
     };
-    let alternatives: usize = d
-        .hypotheses
-        .iter()
-        .filter(|c| c.effects.len() == 1)
-        .map(|c| c.alternatives)
-        .sum::<usize>()
-        .max(1);
-    let t2 = chi2_quantile_upper(2.0, 1e-3 / alternatives as f64);
+    let t2 = detection_threshold(d);
     let v = min_detectable(
         base,
         data,
