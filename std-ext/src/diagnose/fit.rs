@@ -170,6 +170,22 @@ pub fn evaluate(
     Ok((r, jac))
 }
 
+/// `J^T J` from the upper triangle (column dot products), mirrored: half
+/// the work of a general product.
+pub fn gram(j: &DMatrix<f64>) -> DMatrix<f64> {
+    let p = j.ncols();
+    let mut g = DMatrix::zeros(p, p);
+    for a in 0..p {
+        let ca = j.column(a);
+        for b in a..p {
+            let v = ca.dot(&j.column(b));
+            g[(a, b)] = v;
+            g[(b, a)] = v;
+        }
+    }
+    g
+}
+
 /// The nominal parameters' entries at every speed of `data`.
 pub fn entries(model: &ExtendedModel, data: &FitData<'_>) -> Vec<Vec<Entry>> {
     data.terms
@@ -184,6 +200,19 @@ pub fn fit(
     data: &FitData<'_>,
     theta0: &[f64],
     max_iter: usize,
+) -> Result<Fit, PredictError> {
+    fit_with(model, data, theta0, max_iter, true)
+}
+
+/// [`fit`]; without `covariance` the Jacobian is not evaluated again at
+/// the last point and [`Fit::covariance`] is `None` (a screening fit that
+/// only ranks starts).
+pub fn fit_with(
+    model: &ExtendedModel,
+    data: &FitData<'_>,
+    theta0: &[f64],
+    max_iter: usize,
+    covariance: bool,
 ) -> Result<Fit, PredictError> {
     let en = entries(model, data);
     let p = model.n_params();
@@ -200,7 +229,7 @@ pub fn fit(
     while iterations < max_iter {
         iterations += 1;
         let Some(j) = jac.as_ref() else { break };
-        let jtj = j.tr_mul(j);
+        let jtj = gram(j);
         let g = j.tr_mul(&r);
         let mut accepted = false;
         for _ in 0..12 {
@@ -236,18 +265,21 @@ pub fn fit(
             }
         }
         if !accepted {
-            // No step lowers S: a minimum to the precision of the model.
+            // No step lowers S: a minimum to the precision of the model
+            // (residual and Jacobian are those of `theta` still).
             converged = true;
+            break;
         }
-        let (r2, j2) = evaluate(model, data, &en, &theta, true)?;
+        let last = converged || iterations == max_iter;
+        let (r2, j2) = evaluate(model, data, &en, &theta, !last || covariance)?;
         r = r2;
         jac = j2;
         if converged {
             break;
         }
     }
-    let covariance = jac.as_ref().and_then(|j| {
-        let jtj = j.tr_mul(j);
+    let covariance = jac.as_ref().filter(|_| covariance).and_then(|j| {
+        let jtj = gram(j);
         let sigma2 = s / (n.saturating_sub(p).max(1)) as f64;
         jtj.cholesky().map(|c| c.inverse() * sigma2)
     });

@@ -343,6 +343,9 @@ pub struct Diagnosis {
     pub terms: Vec<SpeedTerms>,
     /// Speed at which bearings are reported (rad/s).
     pub omega_report: f64,
+    /// Wall-clock time of each stage of [`diagnose`] (seconds), in order:
+    /// where a diagnosis spends its time.
+    pub stages: Vec<(&'static str, f64)>,
 }
 
 impl Diagnosis {
@@ -491,11 +494,12 @@ pub fn diagnose(
             rad_s_to_rpm(s.omega)
         )));
     }
-    let __t = std::time::Instant::now();
+    let mut clock = Stages::start();
     let samples = &meas.samples;
     let omegas: Vec<f64> = samples.iter().map(|s| s.omega).collect();
     let omega_max = omegas.iter().copied().fold(0.0, f64::max);
     let terms = terms::build(model, &omegas, 1.0, false)?;
+    clock.lap("terms");
 
     // 1. Nominal: QRD/RLS start, output-error fit, polish on our objective.
     let structure = Structure::physical(opts.order);
@@ -541,6 +545,7 @@ pub fn diagnose(
         threshold: 0.0,
         significant: false,
     };
+    clock.lap("nominal fit");
     let theta0 = nominal.fit.theta.clone();
     let theta_model = theta_from_model(&pr, model, &theta0, 0.5 * omega_max);
     let nominal_s = nominal.fit.s;
@@ -612,6 +617,7 @@ pub fn diagnose(
             );
         }
     }
+    clock.lap(Effect::SpeedDependentBearing.name());
     // foundation_flexibility: a pedestal under each bearing in turn.
     {
         let mut best: Option<(Fit, ExtendedModel, usize)> = None;
@@ -622,8 +628,9 @@ pub fn diagnose(
                 continue;
             }
             alt += 1;
-            // Screen a grid of natural frequencies and masses by a few
-            // iterations each, then fit from the two best starts.
+            // Screen a grid of natural frequencies and masses by three
+            // iterations each (fewer rank the starts wrongly: the basin of
+            // a resonance is narrow), then fit from the two best starts.
             // The bearings start from the nominal fit and from the model's
             // own values (a large pedestal distorts the nominal fit).
             let mut starts: Vec<Fit> = Vec::new();
@@ -637,7 +644,7 @@ pub fn diagnose(
                         };
                         let mut t = nominal_start.clone();
                         t.extend_from_slice(&ped.to_scaled(&scales));
-                        if let Ok(f) = fit::fit(&m, &data, &t, 3) {
+                        if let Ok(f) = fit::fit_with(&m, &data, &t, 3, false) {
                             starts.push(f);
                         }
                     }
@@ -667,6 +674,7 @@ pub fn diagnose(
             );
         }
     }
+    clock.lap(Effect::FoundationFlexibility.name());
     // shaft_bow and extra_unbalance_plane: screened over nodes.
     let n_nodes = model.n_nodes();
     for effect in [Effect::ShaftBow, Effect::ExtraUnbalancePlane] {
@@ -700,6 +708,7 @@ pub fn diagnose(
             push(effect, label, m, f, 1.0, nodes.len());
         }
     }
+    clock.lap("shaft_bow, extra_unbalance_plane");
     // probe_runout
     {
         let m = with_ext(vec![Extension::Runout]);
@@ -741,6 +750,7 @@ pub fn diagnose(
             }
         }
     }
+    clock.lap(Effect::ProbeRunout.name());
     // shaft_stiffness_error: rounds of terms rebuilt at the new factor.
     let mut e_terms_cache: Option<(f64, Vec<SpeedTerms>)> = None;
     {
@@ -749,29 +759,43 @@ pub fn diagnose(
             // Start: the best of e = 1 and e = 1 -+ 5 % with the nominal
             // parameters refitted at each (the nominal estimate adapts the
             // bearings to the wrong shaft: a local minimum in between).
-            let mut e = 1.0;
-            let mut theta = start_with(&m, &[0.0]);
-            let mut s_best = nominal_s;
+            let mut built: Vec<(f64, Vec<SpeedTerms>)> = vec![(1.0, terms.clone())];
+            let mut best = (1.0, nominal_s, start_with(&m, &[0.0]));
             for e_try in [0.95, 1.05] {
                 let te = terms::build(model, &omegas, e_try, false)?;
-                if let Ok((_, th)) = oe_start(model, samples, &te, structure, scaling) {
+                if let Ok((_, mut th)) = oe_start(model, samples, &te, structure, scaling) {
                     let d = FitData::new(samples, &te);
                     let en = fit::entries(&base, &d);
                     if let Ok((r, _)) = fit::evaluate(&base, &d, &en, &th, false) {
                         let s_try = r.norm_squared();
-                        if s_try < s_best {
-                            s_best = s_try;
-                            e = e_try;
-                            theta = th;
-                            theta.push(0.0);
+                        if s_try < best.1 {
+                            th.push(0.0);
+                            best = (e_try, s_try, th);
                         }
                     }
                 }
+                built.push((e_try, te));
             }
+            let (mut e, _, mut theta) = best;
+            // Rounds: fit with the terms linearised in e about the current
+            // factor, move the factor, rebuild the terms there. dA/de and
+            // dB/de are the secant through the previous factor's terms (one
+            // reduction per round instead of two): at convergence the
+            // offset is zero and the residual is that of the exact terms.
+            let pick = |k: usize, built: &mut Vec<(f64, Vec<SpeedTerms>)>| built.swap_remove(k);
+            let k_cur = built.iter().position(|(x, _)| *x == e).unwrap_or(0);
+            let (_, mut cur) = pick(k_cur, &mut built);
+            let k_prev = (0..built.len())
+                .min_by(|&a, &b| (built[a].0 - e).abs().total_cmp(&(built[b].0 - e).abs()))
+                .unwrap_or(0);
+            let (mut e_prev, mut prev) = pick(k_prev, &mut built);
+            drop(built);
             let mut last: Option<(Fit, f64)> = None;
-            for _round in 0..4 {
-                let te = terms::build(model, &omegas, e, true)?;
-                let d = FitData::new(samples, &te);
+            for _round in 0..6 {
+                if cur.first().is_none_or(|t| t.da_de.is_none()) {
+                    terms::set_secant_derivative(&mut cur, e, &prev, e_prev)?;
+                }
+                let d = FitData::new(samples, &cur);
                 let Ok(f) = fit::fit(&m, &d, &theta, 50) else {
                     break;
                 };
@@ -781,12 +805,25 @@ pub fn diagnose(
                 theta = f.theta.clone();
                 last = Some((f, e));
                 if done {
-                    e_terms_cache = Some((e, te));
                     break;
                 }
                 theta[m.offset(0)] = 0.0;
+                let mut next = terms::build(model, &omegas, e_new, false)?;
+                if (e_new - e).abs() < 1e-5 * e {
+                    // Too close for a secant without cancellation: the
+                    // derivative of the current factor is as good.
+                    for (n, c) in next.iter_mut().zip(&cur) {
+                        n.da_de.clone_from(&c.da_de);
+                        n.db_de.clone_from(&c.db_de);
+                    }
+                }
+                (e_prev, prev) = (e, std::mem::replace(&mut cur, next));
                 e = e_new;
-                e_terms_cache = Some((e, Vec::new()));
+            }
+            if let Some((_, e_fit)) = &last {
+                if *e_fit == e {
+                    e_terms_cache = Some((e, cur));
+                }
             }
             if let Some((f, e)) = last {
                 push(
@@ -801,6 +838,7 @@ pub fn diagnose(
         }
     }
 
+    clock.lap(Effect::ShaftStiffnessError.name());
     // 3. Choice.
     let sigma2 = hyps
         .iter()
@@ -896,6 +934,7 @@ pub fn diagnose(
             }
         }
     }
+    clock.lap("choice and pairs");
     let effects = match chosen {
         Some(i) => hyps[i].effects.clone(),
         None => Vec::new(),
@@ -920,11 +959,37 @@ pub fn diagnose(
         warnings,
         terms: Vec::new(),
         omega_report,
+        stages: Vec::new(),
     };
     d.observability = observe::analyse(&d, &data);
+    clock.lap("observability");
+    d.stages = clock.laps;
     drop(data);
     d.terms = terms;
     Ok(d)
+}
+
+/// Wall-clock laps of the stages of [`diagnose`].
+struct Stages {
+    last: std::time::Instant,
+    laps: Vec<(&'static str, f64)>,
+}
+
+impl Stages {
+    fn start() -> Self {
+        Stages {
+            last: std::time::Instant::now(),
+            laps: Vec::new(),
+        }
+    }
+
+    /// Records the time since the previous lap under `name`.
+    fn lap(&mut self, name: &'static str) {
+        let now = std::time::Instant::now();
+        self.laps
+            .push((name, now.duration_since(self.last).as_secs_f64()));
+        self.last = now;
+    }
 }
 
 /// The output-error estimate of the nominal parameters on `samples` with
@@ -1124,7 +1189,7 @@ fn screen(
         return Ok(Vec::new());
     };
     let g = j.tr_mul(&r);
-    let gram = j.tr_mul(&j);
+    let gram = fit::gram(&j);
     let p0 = base.n_params();
     let mut scored: Vec<(f64, usize)> = Vec::new();
     for (k, &node) in nodes.iter().enumerate() {

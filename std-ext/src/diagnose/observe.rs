@@ -79,7 +79,7 @@ pub fn min_detectable(
     let en = fit::entries(&all, data);
     let (_, jac) = fit::evaluate(&all, data, &en, &theta, true).ok()?;
     let j = jac?;
-    let g = j.tr_mul(&j);
+    let g = crate::diagnose::fit::gram(&j);
     let p0 = base.n_params();
     let gnn = g.view((0, 0), (p0, p0)).into_owned();
     let ch = gnn.cholesky()?;

@@ -138,6 +138,37 @@ pub fn build(
     Ok(out)
 }
 
+/// Sets `dA/de` and `dB/de` of `terms` (built for the modulus factor `e`)
+/// to the secant through `prev` (the same speeds, built for `e_prev`):
+/// `(A(e) - A(e_prev)) / (e - e_prev)`, first-order accurate in
+/// `e - e_prev`. A Jacobian for the iteration, as in [`build`].
+pub fn set_secant_derivative(
+    terms: &mut [SpeedTerms],
+    e: f64,
+    prev: &[SpeedTerms],
+    e_prev: f64,
+) -> Result<(), ReductionError> {
+    let h = e - e_prev;
+    if terms.len() != prev.len() || !(h.is_finite() && h != 0.0) {
+        return Err(ReductionError::Invalid(format!(
+            "secant between {} and {} speeds at e = {e}, {e_prev}",
+            terms.len(),
+            prev.len()
+        )));
+    }
+    let s = Complex64::from(1.0 / h);
+    for (t, p) in terms.iter_mut().zip(prev) {
+        if t.omega != p.omega || t.a.shape() != p.a.shape() || t.b.shape() != p.b.shape() {
+            return Err(ReductionError::Invalid(
+                "secant between terms of different speeds or shapes".into(),
+            ));
+        }
+        t.da_de = Some((&t.a - &p.a) * s);
+        t.db_de = Some((&t.b - &p.b) * s);
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
