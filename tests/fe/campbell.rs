@@ -3,7 +3,9 @@
 //! pinned-bearing shaft resonance, and a pedestal's extra resonance.
 
 use rotorid::fe::assembly::FeModel;
-use rotorid::fe::campbell::{campbell_with, critical_speeds, CampbellOptions, Whirl};
+use rotorid::fe::campbell::{
+    campbell_with, critical_speeds, track_modes, CampbellOptions, CriticalSpeed, Crossing, Whirl,
+};
 use rotorid::fe::response::{unbalance_response, Forcing};
 use rotorid::fe::shaft::Section;
 use rotorid::model::{
@@ -110,6 +112,18 @@ fn paper_modes(model: &RotorModel, rpm: &[f64]) -> rotorid::fe::campbell::Campbe
     .unwrap()
 }
 
+/// The damped critical speeds of `whirl` on the diagram of `paper_modes`.
+fn paper_criticals(model: &RotorModel, rpm: &[f64], whirl: Whirl) -> Vec<CriticalSpeed> {
+    let fe = FeModel::new(model).unwrap();
+    let d = paper_modes(model, rpm);
+    let tracks = track_modes(&d);
+    critical_speeds(&fe, &d, &tracks, Crossing::Damped)
+        .unwrap()
+        .into_iter()
+        .filter(|c| c.whirl == whirl)
+        .collect()
+}
+
 /// Speed of the largest response of `channel` on a fine grid in `[lo, hi]` rpm.
 fn peak_rpm(
     model: &RotorModel,
@@ -138,8 +152,8 @@ fn paper_rotor_critical_speeds_and_response_peaks() {
     let m = RotorModel::paper();
     let rpm: Vec<f64> = (0..=16).map(|i| 5000.0 + 125.0 * i as f64).collect();
     let d = paper_modes(&m, &rpm);
-    let fwd = critical_speeds(&d, Whirl::Forward);
-    let bwd = critical_speeds(&d, Whirl::Backward);
+    let fwd = paper_criticals(&m, &rpm, Whirl::Forward);
+    let bwd = paper_criticals(&m, &rpm, Whirl::Backward);
     assert_eq!(fwd.len(), 1, "{fwd:?}");
     assert_eq!(bwd.len(), 1, "{bwd:?}");
     let (cf, cb) = (rad_s_to_rpm(fwd[0].omega), rad_s_to_rpm(bwd[0].omega));
@@ -172,8 +186,7 @@ fn pinned_bearing_shaft_resonance() {
     let mut m = RotorModel::paper();
     m.bearings = vec![stiff_isotropic(0, 1e13), stiff_isotropic(26, 1e13)];
     let rpm: Vec<f64> = (0..=8).map(|i| 6500.0 + 100.0 * i as f64).collect();
-    let d = paper_modes(&m, &rpm);
-    let fwd = critical_speeds(&d, Whirl::Forward);
+    let fwd = paper_criticals(&m, &rpm, Whirl::Forward);
     assert_eq!(fwd.len(), 1, "{fwd:?}");
     let c = rad_s_to_rpm(fwd[0].omega);
 
