@@ -590,9 +590,9 @@ pub const MAX_REFINE_SOLVES: usize = 60;
 /// or `|lambda|`, see [`Crossing`]), `g_k(Omega) = f_k(Omega) - Omega`.
 /// Where `g_k` changes sign between neighbouring diagram speeds (both with
 /// the mode present), the root is refined by the Illinois variant of
-/// regula falsi: at each trial speed the eigenvalues are solved again and
-/// the mode is the one whose shape best matches (MAC, weighted by distance
-/// in speed) the mode at the two bracketing speeds; iteration stops when
+/// regula falsi: at each trial speed the mode is found again (Newton's
+/// method on the eigenvalue, or a full eigen-solve and the best shape
+/// match, see `matching_mode`); iteration stops when
 /// the bracket or the step is below [`CRITICAL_SPEED_RTOL`] relative. The
 /// result therefore does not depend on the speed step, as long as the step
 /// brackets each crossing once (two crossings of one mode within one step
@@ -648,10 +648,21 @@ pub fn critical_speeds(
     Ok(out)
 }
 
+/// Least distance-weighted MAC with the bracketing modes for the eigenvalue
+/// found by [`newton_eigenvalue`] to be accepted as the tracked mode;
+/// otherwise the full eigen-solve decides.
+const NEWTON_ACCEPT_MAC: f64 = 0.8;
+
 /// The mode at speed `s` that continues the tracked mode known at the
-/// bracketing speeds `(w0, a)` and `(w1, b)`: among the eigenvalues nearest
-/// to the linear interpolation of `a`'s and `b`'s, the one whose shape has
-/// the largest distance-weighted MAC with theirs.
+/// bracketing speeds `(w0, a)` and `(w1, b)`.
+///
+/// First, Newton's method on the quadratic eigenproblem from the linear
+/// interpolation of `a`'s and `b`'s eigenvalues ([`newton_eigenvalue`], one
+/// dense `n x n` LU per step instead of the `2n x 2n` Schur form); its
+/// result is kept when its shape matches theirs (distance-weighted MAC at
+/// least 0.8). Otherwise all eigenvalues are solved and, among the six
+/// nearest the interpolation, the one whose shape has the largest
+/// distance-weighted MAC with theirs is taken.
 fn matching_mode(
     fe: &FeModel,
     chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
@@ -662,19 +673,87 @@ fn matching_mode(
 ) -> Result<Mode, FeError> {
     let t = ((s - w0) / (w1 - w0)).clamp(0.0, 1.0);
     let guess = a.eigenvalue + (b.eigenvalue - a.eigenvalue) * t;
+    let score = |md: &Mode| (1.0 - t) * mac(&md.shape, &a.shape) + t * mac(&md.shape, &b.shape);
+    let start = if t < 0.5 { &a.shape } else { &b.shape };
+    if let Some(lam) = newton_eigenvalue(fe, g, s, guess, start) {
+        if lam.im > 0.0 {
+            let md = mode_of(fe, s, lam)?;
+            if score(&md) >= NEWTON_ACCEPT_MAC {
+                return Ok(md);
+            }
+        }
+    }
     let mut lams = eigenvalues_at(fe, chol, g, s)?;
     lams.sort_by(|x, y| (x - guess).norm().total_cmp(&(y - guess).norm()));
     lams.truncate(6);
     let mut best: Option<(f64, Mode)> = None;
     for lam in lams {
         let md = mode_of(fe, s, lam)?;
-        let score = (1.0 - t) * mac(&md.shape, &a.shape) + t * mac(&md.shape, &b.shape);
-        if best.as_ref().is_none_or(|(bs, _)| score > *bs) {
-            best = Some((score, md));
+        let sc = score(&md);
+        if best.as_ref().is_none_or(|(bs, _)| sc > *bs) {
+            best = Some((sc, md));
         }
     }
     best.map(|(_, m)| m)
         .ok_or_else(|| FeError::Eigen(format!("no mode to follow at {s} rad/s")))
+}
+
+/// An eigenvalue of `Z(lambda) = K + lambda D + lambda^2 M` (dense, all
+/// DOF, `D = C + Omega G`, coefficients at `omega`) near `guess`, by
+/// nonlinear inverse iteration (Newton's method on the eigenvalue, Ruhe
+/// 1973): with a fixed normalisation vector `e`,
+///
+/// ```text
+/// u = Z(lambda_k)^-1 Z'(lambda_k) x_k,   Z' = D + 2 lambda M
+/// lambda_{k+1} = lambda_k - (e^H x_k) / (e^H u),   x_{k+1} = u / (e^H u)
+/// ```
+///
+/// converging quadratically to a simple eigenvalue. The start vector is the
+/// shaft shape `shape` (pedestal DOFs zero) after one inverse-iteration
+/// step. `None` when the Newton step does not fall below `1e-11 |lambda|`
+/// within 30 steps (the error after such a step is of rounding size).
+fn newton_eigenvalue(
+    fe: &FeModel,
+    g: &DMatrix<f64>,
+    omega: f64,
+    guess: Complex64,
+    shape: &[Complex64],
+) -> Option<Complex64> {
+    use nalgebra::DVector;
+    let n = fe.n_dof();
+    let cplx = |m: DMatrix<f64>| m.map(Complex64::from);
+    let k = cplx(fe.stiffness_matrix(omega));
+    let d = cplx(fe.damping_matrix(omega) + g * omega);
+    let m = cplx(fe.mass_matrix());
+    let z_at = |lam: Complex64| &k + &d * lam + &m * (lam * lam);
+    let dz_at = |lam: Complex64| &d + &m * (lam * 2.0);
+    let mut x = DVector::from_fn(n, |i, _| shape.get(i).copied().unwrap_or_default());
+    let mut lam = guess;
+    // One inverse-iteration step turns the shaft shape into a full vector.
+    x = z_at(lam).lu().solve(&(dz_at(lam) * &x))?;
+    let e = x.clone();
+    let ex = e.dotc(&x);
+    if !(ex.norm() > 0.0 && ex.is_finite()) {
+        return None;
+    }
+    x /= ex;
+    for _ in 0..30 {
+        let u = z_at(lam).lu().solve(&(dz_at(lam) * &x))?;
+        let eu = e.dotc(&u);
+        if !(eu.norm() > 0.0 && eu.is_finite()) {
+            return None;
+        }
+        let step = e.dotc(&x) / eu;
+        lam -= step;
+        x = u / eu;
+        if !lam.is_finite() {
+            return None;
+        }
+        if step.norm() <= 1e-11 * lam.norm() {
+            return Some(lam);
+        }
+    }
+    None
 }
 
 /// Root of `eval` in the bracket `[x0, x1]` (`g0`, `g1` of opposite signs)
