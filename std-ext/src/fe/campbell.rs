@@ -565,7 +565,8 @@ pub struct CriticalSpeed {
     pub omega: f64,
     /// Which frequency crosses the 1X line.
     pub crossing: Crossing,
-    /// The crossing mode: its index in [`track_modes`]'s list.
+    /// The crossing mode: its index in the `tracks` given to
+    /// [`critical_speeds`].
     pub mode: usize,
     /// Whirl of the mode at the critical speed.
     pub whirl: Whirl,
@@ -581,7 +582,8 @@ pub struct CriticalSpeed {
 /// Relative speed tolerance of the critical-speed refinement.
 pub const CRITICAL_SPEED_RTOL: f64 = 1e-10;
 
-/// Most eigen-solves spent refining one critical speed.
+/// Most trial speeds (each one eigen-solve) spent refining one critical
+/// speed.
 pub const MAX_REFINE_SOLVES: usize = 60;
 
 /// The critical speeds of the tracked modes in the diagram's speed range.
