@@ -259,7 +259,7 @@ fn unknown_model_and_missing_files_exit_2() {
     );
     fails(
         &["simulate", "--model", "/no/such/dir/model.toml", "--out", o],
-        "unknown model",
+        "file not found: /no/such/dir/model.toml",
     );
     fails(&["campbell", "--model", "nosuchmodel"], "unknown model");
     fails(&["tables", "--model", "nosuchmodel", "--out", o], "");

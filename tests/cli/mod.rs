@@ -1,6 +1,7 @@
 //! The `rotorid` command line: the error contract, `simulate` and
 //! `campbell`, outputs, degenerate data and limits.
 
+mod campbell;
 mod errors;
 mod robust;
 mod simulate;

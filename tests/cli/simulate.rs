@@ -179,23 +179,30 @@ fn campbell_prints_table_and_critical_speeds_and_writes_svg() {
     assert!(out.contains("speed_rpm"));
     assert!(out.contains(" F "), "{out}");
     assert!(out.contains(" B "), "{out}");
-    // Critical speeds section with the paper rotor's first forward
-    // critical speed near 6111 rpm (SPEC section 3).
-    let crit: Vec<f64> = out
-        .split("critical speeds (forward modes crossing 1X):")
+    // Critical speeds of every whirl, with the paper rotor's backward and
+    // forward crossings near 5796 and 6111 rpm (SPEC section 3).
+    let crit: Vec<(f64, String)> = out
+        .split("every whirl):")
         .nth(1)
         .unwrap()
         .lines()
-        .take_while(|l| !l.starts_with("backward"))
-        .filter_map(|l| l.split_whitespace().next()?.parse().ok())
+        .filter_map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            Some((w.first()?.parse().ok()?, w.get(3)?.to_string()))
+        })
         .collect();
+    assert_eq!(crit.len(), 2, "{crit:?}\n{out}");
     assert!(
-        crit.iter().any(|c| (c - 6111.0).abs() < 60.0),
-        "{crit:?}\n{out}"
+        (crit[0].0 - 5796.0).abs() < 5.0 && crit[0].1 == "backward",
+        "{crit:?}"
+    );
+    assert!(
+        (crit[1].0 - 6111.0).abs() < 5.0 && crit[1].1 == "forward",
+        "{crit:?}"
     );
     let svg = std::fs::read_to_string(&p).unwrap();
     assert!(svg.starts_with("<svg"));
-    assert!(svg.contains("Campbell diagram"));
+    assert!(svg.contains("Campbell diagram: paper"));
     assert!(svg.contains("1X"));
     assert!(svg.contains("forward"));
     assert!(svg.contains("backward"));

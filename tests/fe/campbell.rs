@@ -3,7 +3,9 @@
 //! pinned-bearing shaft resonance, and a pedestal's extra resonance.
 
 use rotorid::fe::assembly::FeModel;
-use rotorid::fe::campbell::{campbell_with, critical_speeds, CampbellOptions, Whirl};
+use rotorid::fe::campbell::{
+    campbell_with, critical_speeds, track_modes, CampbellOptions, CriticalSpeed, Crossing, Whirl,
+};
 use rotorid::fe::response::{unbalance_response, Forcing};
 use rotorid::fe::shaft::Section;
 use rotorid::model::{
@@ -96,6 +98,90 @@ fn disk_gyroscopic_split_matches_rigid_disk_closed_form() {
     assert!((ip * om + root) / (-ip * om + root) > 1.5);
 }
 
+/// Tracking by mode shape follows a mode through others in frequency: on
+/// the rigid-disk rotor of the test above, the backward tilt mode falls
+/// from ~633 rad/s through the two (speed-independent) translation modes
+/// near 191 rad/s. One track follows the closed-form backward tilt root at
+/// every speed, across the crossing, and the translation modes stay flat;
+/// ranking by frequency would swap them.
+#[test]
+fn tracks_follow_the_backward_tilt_mode_through_the_translation_modes() {
+    let l = 0.5;
+    let d = 0.02;
+    let n_el = 10;
+    let light = Material::from_e_nu("light steel", 200e9, 0.78, 0.3);
+    let disk = Disk::from_geometry(n_el / 2, 7800.0, 0.3, 0.0, 0.03);
+    let mut model = RotorModel::paper();
+    model.theory = BeamTheory::EulerBernoulli;
+    model.shaft = (0..n_el)
+        .map(|_| ShaftElement {
+            length: l / n_el as f64,
+            outer_diameter: d,
+            inner_diameter: 0.0,
+            material: light.clone(),
+        })
+        .collect();
+    model.disks = vec![disk.clone()];
+    model.bearings = vec![stiff_isotropic(0, 1e11), stiff_isotropic(n_el, 1e11)];
+    model.planes = vec![];
+    model.unbalance = vec![];
+    let fe = FeModel::new(&model).unwrap();
+    let kr = 12.0 * light.e * Section::tube(d, 0.0, 0.3).inertia / l;
+    let (id, ip) = (disk.id, disk.ip);
+    let bwd = |om: f64| (-ip * om + (ip * ip * om * om + 4.0 * id * kr).sqrt()) / (2.0 * id);
+    let speeds: Vec<f64> = (0..=20).map(|i| 100.0 * i as f64).collect();
+    let diag = campbell_with(
+        &fe,
+        &speeds,
+        &CampbellOptions {
+            max_frequency: None,
+            max_modes: 6,
+        },
+    )
+    .unwrap();
+    let tracks = track_modes(&diag);
+    // The translation frequency (no gyroscopic effect on it) at rest.
+    let f_tr = diag.points[0].modes[0].frequency;
+    assert!(bwd(2000.0) < 0.8 * f_tr && bwd(0.0) > 2.0 * f_tr);
+    let tilt = tracks
+        .iter()
+        .find(|t| {
+            t.mode(&diag, 20)
+                .is_some_and(|m| (m.frequency - bwd(2000.0)).abs() < 5e-3 * bwd(2000.0))
+        })
+        .expect("a track ends on the backward tilt root");
+    for (p, pt) in diag.points.iter().enumerate() {
+        let m = tilt
+            .mode(&diag, p)
+            .expect("the tilt track spans every speed");
+        let rel = (m.frequency - bwd(pt.omega)).abs() / bwd(pt.omega);
+        assert!(
+            rel < 5e-3,
+            "Omega {}: {} vs {}",
+            pt.omega,
+            m.frequency,
+            bwd(pt.omega)
+        );
+        if pt.omega > 0.0 {
+            assert_eq!(m.whirl, Whirl::Backward, "Omega {}", pt.omega);
+        }
+    }
+    // The two translation modes: two tracks, flat within 0.5 % at every
+    // speed (they cross the tilt track between 900 and 1100 rad/s).
+    let flat: Vec<_> = tracks
+        .iter()
+        .filter(|t| {
+            (0..speeds.len()).all(|p| {
+                t.mode(&diag, p)
+                    .is_some_and(|m| (m.frequency - f_tr).abs() < 5e-3 * f_tr)
+            })
+        })
+        .collect();
+    assert_eq!(flat.len(), 2);
+    // ... and the tilt crosses them: it is above at 800, below at 1200.
+    assert!(bwd(800.0) > f_tr && bwd(1200.0) < f_tr);
+}
+
 fn paper_modes(model: &RotorModel, rpm: &[f64]) -> rotorid::fe::campbell::CampbellDiagram {
     let fe = FeModel::new(model).unwrap();
     let speeds: Vec<f64> = rpm.iter().map(|&r| rpm_to_rad_s(r)).collect();
@@ -108,6 +194,18 @@ fn paper_modes(model: &RotorModel, rpm: &[f64]) -> rotorid::fe::campbell::Campbe
         },
     )
     .unwrap()
+}
+
+/// The damped critical speeds of `whirl` on the diagram of `paper_modes`.
+fn paper_criticals(model: &RotorModel, rpm: &[f64], whirl: Whirl) -> Vec<CriticalSpeed> {
+    let fe = FeModel::new(model).unwrap();
+    let d = paper_modes(model, rpm);
+    let tracks = track_modes(&d);
+    critical_speeds(&fe, &d, &tracks, Crossing::Damped)
+        .unwrap()
+        .into_iter()
+        .filter(|c| c.whirl == whirl)
+        .collect()
 }
 
 /// Speed of the largest response of `channel` on a fine grid in `[lo, hi]` rpm.
@@ -138,8 +236,8 @@ fn paper_rotor_critical_speeds_and_response_peaks() {
     let m = RotorModel::paper();
     let rpm: Vec<f64> = (0..=16).map(|i| 5000.0 + 125.0 * i as f64).collect();
     let d = paper_modes(&m, &rpm);
-    let fwd = critical_speeds(&d, Whirl::Forward);
-    let bwd = critical_speeds(&d, Whirl::Backward);
+    let fwd = paper_criticals(&m, &rpm, Whirl::Forward);
+    let bwd = paper_criticals(&m, &rpm, Whirl::Backward);
     assert_eq!(fwd.len(), 1, "{fwd:?}");
     assert_eq!(bwd.len(), 1, "{bwd:?}");
     let (cf, cb) = (rad_s_to_rpm(fwd[0].omega), rad_s_to_rpm(bwd[0].omega));
@@ -172,8 +270,7 @@ fn pinned_bearing_shaft_resonance() {
     let mut m = RotorModel::paper();
     m.bearings = vec![stiff_isotropic(0, 1e13), stiff_isotropic(26, 1e13)];
     let rpm: Vec<f64> = (0..=8).map(|i| 6500.0 + 100.0 * i as f64).collect();
-    let d = paper_modes(&m, &rpm);
-    let fwd = critical_speeds(&d, Whirl::Forward);
+    let fwd = paper_criticals(&m, &rpm, Whirl::Forward);
     assert_eq!(fwd.len(), 1, "{fwd:?}");
     let c = rad_s_to_rpm(fwd[0].omega);
 

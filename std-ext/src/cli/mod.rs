@@ -7,7 +7,8 @@
 //! rotorid identify --model MODEL --measurements FILE.csv [--formulation physical|paper] [--order 1]
 //!                  [--lambda 0.999] [--delta 1e-7] [--f32] [--json OUT.json] [--plot DIR]
 //! rotorid diagnose --model MODEL --measurements FILE.csv [--json OUT.json]
-//! rotorid campbell --model MODEL [--rpm-max 15000] [--plot OUT.svg]
+//! rotorid campbell --model MODEL [--rpm-max 15000] [--rpm-step 250] [--modes 8]
+//!                  [--plot OUT.svg] [--json OUT.json] [--csv OUT.csv]
 //! ```
 //!
 //! MODEL is `paper` (the built-in reference rotor), `paper-speed-dependent`
@@ -155,7 +156,8 @@ impl<E: std::error::Error> From<E> for CliError {
 /// the file's `[simulate]` effects. The error names the model argument.
 pub fn load_model(name_or_path: &str) -> Result<ModelFile, CliError> {
     model_file_by_name_or_path(name_or_path).map_err(|e| match e {
-        crate::io::model_file::ModelFileError::UnknownModel(_) => CliError(e.to_string()),
+        crate::io::model_file::ModelFileError::UnknownModel(_)
+        | crate::io::model_file::ModelFileError::NotFound(_) => CliError(e.to_string()),
         other => CliError(format!("model {name_or_path}: {other}")),
     })
 }

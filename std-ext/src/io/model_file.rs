@@ -124,6 +124,10 @@ pub enum ModelFileError {
         "unknown model `{0}`: not a built-in model (paper, paper-speed-dependent) nor a .toml file"
     )]
     UnknownModel(String),
+    /// A path (it names a folder or has an extension) to a file that does
+    /// not exist.
+    #[error("file not found: {0}")]
+    NotFound(String),
 }
 
 impl ModelFileError {
@@ -866,7 +870,7 @@ pub fn load_model(path: impl AsRef<Path>) -> Result<RotorModel, ModelFileError> 
     Ok(load_model_file(path)?.model)
 }
 
-/// A built-in model by name: `paper` (SPEC section 3) or
+/// A built-in model by name: `paper` (the method paper's reference rotor) or
 /// `paper-speed-dependent` (Eq. 49).
 pub fn builtin_model(name: &str) -> Option<RotorModel> {
     match name {
@@ -887,7 +891,13 @@ pub fn model_file_by_name_or_path(name_or_path: &str) -> Result<ModelFile, Model
     }
     let p = Path::new(name_or_path);
     if !p.exists() {
-        return Err(ModelFileError::UnknownModel(name_or_path.to_string()));
+        // `dir/x`, `x.toml`: meant as a file; a bare word: meant as a name.
+        let looks_like_path = p.components().count() > 1 || p.extension().is_some();
+        return Err(if looks_like_path {
+            ModelFileError::NotFound(name_or_path.to_string())
+        } else {
+            ModelFileError::UnknownModel(name_or_path.to_string())
+        });
     }
     load_model_file(p)
 }

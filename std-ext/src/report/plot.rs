@@ -314,7 +314,7 @@ pub fn line_plot_with(
 /// magnitudes in `[1e-3, 1e6)` (`2000`, `0.0042`, `17.5`), otherwise
 /// scientific notation with at most four significant digits (`5e7`,
 /// `2.5e-5`).
-fn tick_label(v: f64) -> String {
+pub fn tick_label(v: f64) -> String {
     fn trim(s: &str) -> &str {
         if s.contains('.') {
             s.trim_end_matches('0').trim_end_matches('.')

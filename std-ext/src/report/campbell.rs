@@ -1,0 +1,734 @@
+//! The Campbell diagram report of `rotorid campbell`: the text table, the
+//! JSON and CSV files and the SVG diagram, all from one [`CampbellReport`].
+//!
+//! Units at this edge: speeds in rpm, frequencies in Hz (`f = w / (2 pi)`),
+//! logarithmic decrement `delta = -2 pi Re lambda / Im lambda` and damping
+//! ratio `zeta = -Re lambda / |lambda|` dimensionless. Modes are numbered
+//! from 1 in every output, in the order of [`crate::fe::campbell::track_modes`]
+//! (by the speed where a mode first appears, then by frequency there).
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use serde::Serialize;
+
+use crate::fe::campbell::{CampbellDiagram, CriticalSpeed, Track, Whirl};
+use crate::report::plot::{tick_label, PlotError};
+use crate::units::{rad_s_to_hz, rad_s_to_rpm};
+
+/// One tracked mode at one speed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModePoint {
+    /// Damped natural frequency `Im lambda / (2 pi)` (Hz).
+    pub frequency_hz: f64,
+    /// Whirl direction at this speed.
+    pub whirl: Whirl,
+    /// Logarithmic decrement (-).
+    pub log_dec: f64,
+    /// Damping ratio (-).
+    pub damping_ratio: f64,
+}
+
+/// A critical speed as reported.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CriticalRow {
+    /// Speed (rpm); the natural frequency there is `rpm / 60` Hz.
+    pub rpm: f64,
+    /// Mode index (0-based here, printed from 1).
+    pub mode: usize,
+    /// Whirl of the mode at the critical speed.
+    pub whirl: Whirl,
+    /// Logarithmic decrement at the critical speed (-).
+    pub log_dec: f64,
+    /// Damping ratio at the critical speed (-).
+    pub damping_ratio: f64,
+}
+
+impl CriticalRow {
+    fn from_fe(c: &CriticalSpeed) -> Self {
+        CriticalRow {
+            rpm: rad_s_to_rpm(c.omega),
+            mode: c.mode,
+            whirl: c.whirl,
+            log_dec: c.log_dec,
+            damping_ratio: c.damping_ratio,
+        }
+    }
+}
+
+/// Everything `rotorid campbell` reports.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CampbellReport {
+    /// The model's label: the model file's stem, or the built-in name.
+    pub label: String,
+    /// The diagram's speeds (rpm).
+    pub speeds_rpm: Vec<f64>,
+    /// Per tracked mode, per speed: the mode there (`None`: not present).
+    pub modes: Vec<Vec<Option<ModePoint>>>,
+    /// Critical speeds where a damped natural frequency meets the speed.
+    pub critical: Vec<CriticalRow>,
+    /// Critical speeds where an undamped natural frequency `|lambda|`
+    /// meets the speed.
+    pub critical_undamped: Vec<CriticalRow>,
+}
+
+/// One-letter whirl code of the table: F, B, M.
+pub fn whirl_letter(w: Whirl) -> char {
+    match w {
+        Whirl::Forward => 'F',
+        Whirl::Backward => 'B',
+        Whirl::Mixed => 'M',
+    }
+}
+
+/// Whirl name in JSON and CSV: `forward`, `backward`, `mixed`.
+pub fn whirl_name(w: Whirl) -> &'static str {
+    match w {
+        Whirl::Forward => "forward",
+        Whirl::Backward => "backward",
+        Whirl::Mixed => "mixed",
+    }
+}
+
+/// The JSON file of `rotorid campbell --json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct CampbellJson {
+    /// Model label (file stem or built-in name).
+    pub model: String,
+    /// `"rpm"`.
+    pub speed_unit: &'static str,
+    /// `"Hz"`.
+    pub frequency_unit: &'static str,
+    /// Number of tracked modes (numbered 1..=n_modes).
+    pub n_modes: usize,
+    /// Per speed, the tracked modes present there.
+    pub speeds: Vec<SpeedJson>,
+    /// Damped natural frequency = speed (ROSS `wd`), by speed.
+    pub critical_speeds: Vec<CriticalJson>,
+    /// Undamped natural frequency `|lambda|` = speed (ROSS `wn`), by speed.
+    pub critical_speeds_undamped: Vec<CriticalJson>,
+}
+
+/// One speed of the JSON file.
+#[derive(Debug, Clone, Serialize)]
+pub struct SpeedJson {
+    /// Speed (rpm).
+    pub rpm: f64,
+    /// The tracked modes present at this speed.
+    pub modes: Vec<ModeJson>,
+}
+
+/// One mode at one speed in the JSON file.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModeJson {
+    /// Mode number (from 1).
+    pub mode: usize,
+    /// Damped natural frequency (Hz).
+    pub frequency_hz: f64,
+    /// `forward`, `backward` or `mixed`.
+    pub whirl: &'static str,
+    /// Logarithmic decrement (-).
+    pub log_dec: f64,
+    /// Damping ratio (-).
+    pub damping_ratio: f64,
+}
+
+/// One critical speed in the JSON file.
+#[derive(Debug, Clone, Serialize)]
+pub struct CriticalJson {
+    /// Speed (rpm).
+    pub rpm: f64,
+    /// The crossing natural frequency, `rpm / 60` (Hz).
+    pub frequency_hz: f64,
+    /// Mode number (from 1).
+    pub mode: usize,
+    /// Whirl of the mode at the critical speed.
+    pub whirl: &'static str,
+    /// Logarithmic decrement there (-).
+    pub log_dec: f64,
+    /// Damping ratio there (-).
+    pub damping_ratio: f64,
+}
+
+impl From<&CriticalRow> for CriticalJson {
+    fn from(c: &CriticalRow) -> Self {
+        CriticalJson {
+            rpm: c.rpm,
+            frequency_hz: c.rpm / 60.0,
+            mode: c.mode + 1,
+            whirl: whirl_name(c.whirl),
+            log_dec: c.log_dec,
+            damping_ratio: c.damping_ratio,
+        }
+    }
+}
+
+impl CampbellReport {
+    /// The report of `tracks` on `diagram`, with the critical speeds
+    /// (`mode` indices into `tracks`).
+    pub fn new(
+        label: impl Into<String>,
+        diagram: &CampbellDiagram,
+        tracks: &[Track],
+        critical: &[CriticalSpeed],
+        critical_undamped: &[CriticalSpeed],
+    ) -> Self {
+        let modes = tracks
+            .iter()
+            .map(|t| {
+                (0..diagram.points.len())
+                    .map(|p| {
+                        t.mode(diagram, p).map(|m| ModePoint {
+                            frequency_hz: rad_s_to_hz(m.frequency),
+                            whirl: m.whirl,
+                            log_dec: m.log_dec,
+                            damping_ratio: m.damping_ratio,
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        CampbellReport {
+            label: label.into(),
+            speeds_rpm: diagram
+                .points
+                .iter()
+                .map(|p| rad_s_to_rpm(p.omega))
+                .collect(),
+            modes,
+            critical: critical.iter().map(CriticalRow::from_fe).collect(),
+            critical_undamped: critical_undamped.iter().map(CriticalRow::from_fe).collect(),
+        }
+    }
+
+    /// The undamped crossing of the same mode nearest to `c` (within 10 %).
+    fn undamped_partner(&self, c: &CriticalRow) -> Option<&CriticalRow> {
+        self.critical_undamped
+            .iter()
+            .filter(|u| u.mode == c.mode && (u.rpm - c.rpm).abs() <= 0.1 * c.rpm)
+            .min_by(|a, b| (a.rpm - c.rpm).abs().total_cmp(&(b.rpm - c.rpm).abs()))
+    }
+
+    /// The printed table: one row per speed with `f (Hz) whirl log-dec` per
+    /// tracked mode (blank where the mode is absent), then the critical
+    /// speeds of every whirl.
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        let _ = write!(s, "{:>9}", "speed_rpm");
+        for i in 1..=self.modes.len() {
+            let _ = write!(s, " | {:>21}", format!("mode {i}: Hz  W logdec"));
+        }
+        s.push('\n');
+        for (p, rpm) in self.speeds_rpm.iter().enumerate() {
+            let _ = write!(s, "{rpm:>9.1}");
+            for m in &self.modes {
+                match m.get(p).copied().flatten() {
+                    Some(m) => {
+                        let _ = write!(
+                            s,
+                            " | {:>10.3} {} {:>8.4}",
+                            m.frequency_hz,
+                            whirl_letter(m.whirl),
+                            m.log_dec
+                        );
+                    }
+                    None => {
+                        let _ = write!(s, " | {:>21}", "");
+                    }
+                }
+            }
+            s.push('\n');
+        }
+        s.push_str(
+            "\ncritical speeds (a mode's damped natural frequency equals the speed; every whirl):\n",
+        );
+        if self.critical.is_empty() {
+            s.push_str("  none in the speed range\n");
+        } else {
+            let _ = writeln!(
+                s,
+                "  {:>9} {:>10} {:>5}  {:<8} {:>8}  {:>12}",
+                "rpm", "Hz", "mode", "whirl", "log_dec", "undamped_rpm"
+            );
+        }
+        for c in &self.critical {
+            let und = self
+                .undamped_partner(c)
+                .map_or_else(|| "-".to_string(), |u| format!("{:.1}", u.rpm));
+            let _ = writeln!(
+                s,
+                "  {:>9.1} {:>10.3} {:>5}  {:<8} {:>8.4}  {:>12}",
+                c.rpm,
+                c.rpm / 60.0,
+                c.mode + 1,
+                whirl_name(c.whirl),
+                c.log_dec,
+                und
+            );
+        }
+        s
+    }
+
+    /// The JSON file's content.
+    pub fn json(&self) -> CampbellJson {
+        let speeds = self
+            .speeds_rpm
+            .iter()
+            .enumerate()
+            .map(|(p, &rpm)| SpeedJson {
+                rpm,
+                modes: self
+                    .modes
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, m)| {
+                        let m = m.get(p).copied().flatten()?;
+                        Some(ModeJson {
+                            mode: k + 1,
+                            frequency_hz: m.frequency_hz,
+                            whirl: whirl_name(m.whirl),
+                            log_dec: m.log_dec,
+                            damping_ratio: m.damping_ratio,
+                        })
+                    })
+                    .collect(),
+            })
+            .collect();
+        CampbellJson {
+            model: self.label.clone(),
+            speed_unit: "rpm",
+            frequency_unit: "Hz",
+            n_modes: self.modes.len(),
+            speeds,
+            critical_speeds: self.critical.iter().map(CriticalJson::from).collect(),
+            critical_speeds_undamped: self
+                .critical_undamped
+                .iter()
+                .map(CriticalJson::from)
+                .collect(),
+        }
+    }
+
+    /// The CSV file's content: one table, one row per tracked mode and
+    /// speed (`kind = mode`), then one per critical speed (`kind =
+    /// critical` for the damped, `critical_undamped` for the undamped
+    /// crossing; there `frequency_hz = speed_rpm / 60`):
+    ///
+    /// ```text
+    /// kind,speed_rpm,mode,frequency_hz,whirl,log_dec,damping_ratio
+    /// ```
+    pub fn csv(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# rotorid campbell: model {}", self.label);
+        s.push_str("kind,speed_rpm,mode,frequency_hz,whirl,log_dec,damping_ratio\n");
+        for (p, rpm) in self.speeds_rpm.iter().enumerate() {
+            for (k, m) in self.modes.iter().enumerate() {
+                if let Some(m) = m.get(p).copied().flatten() {
+                    let _ = writeln!(
+                        s,
+                        "mode,{rpm},{},{},{},{},{}",
+                        k + 1,
+                        m.frequency_hz,
+                        whirl_name(m.whirl),
+                        m.log_dec,
+                        m.damping_ratio
+                    );
+                }
+            }
+        }
+        for (kind, list) in [
+            ("critical", &self.critical),
+            ("critical_undamped", &self.critical_undamped),
+        ] {
+            for c in list {
+                let _ = writeln!(
+                    s,
+                    "{kind},{},{},{},{},{},{}",
+                    c.rpm,
+                    c.mode + 1,
+                    c.rpm / 60.0,
+                    whirl_name(c.whirl),
+                    c.log_dec,
+                    c.damping_ratio
+                );
+            }
+        }
+        s
+    }
+
+    /// Writes the diagram as SVG (see [`plot`]).
+    pub fn plot(&self, path: &Path, rpm_max: f64) -> Result<(), PlotError> {
+        plot(self, path, rpm_max)
+    }
+}
+
+/// Ten distinct colours (one per mode, repeated beyond ten).
+const MODE_COLORS: [(u8, u8, u8); 10] = [
+    (31, 119, 180),
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (127, 127, 127),
+    (188, 189, 34),
+    (23, 190, 207),
+];
+
+fn mode_color(k: usize) -> RGBColor {
+    let (r, g, b) = MODE_COLORS[k % MODE_COLORS.len()];
+    RGBColor(r, g, b)
+}
+
+/// Dash pattern of a whirl: forward solid, backward dashed, mixed dotted.
+fn dash(w: Whirl) -> Option<(u32, u32)> {
+    match w {
+        Whirl::Forward => None,
+        Whirl::Backward => Some((9, 5)),
+        Whirl::Mixed => Some((2, 4)),
+    }
+}
+
+/// The runs of consecutive present points of one mode with the same
+/// whirl; each run also takes the next run's first point, so the curve is
+/// continuous where the whirl changes.
+fn whirl_runs(
+    rpm: &[f64],
+    pts: &[Option<ModePoint>],
+    value: impl Fn(&ModePoint) -> f64,
+) -> Vec<(Whirl, Vec<(f64, f64)>)> {
+    let mut out: Vec<(Whirl, Vec<(f64, f64)>)> = Vec::new();
+    let mut open = false;
+    for (x, p) in rpm.iter().zip(pts) {
+        let Some(p) = p else {
+            open = false;
+            continue;
+        };
+        let xy = (*x, value(p));
+        if !xy.1.is_finite() {
+            open = false;
+            continue;
+        }
+        match out.last_mut() {
+            Some((w, run)) if open && *w == p.whirl => run.push(xy),
+            Some((_, run)) if open => {
+                run.push(xy);
+                out.push((p.whirl, vec![xy]));
+            }
+            _ => out.push((p.whirl, vec![xy])),
+        }
+        open = true;
+    }
+    out
+}
+
+type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+
+fn draw_runs<'a, DB>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    runs: Vec<(Whirl, Vec<(f64, f64)>)>,
+    color: RGBColor,
+) -> Result<(), String>
+where
+    DB: DrawingBackend + 'a,
+{
+    let style = ShapeStyle::from(&color).stroke_width(2);
+    for (w, run) in runs {
+        if run.len() < 2 {
+            chart
+                .draw_series(run.iter().map(|&p| Circle::new(p, 2, style.filled())))
+                .map_err(|e| e.to_string())?;
+            continue;
+        }
+        match dash(w) {
+            None => {
+                chart
+                    .draw_series(LineSeries::new(run, style))
+                    .map_err(|e| e.to_string())?;
+            }
+            Some((size, gap)) => {
+                chart
+                    .draw_series(DashedLineSeries::new(run, size, gap, style))
+                    .map_err(|e| e.to_string())?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The Campbell diagram as SVG: top panel damped natural frequency (Hz)
+/// against speed (rpm), one colour per tracked mode, line style per whirl
+/// (forward solid, backward dashed, mixed dotted), the 1X line and the
+/// critical speeds (damped crossings, every whirl) as circles on it in the
+/// mode's colour; bottom panel the log decrement of each mode. Title
+/// `Campbell diagram: LABEL`; the legend (modes, whirl styles, the critical
+/// speeds in rpm) sits in a strip right of the panels, outside the data.
+pub fn plot(report: &CampbellReport, path: &Path, rpm_max: f64) -> Result<(), PlotError> {
+    let pstr = path.display().to_string();
+    let be = |e: String| PlotError::Backend {
+        path: pstr.clone(),
+        reason: e,
+    };
+    if !(rpm_max.is_finite() && rpm_max > 0.0) {
+        return Err(PlotError::Data {
+            path: pstr.clone(),
+            reason: format!("speed range up to {rpm_max} rpm"),
+        });
+    }
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1150, 860)).into_drawing_area();
+        draw_all(report, &root, rpm_max).map_err(be)?;
+        root.present().map_err(|e| be(e.to_string()))?;
+    }
+    crate::io::output::write_atomic(path, svg.as_bytes()).map_err(|e| match e {
+        crate::io::output::OutputError::Io { source, .. } => be(format!("cannot write: {source}")),
+        other => be(other.to_string()),
+    })?;
+    Ok(())
+}
+
+fn draw_all(report: &CampbellReport, root: &Area<'_>, rpm_max: f64) -> Result<(), String> {
+    let err = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    root.fill(&WHITE).map_err(err)?;
+    let root = root
+        .titled(
+            &format!("Campbell diagram: {}", report.label),
+            ("sans-serif", 24),
+        )
+        .map_err(err)?;
+    let (panels, legend) = root.split_horizontally(880);
+    let (top, bottom) = panels.split_vertically(540);
+    let rpm = &report.speeds_rpm;
+
+    // Top: frequency.
+    let f_max = report
+        .modes
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|m| m.frequency_hz)
+        .filter(|f| f.is_finite())
+        .fold(rpm_max / 60.0, f64::max);
+    let mut chart = ChartBuilder::on(&top)
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..rpm_max, 0.0..1.05 * f_max)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc("speed (rpm)")
+        .y_desc("damped natural frequency (Hz)")
+        .x_label_formatter(&|v| tick_label(*v))
+        .y_label_formatter(&|v| tick_label(*v))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    for c in &report.critical {
+        let grey = ShapeStyle::from(&RGBColor(170, 170, 170)).stroke_width(1);
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(c.rpm, 0.0), (c.rpm, 1.05 * f_max)],
+                4,
+                4,
+                grey,
+            ))
+            .map_err(|e| e.to_string())?;
+    }
+    for (k, m) in report.modes.iter().enumerate() {
+        draw_runs(
+            &mut chart,
+            whirl_runs(rpm, m, |p| p.frequency_hz),
+            mode_color(k),
+        )?;
+    }
+    chart
+        .draw_series(LineSeries::new(
+            vec![(0.0, 0.0), (rpm_max, rpm_max / 60.0)],
+            ShapeStyle::from(&BLACK).stroke_width(1),
+        ))
+        .map_err(|e| e.to_string())?;
+    for c in &report.critical {
+        let p = (c.rpm, c.rpm / 60.0);
+        chart
+            .draw_series([
+                Circle::new(p, 6, mode_color(c.mode).filled()),
+                Circle::new(p, 6, ShapeStyle::from(&BLACK).stroke_width(1)),
+            ])
+            .map_err(|e| e.to_string())?;
+    }
+
+    // Bottom: log decrement.
+    let decs: Vec<f64> = report
+        .modes
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|m| m.log_dec)
+        .filter(|d| d.is_finite())
+        .collect();
+    let d_lo = decs.iter().copied().fold(0.0, f64::min);
+    let d_hi = decs.iter().copied().fold(0.0, f64::max);
+    // Undamped rotors give log decrements of rounding size (1e-12): a span
+    // of at least 0.01 keeps them on a readable zero line.
+    let pad = (0.05 * (d_hi - d_lo)).max(0.005);
+    let (d_lo, d_hi) = (d_lo - if d_lo < 0.0 { pad } else { 0.0 }, d_hi + pad);
+    let mut chart = ChartBuilder::on(&bottom)
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..rpm_max, d_lo..d_hi)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc("speed (rpm)")
+        .y_desc("log decrement")
+        .x_label_formatter(&|v| tick_label(*v))
+        .y_label_formatter(&|v| tick_label(*v))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    for c in &report.critical {
+        let grey = ShapeStyle::from(&RGBColor(170, 170, 170)).stroke_width(1);
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(c.rpm, d_lo), (c.rpm, d_hi)],
+                4,
+                4,
+                grey,
+            ))
+            .map_err(|e| e.to_string())?;
+    }
+    for (k, m) in report.modes.iter().enumerate() {
+        draw_runs(&mut chart, whirl_runs(rpm, m, |p| p.log_dec), mode_color(k))?;
+    }
+    draw_legend(report, &legend).map_err(err)
+}
+
+/// The legend strip: one entry per mode (colour, with the whirls it takes),
+/// the whirl line styles, the 1X line and the critical speeds.
+fn draw_legend(
+    report: &CampbellReport,
+    area: &Area<'_>,
+) -> Result<(), DrawingAreaErrorKind<std::io::Error>> {
+    let font = ("sans-serif", 15).into_font();
+    let bold = ("sans-serif", 16).into_font().style(FontStyle::Bold);
+    let (x0, mut y) = (12i32, 20i32);
+    let line = 21;
+    let sample = |area: &Area<'_>, y: i32, color: RGBColor, d: Option<(u32, u32)>| {
+        let style = ShapeStyle::from(&color).stroke_width(2);
+        match d {
+            None => area.draw(&PathElement::new(vec![(x0, y), (x0 + 34, y)], style)),
+            Some((size, gap)) => {
+                let mut x = x0;
+                while x < x0 + 34 {
+                    let x1 = (x + size as i32).min(x0 + 34);
+                    area.draw(&PathElement::new(vec![(x, y), (x1, y)], style))?;
+                    x += (size + gap) as i32;
+                }
+                Ok(())
+            }
+        }
+    };
+    area.draw(&Text::new("modes", (x0, y - 8), bold.clone()))?;
+    y += line;
+    for (k, m) in report.modes.iter().enumerate() {
+        let mut whirls: Vec<Whirl> = Vec::new();
+        for p in m.iter().flatten() {
+            if !whirls.contains(&p.whirl) {
+                whirls.push(p.whirl);
+            }
+        }
+        let code: String = whirls.iter().map(|w| whirl_letter(*w)).collect();
+        sample(area, y, mode_color(k), None)?;
+        area.draw(&Text::new(
+            format!("mode {} ({code})", k + 1),
+            (x0 + 44, y - 8),
+            font.clone(),
+        ))?;
+        y += line;
+    }
+    y += line / 2;
+    area.draw(&Text::new("whirl", (x0, y - 8), bold.clone()))?;
+    y += line;
+    for w in [Whirl::Forward, Whirl::Backward, Whirl::Mixed] {
+        sample(area, y, RGBColor(60, 60, 60), dash(w))?;
+        area.draw(&Text::new(
+            format!("{} ({})", whirl_name(w), whirl_letter(w)),
+            (x0 + 44, y - 8),
+            font.clone(),
+        ))?;
+        y += line;
+    }
+    sample(area, y, BLACK, None)?;
+    area.draw(&Text::new("1X (speed)", (x0 + 44, y - 8), font.clone()))?;
+    y += line + line / 2;
+    area.draw(&Text::new("critical speeds", (x0, y - 8), bold.clone()))?;
+    y += line - 4;
+    area.draw(&Text::new(
+        "(damped freq. = speed)",
+        (x0, y - 8),
+        font.clone(),
+    ))?;
+    y += line;
+    if report.critical.is_empty() {
+        area.draw(&Text::new("none in range", (x0, y - 8), font.clone()))?;
+    }
+    for c in &report.critical {
+        area.draw(&Circle::new((x0 + 17, y), 6, mode_color(c.mode).filled()))?;
+        area.draw(&Circle::new(
+            (x0 + 17, y),
+            6,
+            ShapeStyle::from(&BLACK).stroke_width(1),
+        ))?;
+        area.draw(&Text::new(
+            format!(
+                "{:.0} rpm  mode {} {}",
+                c.rpm,
+                c.mode + 1,
+                whirl_letter(c.whirl)
+            ),
+            (x0 + 44, y - 8),
+            font.clone(),
+        ))?;
+        y += line;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pt(f: f64, w: Whirl) -> Option<ModePoint> {
+        Some(ModePoint {
+            frequency_hz: f,
+            whirl: w,
+            log_dec: 0.1,
+            damping_ratio: 0.016,
+        })
+    }
+
+    #[test]
+    fn whirl_runs_join_at_changes_and_break_at_gaps() {
+        let rpm = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0];
+        let pts = [
+            pt(10.0, Whirl::Mixed),
+            pt(11.0, Whirl::Backward),
+            pt(12.0, Whirl::Backward),
+            None,
+            pt(14.0, Whirl::Forward),
+            pt(15.0, Whirl::Forward),
+        ];
+        let runs = whirl_runs(&rpm, &pts, |p| p.frequency_hz);
+        assert_eq!(runs.len(), 3);
+        assert_eq!(runs[0], (Whirl::Mixed, vec![(0.0, 10.0), (1.0, 11.0)]));
+        assert_eq!(runs[1], (Whirl::Backward, vec![(1.0, 11.0), (2.0, 12.0)]));
+        assert_eq!(runs[2], (Whirl::Forward, vec![(4.0, 14.0), (5.0, 15.0)]));
+    }
+}
