@@ -65,6 +65,19 @@ pub enum SimulateError {
     /// A response solver returned the wrong number of speeds or channels.
     #[error("finite-element response: the response has the wrong number of speeds or channels")]
     ResponseShape,
+    /// Nothing excites the rotor: no unbalance (every `m e` is 0), no bow
+    /// and no runout, so every response would be exactly zero.
+    #[error("nothing to simulate: the model has no unbalance, bow or runout, so every response would be zero; give it an unbalance")]
+    NoExcitation,
+}
+
+/// Whether `unbalance`, `bow` and `runout` excite anything: an unbalance
+/// with `m e > 0` (kg m), a bow point with amplitude > 0 (m) or a runout
+/// with amplitude > 0 (m).
+pub fn has_excitation(unbalance: &[Unbalance], bow: Option<&ShaftBow>, runout: &[Runout]) -> bool {
+    unbalance.iter().any(|u| u.me != 0.0)
+        || bow.is_some_and(|b| b.points.iter().any(|p| p.amplitude != 0.0))
+        || runout.iter().any(|r| r.amplitude != 0.0)
 }
 
 /// What to simulate.
@@ -155,6 +168,9 @@ pub fn simulate_with(
     let m = apply_effects(model, &opts.effects)?;
     let mut unbalance = m.unbalance.clone();
     unbalance.extend_from_slice(&opts.effects.extra_unbalance);
+    if !has_excitation(&unbalance, m.bow.as_ref(), &opts.effects.runout) {
+        return Err(SimulateError::NoExcitation);
+    }
     let omegas: Vec<f64> = opts.speeds_rpm.iter().map(|&r| rpm_to_rad_s(r)).collect();
     let responses = solve(&m, &unbalance, m.bow.as_ref(), &omegas)?;
     let n_b = m.bearings.len();
@@ -185,6 +201,10 @@ pub fn simulate_with(
 
 /// Simulates `model` with `opts`: the FE unbalance/bow response at the
 /// bearing nodes (`response::unbalance_response`), then runout and noise.
+///
+/// Fails with [`SimulateError::NoExcitation`] when nothing excites the
+/// rotor (no unbalance, bow or runout in the model or the effects): an
+/// all-zero sweep carries no information.
 pub fn simulate(model: &RotorModel, opts: &SimOptions) -> Result<Measurements, SimulateError> {
     simulate_with(model, opts, &fe_bearing_response)
 }

@@ -240,7 +240,14 @@ pub fn run(args: &SimulateArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         seed: args.seed,
         effects,
     };
-    let m = crate::simulate::simulate(&file.model, &opts)?;
+    let m = crate::simulate::simulate(&file.model, &opts).map_err(|e| match e {
+        crate::simulate::SimulateError::NoExcitation => CliError::new(format!(
+            "model {}: no unbalance, bow or runout, so every response would be zero; add unbalance with --extra-unbalance NODE:ME_KGM:PHASE_DEG (node from 1, e.g. --extra-unbalance {}:1e-4:0)",
+            args.model,
+            file.model.planes.first().map_or(1, |n| n + 1)
+        )),
+        other => CliError::from(other),
+    })?;
     let layout = match args.layout {
         LayoutArg::Complex => CsvLayout::Complex,
         LayoutArg::AmpPhase => CsvLayout::AmplitudePhase,
