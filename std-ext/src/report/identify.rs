@@ -234,6 +234,19 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
     s
 }
 
+/// A reference curve drawn as a pale band 8 px wide in a light tint of
+/// `color`, to go under the estimate's 2 px line of the same colour.
+pub fn model_band(
+    label: String,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    color: (u8, u8, u8),
+) -> crate::report::plot::Series {
+    crate::report::plot::Series::line(label, x, y)
+        .color(crate::report::plot::pale(color, 0.6))
+        .width(8)
+}
+
 /// Errors of [`write_plots`].
 #[derive(Debug, Error)]
 pub enum ReportError {
@@ -275,7 +288,7 @@ pub fn write_plots(
     reference: Option<&RotorModel>,
     rpm_max: f64,
 ) -> Result<Vec<std::path::PathBuf>, ReportError> {
-    use crate::report::plot::{line_plot, line_plot_with, Marker, PlotOptions, Series};
+    use crate::report::plot::{line_plot, line_plot_with, Marker, PlotOptions, Series, PALETTE};
     use crate::units::rad_s_to_rpm;
     if id.history.is_empty() {
         return Err(ReportError::NoHistory);
@@ -303,7 +316,10 @@ pub fn write_plots(
                     })
                     .collect();
                 let letter = if pick == 0 { "k" } else { "c" };
-                series.push(Series::line(format!("{letter}{name}"), rpm.clone(), y));
+                let color = PALETTE[e % PALETTE.len()];
+                // The model under the estimate: a pale wide band of the
+                // same colour, so that neither hides the other where they
+                // agree.
                 if let Some(r) = reference.and_then(|r| r.bearings.get(m)) {
                     let yt: Vec<f64> = id
                         .history
@@ -317,19 +333,15 @@ pub fn write_plots(
                             }
                         })
                         .collect();
-                    series.push(
-                        Series::line(format!("{letter}{name} model"), rpm.clone(), yt).dashed(),
-                    );
+                    series.push(model_band(
+                        format!("{letter}{name} model"),
+                        rpm.clone(),
+                        yt,
+                        color,
+                    ));
                 }
+                series.push(Series::line(format!("{letter}{name}"), rpm.clone(), y).color(color));
             }
-            // Same colour for an entry and its reference.
-            let palette = [(31, 119, 180), (214, 39, 40), (44, 160, 44), (255, 127, 14)];
-            let per = if reference.is_some() { 2 } else { 1 };
-            let series: Vec<Series> = series
-                .into_iter()
-                .enumerate()
-                .map(|(i, s)| s.color(palette[(i / per) % 4]))
-                .collect();
             let path = dir.join(format!("{prefix}bearing{}_{what}.svg", m + 1));
             let node = id
                 .param
@@ -375,22 +387,21 @@ pub fn write_plots(
                     }
                 })
                 .collect();
-            series.push(Series::line(format!("node {}", node + 1), rpm.clone(), y));
+            let color = PALETTE[k % PALETTE.len()];
             if let Some(t) = reference.and_then(|r| r.unbalance.iter().find(|t| t.node == node)) {
                 let v = if what == "me" {
                     t.me
                 } else {
                     t.phase.to_degrees()
                 };
-                series.push(
-                    Series::line(
-                        format!("node {} model", node + 1),
-                        rpm.clone(),
-                        vec![v; rpm.len()],
-                    )
-                    .dashed(),
-                );
+                series.push(model_band(
+                    format!("node {} model", node + 1),
+                    rpm.clone(),
+                    vec![v; rpm.len()],
+                    color,
+                ));
             }
+            series.push(Series::line(format!("node {}", node + 1), rpm.clone(), y).color(color));
         }
         let path = dir.join(format!("{prefix}unbalance_{what}.svg"));
         let mut opts = PlotOptions::default();
@@ -446,7 +457,9 @@ pub fn write_plots(
                     .map(|md| (rad_s_to_rpm(p.omega), hz(md.frequency)))
             })
             .unzip();
-        series.push(Series::line(format!("identified mode {}", j + 1), x, y).color((31, 119, 180)));
+        // One legend entry for all the identified rotor's modes.
+        let label = if j == 0 { "identified rotor" } else { "" };
+        series.push(Series::line(label, x, y).color((31, 119, 180)));
     }
     if let Some(r) = reference {
         let dr = diagram(r)?;
@@ -459,7 +472,8 @@ pub fn write_plots(
                     .map(move |md| (rad_s_to_rpm(p.omega), hz(md.frequency)))
             })
             .unzip();
-        series.push(Series::points("model", x, y, Marker::Circle).color((214, 39, 40)));
+        // Hollow: the identified line through a point stays visible.
+        series.push(Series::points("model rotor", x, y, Marker::Ring).color((214, 39, 40)));
     }
     series.push(
         Series::line("1X", vec![0.0, rpm_max], vec![0.0, rpm_max / 60.0])
