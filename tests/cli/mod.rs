@@ -2,5 +2,6 @@
 //! `campbell`, outputs, degenerate data and limits.
 
 mod errors;
+mod responses;
 mod robust;
 mod simulate;

@@ -11,19 +11,28 @@ use rotorid_core::parametrization::Formulation;
 
 const COEF: [&str; 4] = ["yy", "yz", "zy", "zz"];
 
-fn rel(x: f64, truth: f64) -> f64 {
-    if truth != 0.0 {
-        (x - truth).abs() / truth.abs()
+/// The error of `x` against the model value `truth` (unit `unit`) as the
+/// table prints it: relative, `|x - truth| / |truth|`, as a bare number;
+/// where `truth` is 0 (no relative error exists) the absolute error
+/// `|x - truth|` followed by its unit; for a phase (`phase`, degrees) the
+/// absolute angle difference in (-180, 180] followed by `deg`.
+pub fn error_cell(x: f64, truth: f64, unit: &str, phase: bool) -> String {
+    if phase {
+        let d = ((x - truth + 180.0).rem_euclid(360.0) - 180.0).abs();
+        format!("{d:.2e} deg")
+    } else if truth != 0.0 {
+        format!("{:.2e}", (x - truth).abs() / truth.abs())
     } else {
-        (x - truth).abs()
+        format!("{:.2e} {unit}", (x - truth).abs())
     }
 }
 
 /// A plain-text table of the final estimates (SI units, 1-based nodes),
 /// their standard deviations when known ([`Identification::std`]) and,
 /// when `reference` is given, the reference values (its bearing laws at the
-/// last speed, its unbalance at the plane nodes) with relative errors
-/// (absolute error in degrees for phases).
+/// last speed, its unbalance at the plane nodes) with their errors
+/// ([`error_cell`]: relative as a bare number; absolute, followed by its
+/// unit, for phases and where the model value is 0).
 pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> String {
     use std::fmt::Write;
     struct Row {
@@ -33,6 +42,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         std: Option<f64>,
         model: Option<f64>,
         phase: bool,
+        unit: &'static str,
     }
     let mut s = String::new();
     let omega = id.last.omega;
@@ -71,6 +81,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
                 std: sd.map(|x| x.0[e]),
                 model: truth.map(|t| t.k[e]),
                 phase: false,
+                unit: "N/m",
             });
         }
         for (e, name) in COEF.iter().enumerate() {
@@ -81,6 +92,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
                 std: sd.map(|x| x.1[e]),
                 model: truth.map(|t| t.c[e]),
                 phase: false,
+                unit: "N s/m",
             });
         }
     }
@@ -95,6 +107,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             std: sd.map(|x| x.0),
             model: truth.map(|t| t.me),
             phase: false,
+            unit: "kg m",
         });
         rows.push(Row {
             name: format!("n{} phase_deg", node + 1),
@@ -103,11 +116,12 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             std: sd.map(|x| x.1),
             model: truth.map(|t| t.phase.to_degrees()),
             phase: true,
+            unit: "deg",
         });
     }
     let _ = writeln!(
         s,
-        "{:<14} {:>14} {:>10} {:>14} {:>10}{}",
+        "{:<14} {:>14} {:>10} {:>14} {:>14}{}",
         "quantity",
         if rls.is_some() {
             "output-error"
@@ -118,7 +132,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         "model",
         "error",
         if rls.is_some() {
-            format!(" {:>14} {:>10}", "QRD/RLS", "error")
+            format!(" {:>14} {:>14}", "QRD/RLS", "error")
         } else {
             String::new()
         }
@@ -130,41 +144,41 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             format!("{x:.6e}")
         }
     };
+    let mut absolute = false;
     for r in rows {
         let sd = r
             .std
             .map(|x| format!("{x:.2e}"))
             .unwrap_or_else(|| "-".into());
-        let (model, err) = match r.model {
-            Some(t) => {
-                let e = if r.phase {
-                    ((r.value - t + 180.0).rem_euclid(360.0) - 180.0).abs()
-                } else {
-                    rel(r.value, t)
-                };
-                (num(t, r.phase), format!("{e:.2e}"))
-            }
-            None => ("-".into(), "-".into()),
-        };
+        absolute |= r.model == Some(0.0) && !r.phase;
         let err_of = |v: f64| match r.model {
-            Some(t) if r.phase => {
-                format!("{:.2e}", ((v - t + 180.0).rem_euclid(360.0) - 180.0).abs())
-            }
-            Some(t) => format!("{:.2e}", rel(v, t)),
+            Some(t) => error_cell(v, t, r.unit, r.phase),
             None => "-".into(),
         };
+        let model = r.model.map_or_else(|| "-".into(), |t| num(t, r.phase));
         let side = r
             .rls
-            .map(|v| format!(" {:>14} {:>10}", num(v, r.phase), err_of(v)))
+            .map(|v| format!(" {:>14} {:>14}", num(v, r.phase), err_of(v)))
             .unwrap_or_default();
         let _ = writeln!(
             s,
-            "{:<14} {:>14} {:>10} {:>14} {:>10}{side}",
+            "{:<14} {:>14} {:>10} {:>14} {:>14}{side}",
             r.name,
             num(r.value, r.phase),
             sd,
             model,
-            err
+            err_of(r.value)
+        );
+    }
+    if reference.is_some() {
+        let _ = writeln!(
+            s,
+            "error: relative, |value - model| / |model|; phases: absolute, in deg{}",
+            if absolute {
+                "; where the model value is 0: absolute, |value - model|, with its unit"
+            } else {
+                ""
+            }
         );
     }
     if st.formulation == Formulation::Paper {
