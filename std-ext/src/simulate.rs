@@ -26,7 +26,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use thiserror::Error;
 
-use crate::fe::assembly::{FeError, FeModel};
+use crate::fe::assembly::{Dir, FeError, FeModel};
 use crate::fe::response::{unbalance_response, Forcing};
 use crate::io::measurement::{Measurements, Sample};
 use crate::model::extension::{apply_effects, Effects, ExtensionError, Runout};
@@ -65,6 +65,27 @@ pub enum SimulateError {
     /// A response solver returned the wrong number of speeds or channels.
     #[error("finite-element response: the response has the wrong number of speeds or channels")]
     ResponseShape,
+    /// Nothing excites the rotor: no unbalance (every `m e` is 0), no bow
+    /// and no runout, so every response would be exactly zero.
+    #[error("nothing to simulate: the model has no unbalance, bow or runout, so every response would be zero; give it an unbalance")]
+    NoExcitation,
+    /// A node probe names a node the shaft does not have.
+    #[error("node probe at node {node}: the shaft has nodes 1..={n_nodes}")]
+    ProbeNode {
+        /// The node (1-based).
+        node: usize,
+        /// Nodes of the shaft.
+        n_nodes: usize,
+    },
+}
+
+/// Whether `unbalance`, `bow` and `runout` excite anything: an unbalance
+/// with `m e > 0` (kg m), a bow point with amplitude > 0 (m) or a runout
+/// with amplitude > 0 (m).
+pub fn has_excitation(unbalance: &[Unbalance], bow: Option<&ShaftBow>, runout: &[Runout]) -> bool {
+    unbalance.iter().any(|u| u.me != 0.0)
+        || bow.is_some_and(|b| b.points.iter().any(|p| p.amplitude != 0.0))
+        || runout.iter().any(|r| r.amplitude != 0.0)
 }
 
 /// What to simulate.
@@ -155,6 +176,9 @@ pub fn simulate_with(
     let m = apply_effects(model, &opts.effects)?;
     let mut unbalance = m.unbalance.clone();
     unbalance.extend_from_slice(&opts.effects.extra_unbalance);
+    if !has_excitation(&unbalance, m.bow.as_ref(), &opts.effects.runout) {
+        return Err(SimulateError::NoExcitation);
+    }
     let omegas: Vec<f64> = opts.speeds_rpm.iter().map(|&r| rpm_to_rad_s(r)).collect();
     let responses = solve(&m, &unbalance, m.bow.as_ref(), &omegas)?;
     let n_b = m.bearings.len();
@@ -185,8 +209,69 @@ pub fn simulate_with(
 
 /// Simulates `model` with `opts`: the FE unbalance/bow response at the
 /// bearing nodes (`response::unbalance_response`), then runout and noise.
+///
+/// Fails with [`SimulateError::NoExcitation`] when nothing excites the
+/// rotor (no unbalance, bow or runout in the model or the effects): an
+/// all-zero sweep carries no information.
 pub fn simulate(model: &RotorModel, opts: &SimOptions) -> Result<Measurements, SimulateError> {
     simulate_with(model, opts, &fe_bearing_response)
+}
+
+/// Stream of the ChaCha8 generator (seeded with the same seed) that draws
+/// the node probes' noise, apart from the bearing channels' stream 0, so
+/// that adding node probes leaves the bearing channels unchanged.
+pub const NODE_NOISE_STREAM: u64 = 1;
+
+/// [`simulate`], with probes at the shaft nodes `nodes` (0-based) too.
+///
+/// Returns the bearing-probe measurements (exactly those of [`simulate`]
+/// with the same options) and, per speed in the same order, the phasors
+/// (m) at the node probes, `2 nodes.len()` values `n_y, n_z` per node in
+/// the order of `nodes`. A node probe reads the shaft's absolute
+/// displacement (the casing is the ground); no runout is added to it. With
+/// `opts.noise = s > 0` each node phasor `q` gets `s |q| eps` as the bearing
+/// channels do, drawn from stream [`NODE_NOISE_STREAM`] of ChaCha8 seeded
+/// with `opts.seed`, sample by sample, node by node, y then z, real part
+/// then imaginary part.
+pub fn simulate_at_nodes(
+    model: &RotorModel,
+    opts: &SimOptions,
+    nodes: &[usize],
+) -> Result<(Measurements, Vec<Vec<Complex64>>), SimulateError> {
+    let n_nodes = model.n_nodes();
+    if let Some(&n) = nodes.iter().find(|&&n| n >= n_nodes) {
+        return Err(SimulateError::ProbeNode {
+            node: n + 1,
+            n_nodes,
+        });
+    }
+    // One FE solve for both: the solver keeps the node phasors aside.
+    let at_nodes = std::cell::RefCell::new(Vec::new());
+    let solve = |m: &RotorModel,
+                 unbalance: &[Unbalance],
+                 bow: Option<&ShaftBow>,
+                 omegas: &[f64]|
+     -> Result<Vec<Vec<Complex64>>, SimulateError> {
+        let (bearings, q_nodes) = fe_response(m, unbalance, bow, omegas, nodes)?;
+        *at_nodes.borrow_mut() = q_nodes;
+        Ok(bearings)
+    };
+    let measured = simulate_with(model, opts, &solve)?;
+    let mut q_nodes = at_nodes.into_inner();
+    if q_nodes.len() != measured.samples.len() {
+        return Err(SimulateError::ResponseShape);
+    }
+    if opts.noise > 0.0 {
+        let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+        rng.set_stream(NODE_NOISE_STREAM);
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        for q in q_nodes.iter_mut().flatten() {
+            let n1: f64 = StandardNormal.sample(&mut rng);
+            let n2: f64 = StandardNormal.sample(&mut rng);
+            *q += Complex64::new(n1 * h, n2 * h) * (opts.noise * q.norm());
+        }
+    }
+    Ok((measured, q_nodes))
 }
 
 /// The finite-element response at the bearing probes: the shaft's
@@ -199,15 +284,40 @@ fn fe_bearing_response(
     bow: Option<&ShaftBow>,
     omegas: &[f64],
 ) -> Result<Vec<Vec<Complex64>>, SimulateError> {
+    Ok(fe_response(model, unbalance, bow, omegas, &[])?.0)
+}
+
+/// [`fe_bearing_response`], and the shaft's absolute `y, z` displacement
+/// (m) at the nodes `nodes` (0-based), `2 nodes.len()` values per speed.
+#[allow(clippy::type_complexity)]
+fn fe_response(
+    model: &RotorModel,
+    unbalance: &[Unbalance],
+    bow: Option<&ShaftBow>,
+    omegas: &[f64],
+    nodes: &[usize],
+) -> Result<(Vec<Vec<Complex64>>, Vec<Vec<Complex64>>), SimulateError> {
     let fe = FeModel::new(model)?;
     let forcing = Forcing {
         unbalance: unbalance.to_vec(),
         bow: bow.cloned(),
     };
     let responses = unbalance_response(&fe, &forcing, omegas)?;
-    Ok(responses
-        .into_iter()
-        .map(|r| match model.probes {
+    let mut at_nodes = Vec::with_capacity(responses.len());
+    let mut at_bearings = Vec::with_capacity(responses.len());
+    for r in responses {
+        let mut q = Vec::with_capacity(2 * nodes.len());
+        for &n in nodes {
+            for dir in [Dir::Y, Dir::Z] {
+                q.push(
+                    r.q.get(fe.dof(n, dir))
+                        .copied()
+                        .ok_or(SimulateError::ResponseShape)?,
+                );
+            }
+        }
+        at_nodes.push(q);
+        at_bearings.push(match model.probes {
             // The probe on a pedestal reads the shaft relative to it.
             ProbeReference::Relative => r
                 .bearings
@@ -216,8 +326,9 @@ fn fe_bearing_response(
                 .map(|(s, p)| s - p)
                 .collect(),
             ProbeReference::Absolute => r.bearings,
-        })
-        .collect())
+        });
+    }
+    Ok((at_bearings, at_nodes))
 }
 
 #[cfg(test)]

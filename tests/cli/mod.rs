@@ -3,5 +3,6 @@
 
 mod campbell;
 mod errors;
+mod responses;
 mod robust;
 mod simulate;

@@ -129,36 +129,55 @@ fn simulate_from_model_files_own_and_ross() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let a = tmp("own.csv");
     let b = tmp("ross.csv");
-    for (model, out) in [
-        ("examples/paper.toml", &a),
-        ("examples/paper_ross.toml", &b),
-    ] {
-        let Output {
-            status: code,
-            stderr: err,
-            ..
-        } = cli([
+    let ross = root.join("examples/paper_ross.toml");
+    let ross = ross.to_str().unwrap();
+    let run = |model: &str, out: &std::path::Path, extra: &[&str]| {
+        let mut args = vec![
             "simulate",
             "--model",
-            root.join(model).to_str().unwrap(),
+            model,
             "--out",
             out.to_str().unwrap(),
             "--rpm-max",
             "1000",
-        ]);
-        assert_eq!(code, 0, "{model}: {err}");
-    }
+        ];
+        args.extend_from_slice(extra);
+        cli(args)
+    };
+    let own = root.join("examples/paper.toml");
+    let o = run(own.to_str().unwrap(), &a, &[]);
+    assert_eq!(o.status, 0, "{}", o.stderr);
     let own = read_csv(&a).unwrap();
     assert!(own
         .samples
         .iter()
         .all(|s| s.q.iter().any(|z| z.norm() > 0.0)));
-    // The ROSS file carries no unbalance: zero response.
+    // The ROSS file carries no unbalance: an all-zero sweep is refused, on
+    // one line naming the flag that adds unbalance, and nothing is written.
+    let o = run(ross, &b, &[]);
+    assert_eq!(o.status, 2, "{o:?}");
+    assert_eq!(o.stderr.trim_end().lines().count(), 1, "{}", o.stderr);
+    for needle in [
+        "no unbalance",
+        "every response would be zero",
+        "--extra-unbalance NODE:ME_KGM:PHASE_DEG",
+    ] {
+        assert!(o.stderr.contains(needle), "{needle}: {}", o.stderr);
+    }
+    assert!(!b.exists());
+    // A zero extra unbalance excites nothing either.
+    let o = run(ross, &b, &["--extra-unbalance", "5:0:0"]);
+    assert_eq!(o.status, 2, "{o:?}");
+    assert!(o.stderr.contains("--extra-unbalance"), "{}", o.stderr);
+    // With the flag it names: a response at every speed.
+    let o = run(ross, &b, &["--extra-unbalance", "5:1e-4:0"]);
+    assert_eq!(o.status, 0, "{}", o.stderr);
     let ross = read_csv(&b).unwrap();
+    assert_eq!(ross.samples.len(), 20);
     assert!(ross
         .samples
         .iter()
-        .all(|s| s.q.iter().all(|z| z.norm() == 0.0)));
+        .all(|s| s.q.iter().all(|z| z.norm() > 0.0)));
 }
 
 #[test]

@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! rotorid simulate --model MODEL --out FILE.csv [--rpm-min 50] [--rpm-max 15000] [--rpm-step 50] [--noise 0.01] [--seed 1]
+//!                  [--nodes N,N,...] [--plot DIR]
 //! rotorid tables   --model MODEL --out FILE [--rpm-min 50] [--rpm-max 15000] [--rpm-step 50] [--f32]
 //!                  [--adaptive TOL] [--formulation physical|paper] [--order 1]
 //! rotorid identify --model MODEL --measurements FILE.csv [--formulation physical|paper] [--order 1]

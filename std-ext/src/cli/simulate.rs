@@ -4,7 +4,7 @@
 use clap::{Args, ValueEnum};
 
 use super::{load_model, CliError, Io, RpmGridArgs};
-use crate::io::measurement::{write_csv, CsvLayout};
+use crate::io::measurement::{write_csv_with_node_probes, CsvLayout};
 use crate::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
 use crate::model::{BowPoint, Pedestal, Unbalance};
 use crate::simulate::SimOptions;
@@ -135,6 +135,16 @@ pub struct SimulateArgs {
     /// Extra unbalance NODE:ME_KGM:PHASE_DEG (repeatable).
     #[arg(long, value_name = "NODE:ME:PHASE", value_parser = parse_node_triple)]
     pub extra_unbalance: Vec<Triple<usize>>,
+    /// Probes at these shaft nodes too (numbered from 1, comma-separated,
+    /// e.g. 3,7): columns nN_y_re,nN_y_im,nN_z_re,nN_z_im after the
+    /// bearing columns (the shaft's absolute displacement, m).
+    #[arg(long, value_name = "N,N,...", value_delimiter = ',')]
+    pub nodes: Vec<usize>,
+    /// Write the Bode plot (amplitude and phase against speed per channel)
+    /// and the polar plot of the bearing probes' phasors (SVG) into this
+    /// folder.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<std::path::PathBuf>,
 }
 
 fn node0(node: usize, n_nodes: usize, flag: &str) -> Result<usize, CliError> {
@@ -219,7 +229,11 @@ impl SimulateArgs {
 
 /// Runs `rotorid simulate`.
 pub fn run(args: &SimulateArgs, io: &mut Io<'_>) -> Result<(), CliError> {
-    super::refuse_overwriting_inputs(Some(&args.model), &[], &[("--out", Some(&args.out))])?;
+    super::refuse_overwriting_inputs(
+        Some(&args.model),
+        &[],
+        &[("--out", Some(&args.out)), ("--plot", args.plot.as_deref())],
+    )?;
     let file = load_model(&args.model)?;
     let speeds_rpm = args.grid.speeds_rpm()?;
     if !(args.noise.is_finite() && args.noise >= 0.0) {
@@ -240,18 +254,42 @@ pub fn run(args: &SimulateArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         seed: args.seed,
         effects,
     };
-    let m = crate::simulate::simulate(&file.model, &opts)?;
+    let n_nodes = file.model.n_nodes();
+    let mut nodes = Vec::with_capacity(args.nodes.len());
+    for &n in &args.nodes {
+        let n = node0(n, n_nodes, "--nodes")?;
+        if nodes.contains(&n) {
+            return Err(CliError::new(format!(
+                "--nodes: node {} given twice",
+                n + 1
+            )));
+        }
+        nodes.push(n);
+    }
+    let (m, node_q) = crate::simulate::simulate_at_nodes(&file.model, &opts, &nodes).map_err(|e| match e {
+        crate::simulate::SimulateError::NoExcitation => CliError::new(format!(
+            "model {}: no unbalance, bow or runout, so every response would be zero; add unbalance with --extra-unbalance NODE:ME_KGM:PHASE_DEG (node from 1, e.g. --extra-unbalance {}:1e-4:0)",
+            args.model,
+            file.model.planes.first().map_or(1, |n| n + 1)
+        )),
+        other => CliError::from(other),
+    })?;
     let layout = match args.layout {
         LayoutArg::Complex => CsvLayout::Complex,
         LayoutArg::AmpPhase => CsvLayout::AmplitudePhase,
     };
-    write_csv(&m, &args.out, layout)?;
+    write_csv_with_node_probes(&m, &args.out, layout, &nodes, &node_q)?;
     writeln!(
         io.err,
         "wrote {} speeds x {} channels to {}",
         m.samples.len(),
-        2 * m.n_bearings,
+        2 * m.n_bearings + 2 * nodes.len(),
         args.out.display()
     )?;
+    if let Some(dir) = &args.plot {
+        for f in crate::report::simulate::write_plots(dir, &m, &nodes, &node_q)? {
+            writeln!(io.err, "wrote {}", f.display())?;
+        }
+    }
     Ok(())
 }

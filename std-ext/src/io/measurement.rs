@@ -459,6 +459,131 @@ pub fn write_csv(
     })
 }
 
+/// Header names of the node-probe columns (SPEC section 6) for shaft
+/// nodes `nodes` (0-based; written 1-based): `nN_y_re,nN_y_im,nN_z_re,nN_z_im`
+/// per node, or `nN_y_amp,nN_y_phase_deg,nN_z_amp,nN_z_phase_deg`.
+pub fn node_probe_columns(nodes: &[usize], layout: CsvLayout) -> Vec<String> {
+    let mut cols = Vec::with_capacity(4 * nodes.len());
+    for n in nodes {
+        for dir in ["y", "z"] {
+            let (a, b) = match layout {
+                CsvLayout::Complex => ("re", "im"),
+                CsvLayout::AmplitudePhase => ("amp", "phase_deg"),
+            };
+            cols.push(format!("n{}_{dir}_{a}", n + 1));
+            cols.push(format!("n{}_{dir}_{b}", n + 1));
+        }
+    }
+    cols
+}
+
+/// [`to_csv_string`] with node-probe columns after the bearing columns:
+/// for each sample `node_q[i]` holds `2 nodes.len()` phasors (m), `y, z`
+/// per node in the order of `nodes` (0-based shaft nodes, distinct),
+/// written as [`node_probe_columns`] in the same layout and number format
+/// as the bearing columns. With no nodes the text is [`to_csv_string`]'s.
+pub fn to_csv_string_with_node_probes(
+    m: &Measurements,
+    layout: CsvLayout,
+    nodes: &[usize],
+    node_q: &[Vec<Complex64>],
+) -> Result<String, MeasurementError> {
+    let text = to_csv_string(m, layout)?;
+    if nodes.is_empty() {
+        return Ok(text);
+    }
+    if let Some((i, &n)) = nodes
+        .iter()
+        .enumerate()
+        .find(|(i, n)| nodes[..*i].contains(n))
+    {
+        return Err(MeasurementError::Inconsistent {
+            index: 0,
+            reason: format!("node probe {} repeats node {}", i + 1, n + 1),
+        });
+    }
+    if node_q.len() != m.samples.len() {
+        return Err(MeasurementError::Inconsistent {
+            index: node_q.len().min(m.samples.len()),
+            reason: format!(
+                "{} node-probe rows for {} samples",
+                node_q.len(),
+                m.samples.len()
+            ),
+        });
+    }
+    // The bearing text is comments, the header, then one row per sample;
+    // the node columns are appended to the header and to each row.
+    let mut out = String::with_capacity(text.len() * (1 + nodes.len()));
+    let mut rows = node_q.iter().enumerate();
+    let mut header_done = false;
+    for raw in text.split_inclusive('\n') {
+        let line = raw.strip_suffix('\n').unwrap_or(raw);
+        out.push_str(line);
+        if line.starts_with('#') {
+            out.push('\n');
+            continue;
+        }
+        if !header_done {
+            for c in node_probe_columns(nodes, layout) {
+                out.push(',');
+                out.push_str(&c);
+            }
+            header_done = true;
+        } else if let Some((index, q)) = rows.next() {
+            let bad = |reason: String| MeasurementError::Inconsistent { index, reason };
+            if q.len() != 2 * nodes.len() {
+                return Err(bad(format!(
+                    "{} node-probe phasors for {} nodes (expected {})",
+                    q.len(),
+                    nodes.len(),
+                    2 * nodes.len()
+                )));
+            }
+            for z in q {
+                if !(z.re.is_finite() && z.im.is_finite()) {
+                    return Err(bad("non-finite node-probe phasor".into()));
+                }
+                match layout {
+                    CsvLayout::Complex => {
+                        let _ = write!(out, ",{:e},{:e}", z.re, z.im);
+                    }
+                    CsvLayout::AmplitudePhase => {
+                        if !z.norm().is_finite() {
+                            return Err(bad(
+                                "a node-probe phasor's amplitude exceeds the largest number (use the complex layout)".into(),
+                            ));
+                        }
+                        let _ = write!(out, ",{:e},{:e}", z.norm(), z.arg().to_degrees());
+                    }
+                }
+            }
+        }
+        out.push('\n');
+    }
+    Ok(out)
+}
+
+/// [`write_csv`] with node-probe columns ([`to_csv_string_with_node_probes`]),
+/// written atomically.
+pub fn write_csv_with_node_probes(
+    m: &Measurements,
+    path: impl AsRef<Path>,
+    layout: CsvLayout,
+    nodes: &[usize],
+    node_q: &[Vec<Complex64>],
+) -> Result<(), MeasurementError> {
+    let path = path.as_ref();
+    let text = to_csv_string_with_node_probes(m, layout, nodes, node_q)?;
+    crate::io::output::write_atomic(path, text.as_bytes()).map_err(|e| MeasurementError::Io {
+        path: path.display().to_string(),
+        source: match e {
+            crate::io::output::OutputError::Io { source, .. } => source,
+            other => std::io::Error::other(other.to_string()),
+        },
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -398,7 +398,15 @@ pub fn write_plots(
     for c in 0..nq {
         let name = format!("b{}_{}", c / 2 + 1, if c % 2 == 0 { "y" } else { "z" });
         let amp = |v: &dyn Fn(usize) -> f64| (0..samples.len()).map(v).collect::<Vec<f64>>();
+        // The nominal model as a pale wide band under the rest: where the
+        // extended model equals it (effect `none`) both stay visible.
         let series = vec![
+            crate::report::identify::model_band(
+                "nominal model".into(),
+                rpm.clone(),
+                amp(&|k| nominal[k][c].norm() * 1e6),
+                (214, 39, 40),
+            ),
             Series::points(
                 "measured",
                 rpm.clone(),
@@ -406,13 +414,6 @@ pub fn write_plots(
                 Marker::Circle,
             )
             .color((60, 60, 60)),
-            Series::line(
-                "nominal model",
-                rpm.clone(),
-                amp(&|k| nominal[k][c].norm() * 1e6),
-            )
-            .color((214, 39, 40))
-            .dashed(),
             Series::line(
                 format!("extended ({})", d.effect.name()),
                 rpm.clone(),

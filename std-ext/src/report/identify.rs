@@ -11,19 +11,28 @@ use rotorid_core::parametrization::Formulation;
 
 const COEF: [&str; 4] = ["yy", "yz", "zy", "zz"];
 
-fn rel(x: f64, truth: f64) -> f64 {
-    if truth != 0.0 {
-        (x - truth).abs() / truth.abs()
+/// The error of `x` against the model value `truth` (unit `unit`) as the
+/// table prints it: relative, `|x - truth| / |truth|`, as a bare number;
+/// where `truth` is 0 (no relative error exists) the absolute error
+/// `|x - truth|` followed by its unit; for a phase (`phase`, degrees) the
+/// absolute angle difference in (-180, 180] followed by `deg`.
+pub fn error_cell(x: f64, truth: f64, unit: &str, phase: bool) -> String {
+    if phase {
+        let d = ((x - truth + 180.0).rem_euclid(360.0) - 180.0).abs();
+        format!("{d:.2e} deg")
+    } else if truth != 0.0 {
+        format!("{:.2e}", (x - truth).abs() / truth.abs())
     } else {
-        (x - truth).abs()
+        format!("{:.2e} {unit}", (x - truth).abs())
     }
 }
 
 /// A plain-text table of the final estimates (SI units, 1-based nodes),
 /// their standard deviations when known ([`Identification::std`]) and,
 /// when `reference` is given, the reference values (its bearing laws at the
-/// last speed, its unbalance at the plane nodes) with relative errors
-/// (absolute error in degrees for phases).
+/// last speed, its unbalance at the plane nodes) with their errors
+/// ([`error_cell`]: relative as a bare number; absolute, followed by its
+/// unit, for phases and where the model value is 0).
 pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> String {
     use std::fmt::Write;
     struct Row {
@@ -33,6 +42,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         std: Option<f64>,
         model: Option<f64>,
         phase: bool,
+        unit: &'static str,
     }
     let mut s = String::new();
     let omega = id.last.omega;
@@ -71,6 +81,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
                 std: sd.map(|x| x.0[e]),
                 model: truth.map(|t| t.k[e]),
                 phase: false,
+                unit: "N/m",
             });
         }
         for (e, name) in COEF.iter().enumerate() {
@@ -81,6 +92,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
                 std: sd.map(|x| x.1[e]),
                 model: truth.map(|t| t.c[e]),
                 phase: false,
+                unit: "N s/m",
             });
         }
     }
@@ -95,6 +107,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             std: sd.map(|x| x.0),
             model: truth.map(|t| t.me),
             phase: false,
+            unit: "kg m",
         });
         rows.push(Row {
             name: format!("n{} phase_deg", node + 1),
@@ -103,11 +116,12 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             std: sd.map(|x| x.1),
             model: truth.map(|t| t.phase.to_degrees()),
             phase: true,
+            unit: "deg",
         });
     }
     let _ = writeln!(
         s,
-        "{:<14} {:>14} {:>10} {:>14} {:>10}{}",
+        "{:<14} {:>14} {:>10} {:>14} {:>14}{}",
         "quantity",
         if rls.is_some() {
             "output-error"
@@ -118,7 +132,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         "model",
         "error",
         if rls.is_some() {
-            format!(" {:>14} {:>10}", "QRD/RLS", "error")
+            format!(" {:>14} {:>14}", "QRD/RLS", "error")
         } else {
             String::new()
         }
@@ -130,41 +144,41 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             format!("{x:.6e}")
         }
     };
+    let mut absolute = false;
     for r in rows {
         let sd = r
             .std
             .map(|x| format!("{x:.2e}"))
             .unwrap_or_else(|| "-".into());
-        let (model, err) = match r.model {
-            Some(t) => {
-                let e = if r.phase {
-                    ((r.value - t + 180.0).rem_euclid(360.0) - 180.0).abs()
-                } else {
-                    rel(r.value, t)
-                };
-                (num(t, r.phase), format!("{e:.2e}"))
-            }
-            None => ("-".into(), "-".into()),
-        };
+        absolute |= r.model == Some(0.0) && !r.phase;
         let err_of = |v: f64| match r.model {
-            Some(t) if r.phase => {
-                format!("{:.2e}", ((v - t + 180.0).rem_euclid(360.0) - 180.0).abs())
-            }
-            Some(t) => format!("{:.2e}", rel(v, t)),
+            Some(t) => error_cell(v, t, r.unit, r.phase),
             None => "-".into(),
         };
+        let model = r.model.map_or_else(|| "-".into(), |t| num(t, r.phase));
         let side = r
             .rls
-            .map(|v| format!(" {:>14} {:>10}", num(v, r.phase), err_of(v)))
+            .map(|v| format!(" {:>14} {:>14}", num(v, r.phase), err_of(v)))
             .unwrap_or_default();
         let _ = writeln!(
             s,
-            "{:<14} {:>14} {:>10} {:>14} {:>10}{side}",
+            "{:<14} {:>14} {:>10} {:>14} {:>14}{side}",
             r.name,
             num(r.value, r.phase),
             sd,
             model,
-            err
+            err_of(r.value)
+        );
+    }
+    if reference.is_some() {
+        let _ = writeln!(
+            s,
+            "error: relative, |value - model| / |model|; phases: absolute, in deg{}",
+            if absolute {
+                "; where the model value is 0: absolute, |value - model|, with its unit"
+            } else {
+                ""
+            }
         );
     }
     if st.formulation == Formulation::Paper {
@@ -234,6 +248,19 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
     s
 }
 
+/// A reference curve drawn as a pale band 8 px wide in a light tint of
+/// `color`, to go under the estimate's 2 px line of the same colour.
+pub fn model_band(
+    label: String,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    color: (u8, u8, u8),
+) -> crate::report::plot::Series {
+    crate::report::plot::Series::line(label, x, y)
+        .color(crate::report::plot::pale(color, 0.6))
+        .width(8)
+}
+
 /// Errors of [`write_plots`].
 #[derive(Debug, Error)]
 pub enum ReportError {
@@ -275,7 +302,7 @@ pub fn write_plots(
     reference: Option<&RotorModel>,
     rpm_max: f64,
 ) -> Result<Vec<std::path::PathBuf>, ReportError> {
-    use crate::report::plot::{line_plot, line_plot_with, Marker, PlotOptions, Series};
+    use crate::report::plot::{line_plot, line_plot_with, Marker, PlotOptions, Series, PALETTE};
     use crate::units::rad_s_to_rpm;
     if id.history.is_empty() {
         return Err(ReportError::NoHistory);
@@ -303,7 +330,10 @@ pub fn write_plots(
                     })
                     .collect();
                 let letter = if pick == 0 { "k" } else { "c" };
-                series.push(Series::line(format!("{letter}{name}"), rpm.clone(), y));
+                let color = PALETTE[e % PALETTE.len()];
+                // The model under the estimate: a pale wide band of the
+                // same colour, so that neither hides the other where they
+                // agree.
                 if let Some(r) = reference.and_then(|r| r.bearings.get(m)) {
                     let yt: Vec<f64> = id
                         .history
@@ -317,19 +347,15 @@ pub fn write_plots(
                             }
                         })
                         .collect();
-                    series.push(
-                        Series::line(format!("{letter}{name} model"), rpm.clone(), yt).dashed(),
-                    );
+                    series.push(model_band(
+                        format!("{letter}{name} model"),
+                        rpm.clone(),
+                        yt,
+                        color,
+                    ));
                 }
+                series.push(Series::line(format!("{letter}{name}"), rpm.clone(), y).color(color));
             }
-            // Same colour for an entry and its reference.
-            let palette = [(31, 119, 180), (214, 39, 40), (44, 160, 44), (255, 127, 14)];
-            let per = if reference.is_some() { 2 } else { 1 };
-            let series: Vec<Series> = series
-                .into_iter()
-                .enumerate()
-                .map(|(i, s)| s.color(palette[(i / per) % 4]))
-                .collect();
             let path = dir.join(format!("{prefix}bearing{}_{what}.svg", m + 1));
             let node = id
                 .param
@@ -375,22 +401,21 @@ pub fn write_plots(
                     }
                 })
                 .collect();
-            series.push(Series::line(format!("node {}", node + 1), rpm.clone(), y));
+            let color = PALETTE[k % PALETTE.len()];
             if let Some(t) = reference.and_then(|r| r.unbalance.iter().find(|t| t.node == node)) {
                 let v = if what == "me" {
                     t.me
                 } else {
                     t.phase.to_degrees()
                 };
-                series.push(
-                    Series::line(
-                        format!("node {} model", node + 1),
-                        rpm.clone(),
-                        vec![v; rpm.len()],
-                    )
-                    .dashed(),
-                );
+                series.push(model_band(
+                    format!("node {} model", node + 1),
+                    rpm.clone(),
+                    vec![v; rpm.len()],
+                    color,
+                ));
             }
+            series.push(Series::line(format!("node {}", node + 1), rpm.clone(), y).color(color));
         }
         let path = dir.join(format!("{prefix}unbalance_{what}.svg"));
         let mut opts = PlotOptions::default();
@@ -446,7 +471,9 @@ pub fn write_plots(
                     .map(|md| (rad_s_to_rpm(p.omega), hz(md.frequency)))
             })
             .unzip();
-        series.push(Series::line(format!("identified mode {}", j + 1), x, y).color((31, 119, 180)));
+        // One legend entry for all the identified rotor's modes.
+        let label = if j == 0 { "identified rotor" } else { "" };
+        series.push(Series::line(label, x, y).color((31, 119, 180)));
     }
     if let Some(r) = reference {
         let dr = diagram(r)?;
@@ -459,7 +486,8 @@ pub fn write_plots(
                     .map(move |md| (rad_s_to_rpm(p.omega), hz(md.frequency)))
             })
             .unzip();
-        series.push(Series::points("model", x, y, Marker::Circle).color((214, 39, 40)));
+        // Hollow: the identified line through a point stays visible.
+        series.push(Series::points("model rotor", x, y, Marker::Ring).color((214, 39, 40)));
     }
     series.push(
         Series::line("1X", vec![0.0, rpm_max], vec![0.0, rpm_max / 60.0])

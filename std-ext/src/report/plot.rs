@@ -1,11 +1,15 @@
 //! Simple SVG line/scatter plots (plotters, SVG backend, no font files
 //! needed): [`line_plot`] for the common case, [`line_plot_with`] for
-//! logarithmic y, fixed ranges and vertical markers. Used by
-//! `rotorid campbell` and by the identification plots.
+//! logarithmic y, fixed ranges, equal axis scales, vertical markers and
+//! point annotations, [`panel_plot`] for several panels stacked over one
+//! speed axis (a Bode plot). Used by `rotorid campbell`, `simulate`,
+//! `identify` and `diagnose`.
 //!
-//! Non-finite points split a line into separate pieces (so a mode that is
-//! missing at some speeds is not joined across the gap); on a log-y plot,
-//! points with `y <= 0` are treated the same way.
+//! The legend stands outside the data, to the right of the panels, one
+//! entry per label, drawn with the series' own colour, width, dash and
+//! marker. Non-finite points split a line into separate pieces (so a mode
+//! that is missing at some speeds is not joined across the gap); on a log-y
+//! plot, points with `y <= 0` are treated the same way.
 
 use std::path::Path;
 
@@ -40,6 +44,8 @@ pub enum PlotError {
 pub enum Marker {
     /// Filled circle.
     Circle,
+    /// Hollow circle (a line under it stays visible).
+    Ring,
     /// Diagonal cross.
     Cross,
     /// Triangle.
@@ -49,7 +55,8 @@ pub enum Marker {
 /// One data series.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
-    /// Legend label (empty: not in the legend).
+    /// Legend label (empty: not in the legend; a label repeated keeps its
+    /// first series' entry only).
     pub label: String,
     /// Abscissae.
     pub x: Vec<f64>,
@@ -59,6 +66,8 @@ pub struct Series {
     pub line: bool,
     /// Dashed line.
     pub dashed: bool,
+    /// Dash pattern of a dashed line: pixels drawn, pixels left out.
+    pub dash: (u32, u32),
     /// Marker at each point.
     pub marker: Option<Marker>,
     /// Colour (RGB); `None` picks from a palette by series index.
@@ -76,6 +85,7 @@ impl Series {
             y,
             line: true,
             dashed: false,
+            dash: (8, 5),
             marker: None,
             color: None,
             width: 2,
@@ -104,11 +114,34 @@ impl Series {
         self
     }
 
+    /// Dashed with this pattern: `on` pixels drawn, `off` left out (two
+    /// dashed curves with different patterns stay both visible where they
+    /// coincide).
+    pub fn dash_pattern(mut self, on: u32, off: u32) -> Self {
+        self.dashed = true;
+        self.dash = (on.max(1), off.max(1));
+        self
+    }
+
     /// With markers too.
     pub fn marker(mut self, m: Marker) -> Self {
         self.marker = Some(m);
         self
     }
+
+    /// With this line width / marker size (pixels).
+    pub fn width(mut self, px: u32) -> Self {
+        self.width = px;
+        self
+    }
+}
+
+/// `rgb` mixed with white: `amount` 0 keeps the colour, 1 gives white (a
+/// pale band under a line of the full colour).
+pub fn pale(rgb: (u8, u8, u8), amount: f64) -> (u8, u8, u8) {
+    let a = amount.clamp(0.0, 1.0);
+    let mix = |c: u8| (f64::from(c) + (255.0 - f64::from(c)) * a).round() as u8;
+    (mix(rgb.0), mix(rgb.1), mix(rgb.2))
 }
 
 /// A labelled vertical line (e.g. a critical speed).
@@ -118,6 +151,20 @@ pub struct VLine {
     pub x: f64,
     /// Label (in the legend when non-empty).
     pub label: String,
+}
+
+/// A text at a data point, with a dot on the point (e.g. a speed on a
+/// polar plot).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Annotation {
+    /// Abscissa of the point.
+    pub x: f64,
+    /// Ordinate of the point.
+    pub y: f64,
+    /// The text, drawn up and to the right of the point.
+    pub text: String,
+    /// Colour of the dot and the text (RGB).
+    pub color: (u8, u8, u8),
 }
 
 /// Plot options.
@@ -133,6 +180,12 @@ pub struct PlotOptions {
     pub size: (u32, u32),
     /// Vertical marker lines.
     pub vlines: Vec<VLine>,
+    /// Same scale on both axes (a polar plot of phasors): the ranges are
+    /// widened so that one unit spans as many pixels on x as on y. Not with
+    /// `log_y`.
+    pub equal_aspect: bool,
+    /// Texts at data points.
+    pub annotations: Vec<Annotation>,
 }
 
 impl Default for PlotOptions {
@@ -143,11 +196,14 @@ impl Default for PlotOptions {
             y_range: None,
             size: (900, 600),
             vlines: Vec::new(),
+            equal_aspect: false,
+            annotations: Vec::new(),
         }
     }
 }
 
-const PALETTE: [(u8, u8, u8); 8] = [
+/// The colours series take by index when they have none of their own.
+pub const PALETTE: [(u8, u8, u8); 8] = [
     (31, 119, 180),
     (214, 39, 40),
     (44, 160, 44),
@@ -197,6 +253,19 @@ fn runs(s: &Series, log_y: bool) -> Vec<Vec<(f64, f64)>> {
     out
 }
 
+/// One panel of a [`panel_plot`]: its y label, series and options (of the
+/// options, `size` is unused and `x_range` is taken from the first panel
+/// that has one).
+#[derive(Debug, Clone, Copy)]
+pub struct Panel<'a> {
+    /// Label of the y axis.
+    pub y_label: &'a str,
+    /// The series.
+    pub series: &'a [Series],
+    /// Log scale, ranges, vertical lines, annotations.
+    pub opts: &'a PlotOptions,
+}
+
 /// A line plot written as SVG to `path`.
 pub fn line_plot_with(
     path: impl AsRef<Path>,
@@ -206,21 +275,37 @@ pub fn line_plot_with(
     series: &[Series],
     opts: &PlotOptions,
 ) -> Result<(), PlotError> {
-    let path = path.as_ref();
-    let pstr = path.display().to_string();
-    let data_err = |reason: String| PlotError::Data {
-        path: pstr.clone(),
-        reason,
-    };
-    for s in series {
+    panel_plot(
+        path,
+        title,
+        x_label,
+        &[Panel {
+            y_label,
+            series,
+            opts,
+        }],
+        opts.size,
+    )
+}
+
+/// The ranges of a panel: `(x0, x1, y0, y1)`, x from the data unless given.
+fn panel_ranges(
+    p: &Panel<'_>,
+    x_given: Option<(f64, f64)>,
+) -> Result<(f64, f64, f64, f64), String> {
+    let opts = p.opts;
+    for s in p.series {
         if s.x.len() != s.y.len() {
-            return Err(data_err(format!(
+            return Err(format!(
                 "series `{}` has {} x and {} y values",
                 s.label,
                 s.x.len(),
                 s.y.len()
-            )));
+            ));
         }
+    }
+    if opts.equal_aspect && opts.log_y {
+        return Err("equal axis scales need linear axes".into());
     }
     let (mut x0, mut x1, mut y0, mut y1) = (
         f64::INFINITY,
@@ -228,7 +313,7 @@ pub fn line_plot_with(
         f64::INFINITY,
         f64::NEG_INFINITY,
     );
-    for s in series {
+    for s in p.series {
         for (&x, &y) in s.x.iter().zip(&s.y) {
             if usable(opts.log_y, x, y) {
                 x0 = x0.min(x);
@@ -244,17 +329,17 @@ pub fn line_plot_with(
             x1 = x1.max(v.x);
         }
     }
-    if let Some((a, b)) = opts.x_range {
+    if let Some((a, b)) = x_given {
         (x0, x1) = (a, b);
     }
     if let Some((a, b)) = opts.y_range {
         (y0, y1) = (a, b);
     }
     if !(x0.is_finite() && x1.is_finite() && y0.is_finite() && y1.is_finite()) {
-        return Err(data_err("no finite data to plot".into()));
+        return Err("no finite data to plot".into());
     }
     if opts.log_y && y0 <= 0.0 {
-        return Err(data_err("log-y range must be positive".into()));
+        return Err("log-y range must be positive".into());
     }
     if x1 <= x0 {
         let d = if x0 == 0.0 { 1.0 } else { x0.abs() * 0.05 };
@@ -278,8 +363,128 @@ pub fn line_plot_with(
             (y0, y1) = (y0 - d, y1 + d);
         }
     } else if y1 <= y0 {
-        return Err(data_err("empty y range".into()));
+        return Err("empty y range".into());
     }
+    Ok((x0, x1, y0, y1))
+}
+
+/// Margin around a panel's chart and the sizes of its label areas (px).
+const MARGIN: u32 = 15;
+const X_LABEL_AREA: u32 = 45;
+const Y_LABEL_AREA: u32 = 80;
+
+/// Widens `(x0, x1)` or `(y0, y1)` about its middle so that both span the
+/// same data units per pixel on a plotting area of `w x h` pixels.
+fn equalise(r: (f64, f64, f64, f64), w: u32, h: u32) -> (f64, f64, f64, f64) {
+    let (x0, x1, y0, y1) = r;
+    let (w, h) = (f64::from(w.max(1)), f64::from(h.max(1)));
+    let per_px = ((x1 - x0) / w).max((y1 - y0) / h);
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    (
+        cx - 0.5 * per_px * w,
+        cx + 0.5 * per_px * w,
+        cy - 0.5 * per_px * h,
+        cy + 0.5 * per_px * h,
+    )
+}
+
+/// A legend entry: what a series looks like.
+#[derive(Debug, Clone, PartialEq)]
+struct LegendEntry {
+    label: String,
+    color: (u8, u8, u8),
+    width: u32,
+    line: bool,
+    dashed: bool,
+    dash: (u32, u32),
+    marker: Option<Marker>,
+}
+
+/// The legend of panels: one entry per distinct label, first occurrence,
+/// then the first labelled vertical line.
+fn legend_entries(panels: &[Panel<'_>]) -> Vec<LegendEntry> {
+    let mut out: Vec<LegendEntry> = Vec::new();
+    for p in panels {
+        for (i, s) in p.series.iter().enumerate() {
+            if s.label.is_empty() || out.iter().any(|e| e.label == s.label) {
+                continue;
+            }
+            out.push(LegendEntry {
+                label: s.label.clone(),
+                color: s.color.unwrap_or(PALETTE[i % PALETTE.len()]),
+                width: s.width,
+                line: s.line,
+                dashed: s.dashed,
+                dash: s.dash,
+                marker: s.marker,
+            });
+        }
+    }
+    for p in panels {
+        if let Some(v) = p.opts.vlines.iter().find(|v| !v.label.is_empty()) {
+            if !out.iter().any(|e| e.label == v.label) {
+                out.push(LegendEntry {
+                    label: v.label.clone(),
+                    color: VLINE_COLOR,
+                    width: 1,
+                    line: true,
+                    dashed: true,
+                    dash: (6, 4),
+                    marker: None,
+                });
+            }
+        }
+    }
+    out
+}
+
+const VLINE_COLOR: (u8, u8, u8) = (90, 90, 90);
+const LEGEND_FONT: u32 = 14;
+const LEGEND_ROW: i32 = 22;
+
+/// Width (px) of the legend column for these entries.
+fn legend_width(entries: &[LegendEntry], total: u32) -> u32 {
+    let chars = entries
+        .iter()
+        .map(|e| e.label.chars().count())
+        .max()
+        .unwrap_or(0) as u32;
+    (60 + chars * 8).clamp(120, (total / 2).max(120))
+}
+
+/// Several panels over one x axis, stacked top to bottom, with one legend
+/// to their right, written as SVG to `path` (`size` in pixels).
+pub fn panel_plot(
+    path: impl AsRef<Path>,
+    title: &str,
+    x_label: &str,
+    panels: &[Panel<'_>],
+    size: (u32, u32),
+) -> Result<(), PlotError> {
+    let path = path.as_ref();
+    let pstr = path.display().to_string();
+    let data_err = |reason: String| PlotError::Data {
+        path: pstr.clone(),
+        reason,
+    };
+    if panels.is_empty() {
+        return Err(data_err("no panels".into()));
+    }
+    // One x range for all panels: the first given, else the union of the
+    // panels' data.
+    let x_given = panels.iter().find_map(|p| p.opts.x_range);
+    let mut ranges = Vec::with_capacity(panels.len());
+    for p in panels {
+        ranges.push(panel_ranges(p, x_given).map_err(&data_err)?);
+    }
+    if x_given.is_none() {
+        let x0 = ranges.iter().map(|r| r.0).fold(f64::INFINITY, f64::min);
+        let x1 = ranges.iter().map(|r| r.1).fold(f64::NEG_INFINITY, f64::max);
+        for r in &mut ranges {
+            (r.0, r.1) = (x0, x1);
+        }
+    }
+    let entries = legend_entries(panels);
 
     let be = |e: String| PlotError::Backend {
         path: pstr.clone(),
@@ -289,17 +494,43 @@ pub fn line_plot_with(
     // failed write never leaves a partial SVG.
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, opts.size).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| be(e.to_string()))?;
-        let labels = Labels {
-            title,
-            x: x_label,
-            y: y_label,
-        };
-        if opts.log_y {
-            draw(&root, &labels, series, opts, x0..x1, (y0..y1).log_scale()).map_err(be)?;
+        let body = root
+            .titled(title, ("sans-serif", 22))
+            .map_err(|e| be(e.to_string()))?;
+        let (w, _) = body.dim_in_pixel();
+        let (charts, legend) = if entries.is_empty() {
+            (body, None)
         } else {
-            draw(&root, &labels, series, opts, x0..x1, y0..y1).map_err(be)?;
+            let lw = legend_width(&entries, w);
+            let (c, l) = body.split_horizontally(w.saturating_sub(lw));
+            (c, Some(l))
+        };
+        let areas = charts.split_evenly((panels.len(), 1));
+        let last = panels.len() - 1;
+        for (k, ((p, area), r)) in panels.iter().zip(&areas).zip(&ranges).enumerate() {
+            let mut r = *r;
+            if p.opts.equal_aspect {
+                let (aw, ah) = area.dim_in_pixel();
+                r = equalise(
+                    r,
+                    aw.saturating_sub(2 * MARGIN + Y_LABEL_AREA),
+                    ah.saturating_sub(2 * MARGIN + X_LABEL_AREA),
+                );
+            }
+            let labels = Labels {
+                x: if k == last { x_label } else { "" },
+                y: p.y_label,
+            };
+            if p.opts.log_y {
+                draw(area, &labels, p, r.0..r.1, (r.2..r.3).log_scale()).map_err(&be)?;
+            } else {
+                draw(area, &labels, p, r.0..r.1, r.2..r.3).map_err(&be)?;
+            }
+        }
+        if let Some(l) = legend {
+            draw_legend(&l, &entries).map_err(&be)?;
         }
         root.present().map_err(|e| be(e.to_string()))?;
     }
@@ -308,6 +539,71 @@ pub fn line_plot_with(
         other => be(other.to_string()),
     })?;
     Ok(())
+}
+
+/// Draws the legend entries in `area` (pixel coordinates), each with a
+/// sample of its series' line (solid or dashed, its width) and marker.
+fn draw_legend(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    entries: &[LegendEntry],
+) -> Result<(), String> {
+    let top = (MARGIN + 5) as i32;
+    let (w, _) = area.dim_in_pixel();
+    let bottom = top + LEGEND_ROW * entries.len() as i32 + 6;
+    area.draw(&Rectangle::new(
+        [(4, top - 8), (w as i32 - 6, bottom)],
+        ShapeStyle::from(&RGBColor(160, 160, 160)).stroke_width(1),
+    ))
+    .map_err(|e| e.to_string())?;
+    for (i, e) in entries.iter().enumerate() {
+        let y = top + 6 + LEGEND_ROW * i as i32;
+        let (r, g, b) = e.color;
+        let style = ShapeStyle::from(&RGBColor(r, g, b)).stroke_width(e.width.max(1));
+        let (x0, x1) = (12, 48);
+        if e.line {
+            if e.dashed {
+                // The series' own dash pattern.
+                let (on, off) = (e.dash.0.max(1) as i32, e.dash.1.max(1) as i32);
+                let mut x = x0;
+                while x < x1 {
+                    let end = (x + on).min(x1);
+                    area.draw(&PathElement::new(vec![(x, y), (end, y)], style))
+                        .map_err(|e| e.to_string())?;
+                    x = end + off;
+                }
+            } else {
+                area.draw(&PathElement::new(vec![(x0, y), (x1, y)], style))
+                    .map_err(|e| e.to_string())?;
+            }
+        }
+        if let Some(m) = e.marker {
+            draw_marker(area, m, (30, y), (e.width + 1) as i32, style)?;
+        }
+        area.draw(&Text::new(
+            e.label.clone(),
+            (x1 + 8, y - LEGEND_FONT as i32 / 2 - 1),
+            ("sans-serif", LEGEND_FONT).into_font(),
+        ))
+        .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// One marker at pixel `at` of `area`.
+fn draw_marker(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    m: Marker,
+    at: (i32, i32),
+    size: i32,
+    style: ShapeStyle,
+) -> Result<(), String> {
+    let r = match m {
+        Marker::Circle => area.draw(&Circle::new(at, size, style.filled())),
+        Marker::Ring => area.draw(&Circle::new(at, size + 1, style.stroke_width(1))),
+        Marker::Cross => area.draw(&Cross::new(at, size, style)),
+        Marker::Triangle => area.draw(&TriangleMarker::new(at, size, style.filled())),
+    };
+    r.map_err(|e| e.to_string())
 }
 
 /// A short tick label: `0`, plain decimals with trailing zeros trimmed for
@@ -337,9 +633,8 @@ pub fn tick_label(v: f64) -> String {
     }
 }
 
-/// The texts of a plot: title and axis labels.
+/// The axis labels of a panel.
 struct Labels<'a> {
-    title: &'a str,
     x: &'a str,
     y: &'a str,
 }
@@ -347,8 +642,7 @@ struct Labels<'a> {
 fn draw<'a, Y>(
     root: &DrawingArea<SVGBackend<'a>, Shift>,
     labels: &Labels<'_>,
-    series: &[Series],
-    opts: &PlotOptions,
+    panel: &Panel<'_>,
     xr: std::ops::Range<f64>,
     yr: Y,
 ) -> Result<(), String>
@@ -356,11 +650,11 @@ where
     Y: AsRangedCoord<Value = f64>,
     Y::CoordDescType: ValueFormatter<f64>,
 {
+    let opts = panel.opts;
     let mut chart = ChartBuilder::on(root)
-        .caption(labels.title, ("sans-serif", 22))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(80)
+        .margin(MARGIN)
+        .x_label_area_size(X_LABEL_AREA)
+        .y_label_area_size(Y_LABEL_AREA)
         .build_cartesian_2d(xr.clone(), yr)
         .map_err(|e| e.to_string())?;
     chart
@@ -376,59 +670,60 @@ where
         let r = chart.y_range();
         (r.start, r.end)
     };
-    let mut any_label = false;
-    for (i, s) in series.iter().enumerate() {
+    for (i, s) in panel.series.iter().enumerate() {
         let (r, g, b) = s.color.unwrap_or(PALETTE[i % PALETTE.len()]);
         let color = RGBColor(r, g, b);
         let style = ShapeStyle::from(&color).stroke_width(s.width.max(1));
-        let mut labelled = false;
         for run in runs(s, opts.log_y) {
             if s.line && run.len() > 1 {
-                let anno = if s.dashed {
+                if s.dashed {
                     chart
-                        .draw_series(DashedLineSeries::new(run.clone(), 8, 5, style))
-                        .map_err(|e| e.to_string())?
+                        .draw_series(DashedLineSeries::new(
+                            run.clone(),
+                            s.dash.0,
+                            s.dash.1,
+                            style,
+                        ))
+                        .map_err(|e| e.to_string())?;
                 } else {
                     chart
                         .draw_series(LineSeries::new(run.clone(), style))
-                        .map_err(|e| e.to_string())?
-                };
-                if !labelled && !s.label.is_empty() {
-                    anno.label(s.label.clone())
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-                    labelled = true;
-                    any_label = true;
+                        .map_err(|e| e.to_string())?;
                 }
             }
             if let Some(m) = s.marker {
                 let size = (s.width + 1) as i32;
-                let filled = style.filled();
-                let anno = match m {
+                match m {
                     Marker::Circle => chart
-                        .draw_series(run.iter().map(|&p| Circle::new(p, size, filled)))
-                        .map_err(|e| e.to_string())?,
+                        .draw_series(run.iter().map(|&p| Circle::new(p, size, style.filled())))
+                        .map(|_| ()),
+                    Marker::Ring => chart
+                        .draw_series(
+                            run.iter()
+                                .map(|&p| Circle::new(p, size + 1, style.stroke_width(1))),
+                        )
+                        .map(|_| ()),
                     Marker::Cross => chart
                         .draw_series(run.iter().map(|&p| Cross::new(p, size, style)))
-                        .map_err(|e| e.to_string())?,
+                        .map(|_| ()),
                     Marker::Triangle => chart
-                        .draw_series(run.iter().map(|&p| TriangleMarker::new(p, size, filled)))
-                        .map_err(|e| e.to_string())?,
-                };
-                if !labelled && !s.label.is_empty() {
-                    anno.label(s.label.clone())
-                        .legend(move |(x, y)| Circle::new((x + 10, y), size, filled));
-                    labelled = true;
-                    any_label = true;
+                        .draw_series(
+                            run.iter()
+                                .map(|&p| TriangleMarker::new(p, size, style.filled())),
+                        )
+                        .map(|_| ()),
                 }
+                .map_err(|e| e.to_string())?;
             }
         }
     }
-    for (i, v) in opts.vlines.iter().enumerate() {
+    for v in &opts.vlines {
         if !v.x.is_finite() {
             continue;
         }
-        let style = ShapeStyle::from(&RGBColor(90, 90, 90)).stroke_width(1);
-        let anno = chart
+        let (r, g, b) = VLINE_COLOR;
+        let style = ShapeStyle::from(&RGBColor(r, g, b)).stroke_width(1);
+        chart
             .draw_series(DashedLineSeries::new(
                 vec![(v.x, y_lo), (v.x, y_hi)],
                 6,
@@ -436,20 +731,40 @@ where
                 style,
             ))
             .map_err(|e| e.to_string())?;
-        if !v.label.is_empty() && i == 0 {
-            anno.label(v.label.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-            any_label = true;
-        }
     }
-    if any_label {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(|e| e.to_string())?;
+    // Every annotated point gets its dot; a text that would overlap one
+    // already written is left out (the dot still marks the point).
+    let mut texts: Vec<(i32, i32, i32)> = Vec::new();
+    for a in &opts.annotations {
+        if !usable(opts.log_y, a.x, a.y) {
+            continue;
+        }
+        let (r, g, b) = a.color;
+        let color = RGBColor(r, g, b);
+        let dot = ShapeStyle::from(&color).filled();
+        let (px, py) = chart.backend_coord(&(a.x, a.y));
+        let width = 7 * a.text.chars().count() as i32;
+        let free = texts
+            .iter()
+            .all(|&(x, y, w)| (px - x).abs() > w.max(width) || (py - y).abs() > 14);
+        if free {
+            texts.push((px, py, width));
+            chart
+                .draw_series(std::iter::once(
+                    EmptyElement::at((a.x, a.y))
+                        + Circle::new((0, 0), 3, dot)
+                        + Text::new(
+                            a.text.clone(),
+                            (5, -15),
+                            ("sans-serif", 12).into_font().color(&color),
+                        ),
+                ))
+                .map_err(|e| e.to_string())?;
+        } else {
+            chart
+                .draw_series(std::iter::once(Circle::new((a.x, a.y), 3, dot)))
+                .map_err(|e| e.to_string())?;
+        }
     }
     Ok(())
 }
