@@ -268,6 +268,12 @@ fn confusion_matrix() {
                 1_000_003 * (effect as u64 + 1) + seed,
                 None,
             );
+            println!(
+                "{} seed {seed}: named {}{}",
+                effect.name(),
+                o.named.name(),
+                if o.observable { "" } else { " (not observable)" }
+            );
             *table.entry((effect, o.named)).or_default() += 1;
             if o.observable {
                 total += 1;
