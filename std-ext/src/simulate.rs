@@ -201,6 +201,7 @@ pub fn simulate_with(
             .zip(responses)
             .map(|(&omega, q)| Sample { omega, q })
             .collect(),
+        ..Measurements::default()
     };
     add_runout(&mut out, &opts.effects.runout)?;
     add_noise(&mut out, opts.noise, opts.seed)?;
@@ -346,6 +347,7 @@ mod tests {
                     q: vec![v; 2 * n_b],
                 })
                 .collect(),
+            ..Measurements::default()
         }
     }
 

@@ -316,6 +316,8 @@ fn node_probe_writer_appends_columns_and_checks_shapes() {
     let m = rotorid::io::measurement::Measurements {
         comments: vec!["a comment".into()],
         n_bearings: 1,
+        node_probes: Vec::new(),
+        node_q: Vec::new(),
         samples: vec![
             rotorid::io::measurement::Sample {
                 omega: 10.0,

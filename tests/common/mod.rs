@@ -117,6 +117,8 @@ pub fn simulate(model: &RotorModel, speeds: &[f64]) -> Measurements {
     Measurements {
         comments: vec![],
         n_bearings: model.bearings.len(),
+        node_probes: Vec::new(),
+        node_q: Vec::new(),
         samples: resp
             .into_iter()
             .map(|r| Sample {

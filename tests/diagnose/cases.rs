@@ -68,12 +68,12 @@ fn run_case(
     let observable = match effect {
         Effect::ShaftBow => {
             let node = h.node.unwrap();
-            d.min_detectable(&case.meas.samples, Extension::Bow { node })
+            d.min_detectable(&case.meas, Extension::Bow { node })
                 .is_some_and(|s| h.size >= 2.0 * s)
         }
         Effect::ExtraUnbalancePlane => {
             let node = h.node.unwrap();
-            d.min_detectable(&case.meas.samples, Extension::Plane { node })
+            d.min_detectable(&case.meas, Extension::Plane { node })
                 .is_some_and(|s| h.size >= 2.0 * s)
         }
         _ => true,
@@ -272,7 +272,11 @@ fn confusion_matrix() {
                 "{} seed {seed}: named {}{}",
                 effect.name(),
                 o.named.name(),
-                if o.observable { "" } else { " (not observable)" }
+                if o.observable {
+                    ""
+                } else {
+                    " (not observable)"
+                }
             );
             *table.entry((effect, o.named)).or_default() += 1;
             if o.observable {

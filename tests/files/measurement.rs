@@ -18,6 +18,8 @@ fn sample_data() -> Measurements {
     Measurements {
         comments: vec!["source: rig A".into(), "second comment".into()],
         n_bearings: 2,
+        node_probes: Vec::new(),
+        node_q: Vec::new(),
         samples: (0..7)
             .map(|i| Sample {
                 omega: rpm_to_rad_s(10.0 + 1234.5 * i as f64),
@@ -194,6 +196,8 @@ fn grid_speeds_are_written_as_round_rpm() {
     let m = Measurements {
         comments: vec![],
         n_bearings: 1,
+        node_probes: Vec::new(),
+        node_q: Vec::new(),
         samples: [1000.0, 6111.0, 15000.0]
             .iter()
             .map(|&rpm| Sample {
@@ -257,6 +261,8 @@ fn huge_phasors_round_trip_and_the_amplitude_writer_never_writes_inf() {
     let m = Measurements {
         comments: vec![],
         n_bearings: 1,
+        node_probes: Vec::new(),
+        node_q: Vec::new(),
         samples: vec![Sample {
             omega: 100.0,
             q: vec![

@@ -339,6 +339,33 @@ impl ExtendedModel {
                 y[c] += Complex64::new(p[2 * c], p[2 * c + 1]) * self.scales.q;
             }
         }
+        if let Some(nt) = &st.probes {
+            // Probes at other nodes: x = P q + u a + extension loads.
+            let mut x = &nt.p * &q + &nt.u * &a;
+            for (k, ext) in self.ext.iter().enumerate() {
+                let o = self.offset(k);
+                match *ext {
+                    Extension::Plane { node } => {
+                        let u = Complex64::new(theta[o], theta[o + 1])
+                            * self.pr.param.scaling.unbalance;
+                        x += nt.u_node.column(node) * u;
+                    }
+                    Extension::Bow { node } => {
+                        let beta = Complex64::new(theta[o], theta[o + 1]) * self.scales.q;
+                        x += nt.h_node.column(node) * beta;
+                    }
+                    Extension::EScale => {
+                        let de = Complex64::from(theta[o] * E_STEP);
+                        let (Some(dp), Some(du)) = (&nt.dp_de, &nt.du_de) else {
+                            return Err(PredictError::Dimension);
+                        };
+                        x += (dp * &q + du * &a) * de;
+                    }
+                    Extension::Runout | Extension::Pedestal { .. } => {}
+                }
+            }
+            y = DVector::from_iterator(nq + x.len(), y.iter().chain(x.iter()).copied());
+        }
         Ok(Eval {
             q,
             y,
@@ -349,9 +376,17 @@ impl ExtendedModel {
         })
     }
 
-    /// The probe readings `y` at one speed (m) and, when `jac` is given,
-    /// `dy/dtheta` into it (`2 N_b x P`). `entries` are the nominal
-    /// parameters' [`Entry`]s at this speed ([`Predictor::entries`]).
+    /// Number of probe readings at one speed: the `2 N_b` bearing channels
+    /// and `y, z` of every probe at another node.
+    pub fn n_outputs(&self, st: &SpeedTerms) -> usize {
+        self.n_channels() + st.probes.as_ref().map_or(0, |nt| nt.p.nrows())
+    }
+
+    /// The probe readings `y` at one speed (m): the bearing channels, then
+    /// the probes at other nodes; and, when `jac` is given, `dy/dtheta`
+    /// into it ([`ExtendedModel::n_outputs`]` x P`). `entries` are the
+    /// nominal parameters' [`Entry`]s at this speed
+    /// ([`Predictor::entries`]).
     pub fn predict(
         &self,
         st: &SpeedTerms,
@@ -360,143 +395,212 @@ impl ExtendedModel {
         jac: Option<&mut DMatrix<Complex64>>,
     ) -> Result<DVector<Complex64>, PredictError> {
         let ev = self.eval(st, entries, theta)?;
-        let Some(jac) = jac else {
+        let Some(jac_full) = jac else {
             return Ok(ev.y);
         };
         let nq = self.n_channels();
         let np = self.n_params();
-        if jac.nrows() != nq || jac.ncols() != np {
+        if jac_full.nrows() != self.n_outputs(st) || jac_full.ncols() != np {
             return Err(PredictError::Dimension);
         }
-        let j = Complex64::new(0.0, 1.0);
-        let zero = Complex64::new(0.0, 0.0);
-        // Columns of dq (before the probe transform P), and for a relative
-        // pedestal probe the extra `dT q_m` on its block.
-        let mut extra: Vec<(usize, [Complex64; 2])> = Vec::new();
-        let block_dq = |m2: &Matrix2<Complex64>, pe: &PedEval| -> DVector<Complex64> {
-            // dq = -H^-1 [dZ_eff] q with dZ_eff = m2 on the block.
-            let qm = nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]);
-            let u = m2 * qm;
-            let mut v = DVector::<Complex64>::zeros(nq);
-            for r in 0..nq {
-                v[r] = -(ev.h_inv[(r, pe.i0)] * u[0] + ev.h_inv[(r, pe.i0 + 1)] * u[1]);
-            }
-            v
-        };
-        let qm = ev
-            .ped
-            .as_ref()
-            .map(|pe| nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]));
-        for (i, en) in entries.iter().enumerate() {
-            match *en {
-                Entry::Bearing { row, col, dz } => {
-                    let in_block = ev.ped.as_ref().filter(|pe| {
-                        (pe.i0..pe.i0 + 2).contains(&row) && (pe.i0..pe.i0 + 2).contains(&col)
-                    });
-                    if let (Some(pe), Some(qm)) = (in_block, qm) {
-                        let mut e = Matrix2::<Complex64>::zeros();
-                        e[(row - pe.i0, col - pe.i0)] = dz;
-                        let dzeff = pe.zp * pe.s * e * pe.s * pe.zp;
-                        jac.set_column(i, &block_dq(&dzeff, pe));
-                        if self.relative_probes {
-                            let d = -(pe.s * e * pe.t * qm);
-                            extra.push((i, [d[0], d[1]]));
-                        }
-                    } else {
-                        let s = dz * ev.q[col];
-                        for r in 0..nq {
-                            jac[(r, i)] = -(ev.h_inv[(r, row)] * s);
-                        }
-                    }
-                }
-                Entry::Unbalance { plane, da } => {
-                    let v = &ev.h_inv * ev.b_eff.column(plane) * da;
-                    jac.set_column(i, &v);
-                }
-            }
-        }
-        let mut runout_cols: Option<usize> = None;
-        for (k, ext) in self.ext.iter().enumerate() {
-            let o = self.offset(k);
-            match *ext {
-                Extension::Runout => runout_cols = Some(o),
-                Extension::Plane { node } => {
-                    let v = &ev.h_inv
-                        * st.b_node.column(node)
-                        * Complex64::from(self.pr.param.scaling.unbalance);
-                    jac.set_column(o, &v);
-                    jac.set_column(o + 1, &(v * j));
-                }
-                Extension::Bow { node } => {
-                    let v = &ev.h_inv * st.g_node.column(node) * Complex64::from(self.scales.q);
-                    jac.set_column(o, &v);
-                    jac.set_column(o + 1, &(v * j));
-                }
-                Extension::EScale => {
-                    let (da, db) = match (&st.da_de, &st.db_de) {
-                        (Some(da), Some(db)) => (da, db),
-                        _ => return Err(PredictError::Dimension),
-                    };
-                    let v = &ev.h_inv * (db * &ev.a - da * &ev.q) * Complex64::from(E_STEP);
-                    jac.set_column(o, &v);
-                }
-                Extension::Pedestal { .. } => {
-                    let (Some(pe), Some(qm)) = (ev.ped.as_ref(), qm) else {
-                        return Err(PredictError::Dimension);
-                    };
-                    debug_assert_eq!(pe.o, o);
-                    let w = st.omega;
-                    let pp = &pe.params;
-                    for d in 0..5 {
-                        // dZ_P / dx_d, diagonal.
-                        let mut dzp = Matrix2::<Complex64>::zeros();
-                        match d {
-                            0 => dzp = pe.zp,
-                            1 | 2 => {
-                                let k = d - 1;
-                                let wk = pp.omega[k];
-                                dzp[(k, k)] = Complex64::new(
-                                    2.0 * pp.mass * wk * wk,
-                                    2.0 * pp.mass * pp.zeta[k] * wk * w,
-                                );
-                            }
-                            _ => {
-                                let k = d - 3;
-                                dzp[(k, k)] = Complex64::new(0.0, 0.2 * pp.mass * pp.omega[k] * w);
-                            }
-                        }
-                        let dzeff = pe.zb * pe.s * dzp * pe.s * pe.zb;
-                        jac.set_column(o + d, &block_dq(&dzeff, pe));
-                        if self.relative_probes {
-                            let dt = pe.s * dzp * pe.s * pe.zb * qm;
-                            extra.push((o + d, [dt[0], dt[1]]));
-                        }
-                    }
-                }
-            }
-        }
-        // The probe transform on the pedestal's block, then its own terms.
-        if let Some(pe) = ev.ped.as_ref().filter(|_| self.relative_probes) {
-            for i in 0..np {
-                let a0 = jac[(pe.i0, i)];
-                let a1 = jac[(pe.i0 + 1, i)];
-                jac[(pe.i0, i)] = pe.t[(0, 0)] * a0 + pe.t[(0, 1)] * a1;
-                jac[(pe.i0 + 1, i)] = pe.t[(1, 0)] * a0 + pe.t[(1, 1)] * a1;
-            }
-            for (i, d) in &extra {
-                jac[(pe.i0, *i)] += d[0];
-                jac[(pe.i0 + 1, *i)] += d[1];
-            }
-        }
-        if let Some(o) = runout_cols {
-            for c in 0..nq {
+        let node_rows;
+        {
+            let mut jac = jac_full.rows_mut(0, nq);
+            let j = Complex64::new(0.0, 1.0);
+            let zero = Complex64::new(0.0, 0.0);
+            // Columns of dq (before the probe transform P), and for a relative
+            // pedestal probe the extra `dT q_m` on its block.
+            let mut extra: Vec<(usize, [Complex64; 2])> = Vec::new();
+            let block_dq = |m2: &Matrix2<Complex64>, pe: &PedEval| -> DVector<Complex64> {
+                // dq = -H^-1 [dZ_eff] q with dZ_eff = m2 on the block.
+                let qm = nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]);
+                let u = m2 * qm;
+                let mut v = DVector::<Complex64>::zeros(nq);
                 for r in 0..nq {
-                    jac[(r, o + 2 * c)] = zero;
-                    jac[(r, o + 2 * c + 1)] = zero;
+                    v[r] = -(ev.h_inv[(r, pe.i0)] * u[0] + ev.h_inv[(r, pe.i0 + 1)] * u[1]);
                 }
-                jac[(c, o + 2 * c)] = Complex64::from(self.scales.q);
-                jac[(c, o + 2 * c + 1)] = j * self.scales.q;
+                v
+            };
+            let qm = ev
+                .ped
+                .as_ref()
+                .map(|pe| nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]));
+            for (i, en) in entries.iter().enumerate() {
+                match *en {
+                    Entry::Bearing { row, col, dz } => {
+                        let in_block = ev.ped.as_ref().filter(|pe| {
+                            (pe.i0..pe.i0 + 2).contains(&row) && (pe.i0..pe.i0 + 2).contains(&col)
+                        });
+                        if let (Some(pe), Some(qm)) = (in_block, qm) {
+                            let mut e = Matrix2::<Complex64>::zeros();
+                            e[(row - pe.i0, col - pe.i0)] = dz;
+                            let dzeff = pe.zp * pe.s * e * pe.s * pe.zp;
+                            jac.set_column(i, &block_dq(&dzeff, pe));
+                            if self.relative_probes {
+                                let d = -(pe.s * e * pe.t * qm);
+                                extra.push((i, [d[0], d[1]]));
+                            }
+                        } else {
+                            let s = dz * ev.q[col];
+                            for r in 0..nq {
+                                jac[(r, i)] = -(ev.h_inv[(r, row)] * s);
+                            }
+                        }
+                    }
+                    Entry::Unbalance { plane, da } => {
+                        let v = &ev.h_inv * ev.b_eff.column(plane) * da;
+                        jac.set_column(i, &v);
+                    }
+                }
             }
+            let mut runout_cols: Option<usize> = None;
+            for (k, ext) in self.ext.iter().enumerate() {
+                let o = self.offset(k);
+                match *ext {
+                    Extension::Runout => runout_cols = Some(o),
+                    Extension::Plane { node } => {
+                        let v = &ev.h_inv
+                            * st.b_node.column(node)
+                            * Complex64::from(self.pr.param.scaling.unbalance);
+                        jac.set_column(o, &v);
+                        jac.set_column(o + 1, &(v * j));
+                    }
+                    Extension::Bow { node } => {
+                        let v = &ev.h_inv * st.g_node.column(node) * Complex64::from(self.scales.q);
+                        jac.set_column(o, &v);
+                        jac.set_column(o + 1, &(v * j));
+                    }
+                    Extension::EScale => {
+                        let (da, db) = match (&st.da_de, &st.db_de) {
+                            (Some(da), Some(db)) => (da, db),
+                            _ => return Err(PredictError::Dimension),
+                        };
+                        let v = &ev.h_inv * (db * &ev.a - da * &ev.q) * Complex64::from(E_STEP);
+                        jac.set_column(o, &v);
+                    }
+                    Extension::Pedestal { .. } => {
+                        let (Some(pe), Some(qm)) = (ev.ped.as_ref(), qm) else {
+                            return Err(PredictError::Dimension);
+                        };
+                        debug_assert_eq!(pe.o, o);
+                        let w = st.omega;
+                        let pp = &pe.params;
+                        for d in 0..5 {
+                            // dZ_P / dx_d, diagonal.
+                            let mut dzp = Matrix2::<Complex64>::zeros();
+                            match d {
+                                0 => dzp = pe.zp,
+                                1 | 2 => {
+                                    let k = d - 1;
+                                    let wk = pp.omega[k];
+                                    dzp[(k, k)] = Complex64::new(
+                                        2.0 * pp.mass * wk * wk,
+                                        2.0 * pp.mass * pp.zeta[k] * wk * w,
+                                    );
+                                }
+                                _ => {
+                                    let k = d - 3;
+                                    dzp[(k, k)] =
+                                        Complex64::new(0.0, 0.2 * pp.mass * pp.omega[k] * w);
+                                }
+                            }
+                            let dzeff = pe.zb * pe.s * dzp * pe.s * pe.zb;
+                            jac.set_column(o + d, &block_dq(&dzeff, pe));
+                            if self.relative_probes {
+                                let dt = pe.s * dzp * pe.s * pe.zb * qm;
+                                extra.push((o + d, [dt[0], dt[1]]));
+                            }
+                        }
+                    }
+                }
+            }
+            // Probes at other nodes: P dq plus the loads' direct terms (before
+            // the pedestal's probe transform, which acts on bearing channels).
+            node_rows = match &st.probes {
+                None => None,
+                Some(nt) => {
+                    let mut dq = jac.clone_owned();
+                    if let Some(o) = runout_cols {
+                        for c in 0..2 * nq {
+                            dq.column_mut(o + c).fill(zero);
+                        }
+                    }
+                    // P + dP de with the modulus extension.
+                    let e_idx = self.ext.iter().position(|x| *x == Extension::EScale);
+                    let mut jn = match (e_idx, &nt.dp_de) {
+                        (Some(k), Some(dp)) => {
+                            (&nt.p + dp * Complex64::from(theta[self.offset(k)] * E_STEP)) * dq
+                        }
+                        _ => &nt.p * dq,
+                    };
+                    for (i, en) in entries.iter().enumerate() {
+                        if let Entry::Unbalance { plane, da } = *en {
+                            let mut u = nt.u.column(plane) * da;
+                            if let (Some(du), Some(k)) = (&nt.du_de, e_idx) {
+                                u += du.column(plane) * (da * theta[self.offset(k)] * E_STEP);
+                            }
+                            let mut col = jn.column_mut(i);
+                            col += u;
+                        }
+                    }
+                    for (k, ext) in self.ext.iter().enumerate() {
+                        let o = self.offset(k);
+                        match *ext {
+                            Extension::Plane { node } => {
+                                let v = nt.u_node.column(node)
+                                    * Complex64::from(self.pr.param.scaling.unbalance);
+                                let mut c0 = jn.column_mut(o);
+                                c0 += &v;
+                                let mut c1 = jn.column_mut(o + 1);
+                                c1 += v * j;
+                            }
+                            Extension::Bow { node } => {
+                                let v = nt.h_node.column(node) * Complex64::from(self.scales.q);
+                                let mut c0 = jn.column_mut(o);
+                                c0 += &v;
+                                let mut c1 = jn.column_mut(o + 1);
+                                c1 += v * j;
+                            }
+                            Extension::EScale => {
+                                let (Some(dp), Some(du)) = (&nt.dp_de, &nt.du_de) else {
+                                    return Err(PredictError::Dimension);
+                                };
+                                let v = (dp * &ev.q + du * &ev.a) * Complex64::from(E_STEP);
+                                let mut c0 = jn.column_mut(o);
+                                c0 += v;
+                            }
+                            Extension::Runout | Extension::Pedestal { .. } => {}
+                        }
+                    }
+                    Some(jn)
+                }
+            };
+            // The probe transform on the pedestal's block, then its own terms.
+            if let Some(pe) = ev.ped.as_ref().filter(|_| self.relative_probes) {
+                for i in 0..np {
+                    let a0 = jac[(pe.i0, i)];
+                    let a1 = jac[(pe.i0 + 1, i)];
+                    jac[(pe.i0, i)] = pe.t[(0, 0)] * a0 + pe.t[(0, 1)] * a1;
+                    jac[(pe.i0 + 1, i)] = pe.t[(1, 0)] * a0 + pe.t[(1, 1)] * a1;
+                }
+                for (i, d) in &extra {
+                    jac[(pe.i0, *i)] += d[0];
+                    jac[(pe.i0 + 1, *i)] += d[1];
+                }
+            }
+            if let Some(o) = runout_cols {
+                for c in 0..nq {
+                    for r in 0..nq {
+                        jac[(r, o + 2 * c)] = zero;
+                        jac[(r, o + 2 * c + 1)] = zero;
+                    }
+                    jac[(c, o + 2 * c)] = Complex64::from(self.scales.q);
+                    jac[(c, o + 2 * c + 1)] = j * self.scales.q;
+                }
+            }
+        }
+        if let Some(jn) = node_rows {
+            jac_full.rows_mut(nq, jn.nrows()).copy_from(&jn);
         }
         Ok(ev.y)
     }
@@ -610,6 +714,44 @@ mod tests {
             let w = DVector::from_vec(want[k].clone());
             assert!((&y - &w).norm() <= 1e-8 * w.norm(), "{k}: {y} vs {w}");
         }
+        // Probes at other nodes (one at a bearing node, one at the extra
+        // plane, one at mid-span) equal the FE response there; so does a
+        // modulus factor, against a model rebuilt with it.
+        let nodes = [0, 9, 13, 15];
+        for e in [1.0, 1.04] {
+            let mut me = m.clone();
+            for el in &mut me.shaft {
+                el.material.e *= e;
+                el.material.g *= e;
+            }
+            let full = crate::fe::response::unbalance_response(
+                &FeModel::new(&me).unwrap(),
+                &forcing,
+                &omegas,
+            )
+            .unwrap();
+            let terms =
+                crate::diagnose::terms::build_with_probes(&m, &omegas, e, false, &nodes).unwrap();
+            for (k, st) in terms.iter().enumerate() {
+                let y = x
+                    .predict(st, &x.pr.entries(st.omega), &theta, None)
+                    .unwrap();
+                assert_eq!(y.len(), 4 + 2 * nodes.len());
+                for (i, &n) in nodes.iter().enumerate() {
+                    for (d, dir) in [crate::fe::assembly::Dir::Y, crate::fe::assembly::Dir::Z]
+                        .into_iter()
+                        .enumerate()
+                    {
+                        let want = full[k].q[fe.dof(n, dir)];
+                        let got = y[4 + 2 * i + d];
+                        assert!(
+                            (got - want).norm() <= 1e-8 * want.norm(),
+                            "e {e} speed {k} node {n}: {got} vs {want}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     /// A pedestal through the extended model equals the FE response of the
@@ -687,12 +829,16 @@ mod tests {
     }
 
     fn jacobian_case(m: &RotorModel, x: &ExtendedModel) {
-        let terms = build(m, &[800.0], 1.0, true).unwrap();
+        // Probes at an interior node and at a bearing node too.
+        let terms =
+            crate::diagnose::terms::build_with_probes(m, &[800.0], 1.0, true, &[9, 26]).unwrap();
         let st = &terms[0];
         let mut theta = nominal_theta(m, x);
         theta.extend((0..x.n_params() - theta.len()).map(|i| 0.3 + 0.1 * i as f64));
         let en = x.pr.entries(st.omega);
-        let mut jac = DMatrix::zeros(4, x.n_params());
+        let rows = x.n_outputs(st);
+        assert_eq!(rows, 8);
+        let mut jac = DMatrix::zeros(rows, x.n_params());
         let y = x.predict(st, &en, &theta, Some(&mut jac)).unwrap();
         for i in 0..x.n_params() {
             let h = 1e-6;
@@ -703,7 +849,7 @@ mod tests {
             let fd = (x.predict(st, &en, &tp, None).unwrap()
                 - x.predict(st, &en, &tm, None).unwrap())
                 / Complex64::from(2.0 * h);
-            for r in 0..4 {
+            for r in 0..rows {
                 assert!(
                     (fd[r] - jac[(r, i)]).norm() <= 1e-6 * y.norm(),
                     "{:?} param {i} row {r}: {} vs {}",

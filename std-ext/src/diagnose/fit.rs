@@ -48,6 +48,9 @@ pub const FLOOR: f64 = 1e-3;
 pub struct FitData<'a> {
     /// The measured samples.
     pub samples: &'a [Sample],
+    /// Readings of the probes at other nodes per sample (empty: none),
+    /// appended to each sample's bearing channels.
+    pub node_q: &'a [Vec<Complex64>],
     /// The terms at each sample's speed.
     pub terms: &'a [SpeedTerms],
     /// `1 / w_(n,c)`.
@@ -57,18 +60,39 @@ pub struct FitData<'a> {
 impl<'a> FitData<'a> {
     /// The data with the weights of the module documentation.
     pub fn new(samples: &'a [Sample], terms: &'a [SpeedTerms]) -> Self {
-        let nq = samples.first().map_or(0, |s| s.q.len());
+        Self::with_probes(samples, &[], terms)
+    }
+
+    /// [`FitData::new`] with the readings of probes at other nodes
+    /// (`node_q[n]`: `y, z` per probe node at sample `n`; empty: none),
+    /// weighted the same way.
+    pub fn with_probes(
+        samples: &'a [Sample],
+        node_q: &'a [Vec<Complex64>],
+        terms: &'a [SpeedTerms],
+    ) -> Self {
+        let reading = |k: usize| -> Vec<Complex64> {
+            let mut y = samples[k].q.clone();
+            if let Some(x) = node_q.get(k) {
+                y.extend_from_slice(x);
+            }
+            y
+        };
+        let nq = samples.first().map_or(0, |s| s.q.len()) + node_q.first().map_or(0, Vec::len);
         let n = samples.len().max(1) as f64;
         let floor: Vec<f64> = (0..nq)
             .map(|c| {
-                let ms = samples.iter().map(|s| s.q[c].norm_sqr()).sum::<f64>() / n;
+                let ms = (0..samples.len())
+                    .map(|k| reading(k).get(c).map_or(0.0, |z| z.norm_sqr()))
+                    .sum::<f64>()
+                    / n;
                 FLOOR * ms.sqrt()
             })
             .collect();
-        let inv_w = samples
-            .iter()
-            .map(|s| {
-                s.q.iter()
+        let inv_w = (0..samples.len())
+            .map(|k| {
+                reading(k)
+                    .iter()
                     .zip(&floor)
                     .map(|(q, f)| {
                         let w = q.norm().max(*f);
@@ -83,14 +107,24 @@ impl<'a> FitData<'a> {
             .collect();
         FitData {
             samples,
+            node_q,
             terms,
             inv_w,
         }
     }
 
+    /// The readings of sample `k`: bearing channels, then node probes.
+    pub fn reading(&self, k: usize) -> Vec<Complex64> {
+        let mut y = self.samples[k].q.clone();
+        if let Some(x) = self.node_q.get(k) {
+            y.extend_from_slice(x);
+        }
+        y
+    }
+
     /// Number of real equations `2 N`.
     pub fn n_equations(&self) -> usize {
-        2 * self.samples.iter().map(|s| s.q.len()).sum::<usize>()
+        2 * self.inv_w.iter().map(Vec::len).sum::<usize>()
     }
 }
 
@@ -141,21 +175,27 @@ pub fn evaluate(
     theta: &[f64],
     jacobian: bool,
 ) -> Result<(DVector<f64>, Option<DMatrix<f64>>), PredictError> {
-    let nq = model.n_channels();
     let p = model.n_params();
     let n = data.n_equations();
     let mut r = DVector::zeros(n);
     let mut jac = jacobian.then(|| DMatrix::zeros(n, p));
+    let nq = data.terms.first().map_or(0, |st| model.n_outputs(st));
     let mut jz = DMatrix::<Complex64>::zeros(nq, p);
+    let with_nodes = !data.node_q.is_empty();
     for (k, (s, st)) in data.samples.iter().zip(data.terms).enumerate() {
-        if s.q.len() != nq {
+        let meas = if with_nodes {
+            std::borrow::Cow::Owned(data.reading(k))
+        } else {
+            std::borrow::Cow::Borrowed(&s.q)
+        };
+        if meas.len() != nq || model.n_outputs(st) != nq || data.inv_w[k].len() != nq {
             return Err(PredictError::Dimension);
         }
         let y = model.predict(st, &entries[k], theta, jacobian.then_some(&mut jz))?;
         for c in 0..nq {
             let iw = data.inv_w[k][c];
             let row = 2 * (k * nq + c);
-            let d = (s.q[c] - y[c]) * iw;
+            let d = (meas[c] - y[c]) * iw;
             r[row] = d.re;
             r[row + 1] = d.im;
             if let Some(j) = jac.as_mut() {

@@ -343,6 +343,8 @@ pub struct Diagnosis {
     pub terms: Vec<SpeedTerms>,
     /// Speed at which bearings are reported (rad/s).
     pub omega_report: f64,
+    /// Shaft nodes (0-based) of the measurement's probes at other nodes.
+    pub probe_nodes: Vec<usize>,
     /// Wall-clock time of each stage of [`diagnose`] (seconds), in order:
     /// where a diagnosis spends its time.
     pub stages: Vec<(&'static str, f64)>,
@@ -369,12 +371,8 @@ impl Diagnosis {
     /// The smallest detectable size of `ext` alone at the nominal estimate
     /// (m for a bow or runout, kg m for a plane; see [`observe`]); `None`
     /// for effects without a zero (pedestal, modulus, speed law).
-    pub fn min_detectable(
-        &self,
-        samples: &[crate::io::measurement::Sample],
-        ext: Extension,
-    ) -> Option<f64> {
-        let data = FitData::new(samples, &self.terms);
+    pub fn min_detectable(&self, meas: &Measurements, ext: Extension) -> Option<f64> {
+        let data = FitData::with_probes(&meas.samples, &meas.node_q, &self.terms);
         observe::min_detectable_single(self, &data, ext)
     }
 
@@ -395,7 +393,7 @@ pub fn predictions(
     let own;
     let terms: &[SpeedTerms] = if c.model.ext.contains(&Extension::EScale) {
         let omegas: Vec<f64> = d.terms.iter().map(|t| t.omega).collect();
-        own = terms::build(model, &omegas, c.e_terms, true)?;
+        own = terms::build_with_probes(model, &omegas, c.e_terms, true, &d.probe_nodes)?;
         &own
     } else {
         &d.terms
@@ -498,7 +496,26 @@ pub fn diagnose(
     let samples = &meas.samples;
     let omegas: Vec<f64> = samples.iter().map(|s| s.omega).collect();
     let omega_max = omegas.iter().copied().fold(0.0, f64::max);
-    let terms = terms::build(model, &omegas, 1.0, false)?;
+    let probes = &meas.node_probes;
+    let node_q = &meas.node_q[..];
+    if !probes.is_empty()
+        && (node_q.len() != samples.len() || node_q.iter().any(|x| x.len() != 2 * probes.len()))
+    {
+        return Err(DiagnoseError::Input(format!(
+            "{} node-probe rows for {} samples of {} probes",
+            node_q.len(),
+            samples.len(),
+            probes.len()
+        )));
+    }
+    if let Some(n) = probes.iter().find(|&&n| n >= model.n_nodes()) {
+        return Err(DiagnoseError::Input(format!(
+            "a probe at node {} but the model has {} nodes",
+            n + 1,
+            model.n_nodes()
+        )));
+    }
+    let terms = terms::build_with_probes(model, &omegas, 1.0, false, probes)?;
     clock.lap("terms");
 
     // 1. Nominal: QRD/RLS start, output-error fit, polish on our objective.
@@ -519,7 +536,7 @@ pub fn diagnose(
         mass: rotor_mass / nb as f64,
         omega: omega_max,
     };
-    let data = FitData::new(samples, &terms);
+    let data = FitData::with_probes(samples, node_q, &terms);
     let base = ExtendedModel {
         pr: pr.clone(),
         ext: Vec::new(),
@@ -762,9 +779,9 @@ pub fn diagnose(
             let mut built: Vec<(f64, Vec<SpeedTerms>)> = vec![(1.0, terms.clone())];
             let mut best = (1.0, nominal_s, start_with(&m, &[0.0]));
             for e_try in [0.95, 1.05] {
-                let te = terms::build(model, &omegas, e_try, false)?;
+                let te = terms::build_with_probes(model, &omegas, e_try, false, probes)?;
                 if let Ok((_, mut th)) = oe_start(model, samples, &te, structure, scaling) {
-                    let d = FitData::new(samples, &te);
+                    let d = FitData::with_probes(samples, node_q, &te);
                     let en = fit::entries(&base, &d);
                     if let Ok((r, _)) = fit::evaluate(&base, &d, &en, &th, false) {
                         let s_try = r.norm_squared();
@@ -795,7 +812,7 @@ pub fn diagnose(
                 if cur.first().is_none_or(|t| t.da_de.is_none()) {
                     terms::set_secant_derivative(&mut cur, e, &prev, e_prev)?;
                 }
-                let d = FitData::new(samples, &cur);
+                let d = FitData::with_probes(samples, node_q, &cur);
                 let Ok(f) = fit::fit(&m, &d, &theta, 50) else {
                     break;
                 };
@@ -808,13 +825,17 @@ pub fn diagnose(
                     break;
                 }
                 theta[m.offset(0)] = 0.0;
-                let mut next = terms::build(model, &omegas, e_new, false)?;
+                let mut next = terms::build_with_probes(model, &omegas, e_new, false, probes)?;
                 if (e_new - e).abs() < 1e-5 * e {
                     // Too close for a secant without cancellation: the
                     // derivative of the current factor is as good.
                     for (n, c) in next.iter_mut().zip(&cur) {
                         n.da_de.clone_from(&c.da_de);
                         n.db_de.clone_from(&c.db_de);
+                        if let (Some(np), Some(cp)) = (n.probes.as_mut(), c.probes.as_ref()) {
+                            np.dp_de.clone_from(&cp.dp_de);
+                            np.du_de.clone_from(&cp.du_de);
+                        }
                     }
                 }
                 (e_prev, prev) = (e, std::mem::replace(&mut cur, next));
@@ -903,7 +924,7 @@ pub fn diagnose(
         }
         for (a, b) in &trials {
             {
-                if let Some(c) = fit_pair(model, &omegas, samples, &data, a, b, &mut e_terms_cache)?
+                if let Some(c) = fit_pair(model, &omegas, &data, a, b, &mut e_terms_cache, probes)?
                 {
                     // By BIC: a pair with a lean law beats one whose
                     // extra bearing orders merely absorb the second effect.
@@ -959,6 +980,7 @@ pub fn diagnose(
         warnings,
         terms: Vec::new(),
         omega_report,
+        probe_nodes: probes.clone(),
         stages: Vec::new(),
     };
     d.observability = observe::analyse(&d, &data);
@@ -1017,6 +1039,7 @@ fn oe_start(
         comments: Vec::new(),
         n_bearings: model.bearings.len(),
         samples: samples.to_vec(),
+        ..Measurements::default()
     };
     let id = identify_with(
         &model.bearing_nodes(),
@@ -1089,14 +1112,15 @@ fn rescreen(
 }
 
 /// A pair of hypotheses fitted together, from their own estimates.
+#[allow(clippy::too_many_arguments)]
 fn fit_pair(
     model: &RotorModel,
     omegas: &[f64],
-    samples: &[crate::io::measurement::Sample],
     data: &FitData<'_>,
     a: &Candidate,
     b: &Candidate,
     e_cache: &mut Option<(f64, Vec<SpeedTerms>)>,
+    probes: &[usize],
 ) -> Result<Option<Candidate>, DiagnoseError> {
     // The richer bearing law of the two.
     let (pa, pb) = (&a.model.pr, &b.model.pr);
@@ -1128,9 +1152,9 @@ fn fit_pair(
     let fit = if uses_e {
         let te = match e_cache {
             Some((ec, t)) if *ec == e && !t.is_empty() => t.clone(),
-            _ => terms::build(model, omegas, e, true)?,
+            _ => terms::build_with_probes(model, omegas, e, true, probes)?,
         };
-        let d = FitData::new(samples, &te);
+        let d = FitData::with_probes(data.samples, data.node_q, &te);
         // The e parameter of the pair starts at the single fit's offset.
         let k = m
             .ext

@@ -27,11 +27,25 @@
 //!
 //! ([`build`] with `e != 1`); checked against a model rebuilt with the
 //! scaled modulus in the tests.
+//!
+//! # Probes at other nodes
+//!
+//! A probe at shaft node `n` reads the shaft's absolute displacement there,
+//! from the bearing response and the loads ([`crate::reduce::ProbeTerms`]):
+//!
+//! ```text
+//!     x_n = P q + u a + sum_k u_k u_k' + sum_k h_k beta_k
+//! ```
+//!
+//! (`u`: unbalance at the planes, `u_k`, `h_k`: a unit unbalance and a unit
+//! bow at node `k`). `Z_ii^-1 Z_iB` is unchanged by the modulus factor and
+//! the unbalance and bow forcings scale like `Z_R`, so all four are those
+//! of `e = 1` at `Omega / sqrt(e)`, with `Omega^2` of that speed in `u`.
 
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
-use crate::fe::assembly::FeModel;
+use crate::fe::assembly::{Dir, FeModel};
 use crate::model::{BowPoint, RotorModel, ShaftBow};
 use crate::reduce::{Reducer, ReductionError};
 
@@ -53,6 +67,27 @@ pub struct SpeedTerms {
     pub da_de: Option<DMatrix<Complex64>>,
     /// `dB/de`, likewise.
     pub db_de: Option<DMatrix<Complex64>>,
+    /// The terms of the probes at other nodes, when there are any.
+    pub probes: Option<NodeTerms>,
+}
+
+/// The terms of probes at shaft nodes at one speed (module docs), rows
+/// `y, z` per probe node.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodeTerms {
+    /// `P` (`2 N_n x 2 N_b`): the response to the bearing displacements.
+    pub p: DMatrix<Complex64>,
+    /// `u` (`2 N_n x N_p`, m per kg m): unbalance at the model's planes.
+    pub u: DMatrix<Complex64>,
+    /// `u_k` of a unit unbalance at every node (`2 N_n x N_nodes`, m per
+    /// kg m).
+    pub u_node: DMatrix<Complex64>,
+    /// `h_k` of a unit bow at every node (`2 N_n x N_nodes`, m per m).
+    pub h_node: DMatrix<Complex64>,
+    /// `dP/de`, when derivatives were asked.
+    pub dp_de: Option<DMatrix<Complex64>>,
+    /// `du/de`, likewise.
+    pub du_de: Option<DMatrix<Complex64>>,
 }
 
 /// Builds the terms at every speed of `omegas` (rad/s, > 0) for the shaft
@@ -67,6 +102,19 @@ pub fn build(
     omegas: &[f64],
     e: f64,
     derivative: bool,
+) -> Result<Vec<SpeedTerms>, ReductionError> {
+    build_with_probes(model, omegas, e, derivative, &[])
+}
+
+/// [`build`] with the [`NodeTerms`] of probes at the shaft nodes
+/// `probe_nodes` (0-based; none: no [`SpeedTerms::probes`]), from the same
+/// banded LU per speed.
+pub fn build_with_probes(
+    model: &RotorModel,
+    omegas: &[f64],
+    e: f64,
+    derivative: bool,
+    probe_nodes: &[usize],
 ) -> Result<Vec<SpeedTerms>, ReductionError> {
     if !(e.is_finite() && e > 0.0) {
         return Err(ReductionError::Invalid(format!(
@@ -96,13 +144,34 @@ pub fn build(
             loads[(r, np + n_nodes + n)] = *v;
         }
     }
+    if let Some(n) = probe_nodes.iter().find(|&&n| n >= n_nodes) {
+        return Err(ReductionError::Invalid(format!(
+            "probe at node {} beyond the shaft's {n_nodes} nodes",
+            n + 1
+        )));
+    }
+    let probe_dofs: Vec<usize> = probe_nodes
+        .iter()
+        .flat_map(|&n| [fe.dof(n, Dir::Y), fe.dof(n, Dir::Z)])
+        .collect();
     let reducer = Reducer::with_loads(&fe, model, loads)?;
-    let at =
-        |omega: f64, e: f64| -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), ReductionError> {
-            let w = omega / e.sqrt();
-            let t = reducer.reduce_adjoint(w)?;
-            Ok((t.a * Complex64::from(e), t.b * Complex64::from(e)))
-        };
+    type Reduced = (DMatrix<Complex64>, DMatrix<Complex64>, Option<NodeTerms>);
+    let at = |omega: f64, e: f64| -> Result<Reduced, ReductionError> {
+        let w = omega / e.sqrt();
+        let (t, pt) = reducer.reduce_adjoint_probes(w, &probe_dofs)?;
+        let probes = (!probe_dofs.is_empty()).then(|| {
+            let w2 = Complex64::from(w * w);
+            NodeTerms {
+                u: pt.l.columns(0, np) * w2,
+                u_node: pt.l.columns(np, n_nodes) * w2,
+                h_node: pt.l.columns(np + n_nodes, n_nodes).into_owned(),
+                p: pt.p,
+                dp_de: None,
+                du_de: None,
+            }
+        });
+        Ok((t.a * Complex64::from(e), t.b * Complex64::from(e), probes))
+    };
     let mut out = Vec::with_capacity(omegas.len());
     for &omega in omegas {
         if !(omega.is_finite() && omega > 0.0) {
@@ -110,16 +179,22 @@ pub fn build(
                 "the diagnosis needs speeds > 0, got {omega} rad/s"
             )));
         }
-        let (a, b_all) = at(omega, e)?;
+        let (a, b_all, mut probes) = at(omega, e)?;
         let nq = a.nrows();
         let b = b_all.columns(0, np).into_owned();
         let b_node = b_all.columns(np, n_nodes).into_owned();
-        let g_node =
-            b_all.columns(np + n_nodes, n_nodes).into_owned() / Complex64::from(omega * omega);
+        // `e B / Omega^2` is the bow load of the unscaled `K_s` reduced at
+        // `Omega / sqrt(e)`; the shaft's bow forcing is `e K_s q_bow`.
+        let g_node = b_all.columns(np + n_nodes, n_nodes).into_owned()
+            * Complex64::from(e / (omega * omega));
         let (da_de, db_de) = if derivative {
             let h = 1e-4 * e;
-            let (ap, bp) = at(omega, e + h)?;
+            let (ap, bp, pp) = at(omega, e + h)?;
             let s = Complex64::from(1.0 / h);
+            if let (Some(nt), Some(np_)) = (probes.as_mut(), pp) {
+                nt.dp_de = Some((np_.p - &nt.p) * s);
+                nt.du_de = Some((np_.u - &nt.u) * s);
+            }
             (Some((ap - &a) * s), Some((bp.columns(0, np) - &b) * s))
         } else {
             (None, None)
@@ -133,6 +208,7 @@ pub fn build(
             g_node,
             da_de,
             db_de,
+            probes,
         });
     }
     Ok(out)
@@ -165,6 +241,10 @@ pub fn set_secant_derivative(
         }
         t.da_de = Some((&t.a - &p.a) * s);
         t.db_de = Some((&t.b - &p.b) * s);
+        if let (Some(tn), Some(pn)) = (t.probes.as_mut(), p.probes.as_ref()) {
+            tn.dp_de = Some((&tn.p - &pn.p) * s);
+            tn.du_de = Some((&tn.u - &pn.u) * s);
+        }
     }
     Ok(())
 }

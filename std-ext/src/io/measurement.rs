@@ -28,6 +28,12 @@
 //!   last data row has none is taken as cut short (a write that stopped
 //!   half way, e.g. `...,-3.8` for `...,-3.85e-7`) and refused.
 //! - At most [`MAX_ROWS`] data rows.
+//! - Probes at other shaft nodes may follow the bearing columns, four
+//!   columns per node in the file's layout: `nN_y_re,nN_y_im,nN_z_re,nN_z_im`
+//!   (or `nN_y_amp,nN_y_phase_deg,...`) for node `N` numbered from 1, each
+//!   node at most once. They read the shaft's absolute displacement at that
+//!   node ([`Measurements::node_probes`], [`Measurements::node_q`]); the
+//!   identification uses the bearing columns only, the diagnosis uses all.
 //!
 //! The writer prints every number with Rust's shortest round-trip
 //! representation (`{:e}`), so the phasors read back bit for bit; the speed
@@ -65,6 +71,12 @@ pub struct Measurements {
     pub n_bearings: usize,
     /// One sample per row.
     pub samples: Vec<Sample>,
+    /// Shaft nodes (0-based) of the probes at other nodes, in column order;
+    /// empty for a file with bearing probes only.
+    pub node_probes: Vec<usize>,
+    /// The node probes' phasors (m) per sample, `2 node_probes.len()` each,
+    /// `y, z` per node; empty when there are no node probes.
+    pub node_q: Vec<Vec<Complex64>>,
 }
 
 /// How the phasors are written in the CSV columns.
@@ -168,8 +180,12 @@ pub fn header_columns(n_bearings: usize, layout: CsvLayout) -> Vec<String> {
     cols
 }
 
-/// Recognises a header line; returns N_b and the layout.
-fn parse_header(line_no: usize, line: &str) -> Result<(usize, CsvLayout), MeasurementError> {
+/// Recognises a header line; returns N_b, the layout and the node probes
+/// (0-based nodes).
+fn parse_header(
+    line_no: usize,
+    line: &str,
+) -> Result<(usize, CsvLayout, Vec<usize>), MeasurementError> {
     let cols: Vec<&str> = line.split(',').map(str::trim).collect();
     let bad = |reason: String| MeasurementError::Header {
         line: line_no,
@@ -181,19 +197,47 @@ fn parse_header(line_no: usize, line: &str) -> Result<(usize, CsvLayout), Measur
             clip(cols.first().copied().unwrap_or(""))
         )));
     }
-    let n_ch = cols.len() - 1;
-    if n_ch == 0 || n_ch % 4 != 0 {
+    let n_bearing_cols = cols[1..].iter().take_while(|c| c.starts_with('b')).count();
+    let n_node_cols = cols.len() - 1 - n_bearing_cols;
+    if n_bearing_cols == 0 || n_bearing_cols % 4 != 0 {
         return Err(bad(format!(
-            "expected 4 columns per bearing after `speed_rpm`, found {n_ch}"
+            "expected 4 columns per bearing after `speed_rpm`, found {n_bearing_cols}"
         )));
     }
-    let n_b = n_ch / 4;
+    if n_node_cols % 4 != 0 {
+        return Err(bad(format!(
+            "expected 4 columns per node probe after the bearing columns, found {n_node_cols}"
+        )));
+    }
+    let n_b = n_bearing_cols / 4;
     let layout = if cols[1].ends_with("_amp") {
         CsvLayout::AmplitudePhase
     } else {
         CsvLayout::Complex
     };
-    let expected = header_columns(n_b, layout);
+    let mut nodes = Vec::with_capacity(n_node_cols / 4);
+    for (g, group) in cols[1 + n_bearing_cols..].chunks_exact(4).enumerate() {
+        let first = 2 + n_bearing_cols + 4 * g;
+        let node = group[0]
+            .strip_prefix('n')
+            .and_then(|r| r.split_once('_'))
+            .and_then(|(n, _)| n.parse::<usize>().ok())
+            .filter(|&n| n >= 1)
+            .ok_or_else(|| {
+                bad(format!(
+                    "column {first} must be a bearing or node-probe column (`nN_y_re`, N from 1), found `{}`",
+                    clip(group[0])
+                ))
+            })?;
+        if nodes.contains(&(node - 1)) {
+            return Err(bad(format!("column {first}: node {node} appears twice")));
+        }
+        nodes.push(node - 1);
+    }
+    let expected: Vec<String> = header_columns(n_b, layout)
+        .into_iter()
+        .chain(node_probe_columns(&nodes, layout))
+        .collect();
     for (i, (got, want)) in cols.iter().zip(expected.iter()).enumerate() {
         if got != want {
             return Err(bad(format!(
@@ -203,7 +247,7 @@ fn parse_header(line_no: usize, line: &str) -> Result<(usize, CsvLayout), Measur
             )));
         }
     }
-    Ok((n_b, layout))
+    Ok((n_b, layout, nodes))
 }
 
 /// Parses the text of a measurement file.
@@ -240,6 +284,8 @@ impl CsvLocations {
 pub fn parse_csv_located(text: &str) -> Result<(Measurements, CsvLocations), MeasurementError> {
     let mut comments = Vec::new();
     let mut header: Option<(usize, CsvLayout, Vec<String>)> = None;
+    let mut node_probes = Vec::new();
+    let mut node_q = Vec::new();
     let mut samples = Vec::new();
     let mut lines = Vec::new();
     let mut file_layout = CsvLayout::default();
@@ -257,8 +303,13 @@ pub fn parse_csv_located(text: &str) -> Result<(Measurements, CsvLocations), Mea
             continue;
         }
         let Some((n_b, layout, names)) = &header else {
-            let (n_b, layout) = parse_header(line_no, line)?;
-            header = Some((n_b, layout, header_columns(n_b, layout)));
+            let (n_b, layout, nodes) = parse_header(line_no, line)?;
+            let names = header_columns(n_b, layout)
+                .into_iter()
+                .chain(node_probe_columns(&nodes, layout))
+                .collect();
+            header = Some((n_b, layout, names));
+            node_probes = nodes;
             file_layout = layout;
             continue;
         };
@@ -295,14 +346,14 @@ pub fn parse_csv_located(text: &str) -> Result<(Measurements, CsvLocations), Mea
             }
             values.push(v);
         }
-        let q = values[1..]
+        let mut q = values[1..]
             .chunks_exact(2)
             .map(|p| match layout {
                 CsvLayout::Complex => Complex64::new(p[0], p[1]),
                 CsvLayout::AmplitudePhase => Complex64::from_polar(p[0], p[1].to_radians()),
             })
             .collect::<Vec<_>>();
-        debug_assert_eq!(q.len(), 2 * n_b);
+        debug_assert_eq!(q.len(), 2 * n_b + 2 * node_probes.len());
         let omega = rpm_to_rad_s(values[0]);
         if !omega.is_finite() {
             return Err(MeasurementError::Field {
@@ -323,6 +374,9 @@ pub fn parse_csv_located(text: &str) -> Result<(Measurements, CsvLocations), Mea
                 column: names[1 + 2 * col].clone(),
                 reason: format!("too large: {}", clip(fields[1 + 2 * col])),
             });
+        }
+        if !node_probes.is_empty() {
+            node_q.push(q.split_off(2 * n_b));
         }
         samples.push(Sample { omega, q });
         lines.push(line_no);
@@ -350,6 +404,8 @@ pub fn parse_csv_located(text: &str) -> Result<(Measurements, CsvLocations), Mea
             comments,
             n_bearings,
             samples,
+            node_probes,
+            node_q,
         },
         CsvLocations {
             lines,
@@ -389,6 +445,15 @@ fn speed_for_file(omega: f64) -> f64 {
 /// Fails if a sample does not have `2 n_bearings` phasors or holds a
 /// non-finite or negative speed or a non-finite phasor.
 pub fn to_csv_string(m: &Measurements, layout: CsvLayout) -> Result<String, MeasurementError> {
+    if m.node_probes.is_empty() {
+        bearing_csv_string(m, layout)
+    } else {
+        to_csv_string_with_node_probes(m, layout, &m.node_probes, &m.node_q)
+    }
+}
+
+/// The comments, the bearing columns and the rows of [`to_csv_string`].
+fn bearing_csv_string(m: &Measurements, layout: CsvLayout) -> Result<String, MeasurementError> {
     let mut out = String::new();
     for c in &m.comments {
         // A comment containing a line break would break the format.
@@ -488,7 +553,7 @@ pub fn to_csv_string_with_node_probes(
     nodes: &[usize],
     node_q: &[Vec<Complex64>],
 ) -> Result<String, MeasurementError> {
-    let text = to_csv_string(m, layout)?;
+    let text = bearing_csv_string(m, layout)?;
     if nodes.is_empty() {
         return Ok(text);
     }
@@ -592,7 +657,7 @@ mod tests {
     fn header_both_layouts() {
         assert_eq!(
             parse_header(1, "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im").unwrap(),
-            (1, CsvLayout::Complex)
+            (1, CsvLayout::Complex, vec![])
         );
         assert_eq!(
             parse_header(
@@ -600,8 +665,25 @@ mod tests {
                 "speed_rpm, b1_y_amp,b1_y_phase_deg,b1_z_amp,b1_z_phase_deg"
             )
             .unwrap(),
-            (1, CsvLayout::AmplitudePhase)
+            (1, CsvLayout::AmplitudePhase, vec![])
         );
+        assert_eq!(
+            parse_header(
+                1,
+                "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,n14_y_re,n14_y_im,n14_z_re,n14_z_im"
+            )
+            .unwrap(),
+            (1, CsvLayout::Complex, vec![13])
+        );
+        // Repeated node, node 0, mixed layouts, a short group.
+        for bad in [
+            "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,n3_y_re,n3_y_im,n3_z_re,n3_z_im,n3_y_re,n3_y_im,n3_z_re,n3_z_im",
+            "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,n0_y_re,n0_y_im,n0_z_re,n0_z_im",
+            "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,n3_y_amp,n3_y_phase_deg,n3_z_amp,n3_z_phase_deg",
+            "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,n3_y_re,n3_y_im",
+        ] {
+            assert!(parse_header(1, bad).is_err(), "{bad}");
+        }
         assert!(parse_header(1, "speed_rpm,b1_y_re,b1_y_im,b1_z_im,b1_z_re").is_err());
         assert!(parse_header(1, "speed,b1_y_re,b1_y_im,b1_z_re,b1_z_im").is_err());
         assert!(parse_header(1, "speed_rpm").is_err());

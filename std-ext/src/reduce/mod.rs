@@ -252,6 +252,28 @@ pub struct Reducer<'a> {
     /// Interior DOFs `q_i` (global indices, increasing).
     interior: Vec<usize>,
     statics: Statics,
+    /// `X_0 = -K_ii^-1 K_iB` (`n_i x 2 N_b`).
+    x0: DMatrix<Complex64>,
+}
+
+/// The shaft's response at probe DOFs (any shaft DOFs, bearing DOFs
+/// included) in terms of the bearing response, at one speed:
+///
+/// ```text
+///     q_probe = P q_B + L f,      q_i = X_0 q_B + Z_ii^-1 (Omega^2 V q_B + f_i)
+/// ```
+///
+/// (the interior rows of Eq. 36 with `Z_ii X_0 + Z_iB = -Omega^2 V`), `f`
+/// any load of the reducer's load columns: `L` holds `R t_i` per column,
+/// `R` the probe rows of `Z_ii^-1`, so an unbalance `a` (kg m) adds
+/// `Omega^2 L a` and a bow forcing column adds `L beta`. A probe at a
+/// bearing DOF reads `q_B` itself (`P` a unit row, `L` zero).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProbeTerms {
+    /// `P` (`n_probe x 2 N_b`, dimensionless).
+    pub p: DMatrix<Complex64>,
+    /// `L` (`n_probe x N_loads`, m per unit of the load column).
+    pub l: DMatrix<Complex64>,
 }
 
 /// `Z_ii` in band storage: `zr` without the bearing rows and columns
@@ -386,6 +408,7 @@ impl<'a> Reducer<'a> {
             bearing,
             interior,
             statics,
+            x0,
         })
     }
 
@@ -422,9 +445,28 @@ impl<'a> Reducer<'a> {
     /// solves: the choice when there are many loads
     /// ([`Reducer::with_loads`]).
     pub fn reduce_adjoint(&self, omega: f64) -> Result<ReducedTerms, ReductionError> {
+        self.reduce_adjoint_probes(omega, &[]).map(|(t, _)| t)
+    }
+
+    /// [`Reducer::reduce_adjoint`] and the [`ProbeTerms`] of the shaft DOFs
+    /// `probe_dofs` (global shaft DOF indices) from the same banded LU of
+    /// `Z_ii^T`: the probe rows `R` of `Z_ii^-1` are `n_probe` more
+    /// right-hand sides (`Z_ii^T R^T = E`, `E` the interior probe
+    /// selector), then `[R V, R T_i] = R [V, T_i]` by one product.
+    pub fn reduce_adjoint_probes(
+        &self,
+        omega: f64,
+        probe_dofs: &[usize],
+    ) -> Result<(ReducedTerms, ProbeTerms), ReductionError> {
         if !omega.is_finite() {
             return Err(ReductionError::Invalid(format!(
                 "speed must be finite, got {omega}"
+            )));
+        }
+        let n_shaft = self.fe.n_shaft_dof();
+        if let Some(d) = probe_dofs.iter().find(|&&d| d >= n_shaft) {
+            return Err(ReductionError::Invalid(format!(
+                "probe DOF {d} beyond the shaft's {n_shaft} DOFs"
             )));
         }
         let zr = self.fe.rotor_dynamic_stiffness(omega);
@@ -439,10 +481,48 @@ impl<'a> Reducer<'a> {
                 }
             }
         }
-        let mut wt = self.statics.v_l.transpose();
+        let nq = self.bearing.len();
+        let np = probe_dofs.len();
+        let mut wt = DMatrix::<Complex64>::zeros(n, nq + np);
+        wt.view_mut((0, 0), (n, nq))
+            .copy_from(&self.statics.v_l.transpose());
+        // Interior index of each probe DOF, or its bearing channel.
+        let mut place: Vec<Result<usize, usize>> = Vec::with_capacity(np);
+        for (k, d) in probe_dofs.iter().enumerate() {
+            match self.interior.binary_search(d) {
+                Ok(i) => {
+                    wt[(i, nq + k)] = Complex64::new(1.0, 0.0);
+                    place.push(Ok(i));
+                }
+                Err(_) => {
+                    let ch = self.bearing.iter().position(|b| b == d).ok_or_else(|| {
+                        ReductionError::Invalid(format!("probe DOF {d} is not a shaft DOF"))
+                    })?;
+                    place.push(Err(ch));
+                }
+            }
+        }
         zt.into_lu()?.solve_many(&mut wt)?;
-        let vy = wt.tr_mul(&self.statics.rhs);
-        Ok(assemble_vy(&self.statics, &vy, omega))
+        let all = wt.tr_mul(&self.statics.rhs); // (nq + np) x (nq + N_loads)
+        let terms = assemble_vy(&self.statics, &all.rows(0, nq).into_owned(), omega);
+        let n_loads = self.statics.rhs.ncols() - nq;
+        let w2 = Complex64::from(omega * omega);
+        let mut p = DMatrix::<Complex64>::zeros(np, nq);
+        let mut l = DMatrix::<Complex64>::zeros(np, n_loads);
+        for (k, pl) in place.iter().enumerate() {
+            match *pl {
+                Ok(i) => {
+                    for c in 0..nq {
+                        p[(k, c)] = self.x0[(i, c)] + all[(nq + k, c)] * w2;
+                    }
+                    for c in 0..n_loads {
+                        l[(k, c)] = all[(nq + k, nq + c)];
+                    }
+                }
+                Err(ch) => p[(k, ch)] = Complex64::new(1.0, 0.0),
+            }
+        }
+        Ok((terms, ProbeTerms { p, l }))
     }
 
     /// The poles of the reduced model (rad/s, increasing): the speeds where
