@@ -426,3 +426,75 @@ fn an_effect_outside_the_bank_is_unexplained() {
     assert_eq!(d.effect, Effect::Unexplained);
     assert!(!d.warnings.is_empty());
 }
+
+/// Observability: a bow that the bearing probes alone cannot tell from an
+/// extra unbalance plane (a tenth of a drawn one: the bearings-only
+/// diagnosis names the plane, its misfit at the noise) is named, placed and
+/// sized once two probes between the disks (nodes 10 and 18, CSV column
+/// groups `n10_y_re,...`) read the shaft; one probe at node 14 sees it
+/// too but cannot place it.
+#[test]
+fn a_mid_span_probe_reveals_a_bow() {
+    use rotorid::io::measurement::{parse_csv, to_csv_string, CsvLayout};
+    use rotorid::simulate::{simulate_at_nodes, SimOptions};
+    let m = RotorModel::paper();
+    let seed = 11;
+    let case = generate(&m, Effect::ShaftBow, seed, &speeds(), Some(0.001)).unwrap();
+    // A tenth of the drawn bow: below what the bearing probes can see.
+    let mut effects = case.effects.clone();
+    effects.bow[0].amplitude *= 0.1;
+    let size = effects.bow[0].amplitude;
+    let opts = SimOptions {
+        speeds_rpm: speeds(),
+        noise: case.noise,
+        seed,
+        effects,
+    };
+    let (bearings_only, node_q) = simulate_at_nodes(&case.truth, &opts, &[9, 17]).unwrap();
+    let d0 = diagnose(&m, &bearings_only, &DiagnoseOptions::default()).unwrap();
+    // Through the file format, as a user would bring it.
+    let mut with_probe = bearings_only.clone();
+    with_probe.node_probes = vec![9, 17];
+    with_probe.node_q = node_q;
+    let text = to_csv_string(&with_probe, CsvLayout::Complex).unwrap();
+    assert!(text.contains("b2_z_im,n10_y_re,n10_y_im,n10_z_re,n10_z_im,n18_y_re,"));
+    let read = parse_csv(&text).unwrap();
+    assert_eq!(read.node_probes, vec![9, 17]);
+    let d1 = diagnose(&m, &read, &DiagnoseOptions::default()).unwrap();
+    let h = &case.hidden;
+    println!(
+        "hidden bow {size:.3e} m at node {}: bearings only -> {} (residual {:.3e} -> {:.3e}); with probes at nodes 10 and 18 -> {} (residual {:.3e} -> {:.3e})",
+        h.node.unwrap_or(0) + 1,
+        d0.effect.name(),
+        d0.residual_nominal(),
+        d0.residual_extended(),
+        d1.effect.name(),
+        d1.residual_nominal(),
+        d1.residual_extended()
+    );
+    assert_ne!(
+        d0.effect,
+        Effect::ShaftBow,
+        "the example should need the probe"
+    );
+    assert_eq!(d1.effect, Effect::ShaftBow);
+    let (amp, std, node) = d1
+        .findings()
+        .iter()
+        .find_map(|f| match f {
+            Finding::ShaftBow {
+                node,
+                amplitude,
+                amplitude_std,
+                ..
+            } => Some((*amplitude, *amplitude_std, *node)),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(Some(node - 1), h.node);
+    assert!((amp - size).abs() <= 0.05 * size, "{amp} vs {size}");
+    assert!((amp - size).abs() <= 3.5 * std, "{amp} +- {std} vs {size}");
+    if let Some(s) = d1.noise_level {
+        assert!(d1.residual_extended() < 1.2 * s);
+    }
+}
