@@ -770,6 +770,9 @@ pub fn diagnose(
     clock.lap(Effect::ProbeRunout.name());
     // shaft_stiffness_error: rounds of terms rebuilt at the new factor.
     let mut e_terms_cache: Option<(f64, Vec<SpeedTerms>)> = None;
+    // The nominal terms with dA/de, dB/de at e = 1 (central secant through
+    // e = 0.95 and 1.05), for the modulus' observability.
+    let mut terms_de: Option<Vec<SpeedTerms>> = None;
     {
         let m = with_ext(vec![Extension::EScale]);
         if n_room(m.n_params()) {
@@ -792,6 +795,20 @@ pub fn diagnose(
                     }
                 }
                 built.push((e_try, te));
+            }
+            if let [_, (em, minus), (ep, plus)] = &built[..] {
+                let mut central = plus.clone();
+                terms::set_secant_derivative(&mut central, *ep, minus, *em)?;
+                let mut t1 = terms.clone();
+                for (t, c) in t1.iter_mut().zip(central) {
+                    t.da_de = c.da_de;
+                    t.db_de = c.db_de;
+                    if let (Some(tp), Some(cp)) = (t.probes.as_mut(), c.probes) {
+                        tp.dp_de = cp.dp_de;
+                        tp.du_de = cp.du_de;
+                    }
+                }
+                terms_de = Some(t1);
             }
             let (mut e, _, mut theta) = best;
             // Rounds: fit with the terms linearised in e about the current
@@ -983,7 +1000,10 @@ pub fn diagnose(
         probe_nodes: probes.clone(),
         stages: Vec::new(),
     };
-    d.observability = observe::analyse(&d, &data);
+    let data_de = terms_de
+        .as_ref()
+        .map(|t| FitData::with_probes(samples, node_q, t));
+    d.observability = observe::analyse(&d, &data, data_de.as_ref());
     clock.lap("observability");
     d.stages = clock.laps;
     drop(data);

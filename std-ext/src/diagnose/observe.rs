@@ -18,7 +18,9 @@
 //! detected, in the worst phase, when `lambda` reaches the hypothesis'
 //! threshold `t`: `|phi|_min = sqrt(t sigma^2 / mu_min(S))`. This is
 //! computed for the effects that vanish at zero parameters (bow and extra
-//! plane at every node, runout on every channel).
+//! plane at every node, runout on every channel) and for the shaft modulus
+//! factor (one parameter, its threshold the chi-square quantile of one
+//! degree of freedom; `dA/de` from the terms at `e = 0.95` and `1.05`).
 //!
 //! # Effects the data cannot tell apart
 //!
@@ -91,9 +93,10 @@ pub fn min_detectable(
             Extension::Runout => (0..nq).map(|c| o + 2 * c).collect(),
             _ => vec![o],
         };
+        let w = if *e == Extension::EScale { 1 } else { 2 };
         for o2 in groups {
-            let gne = g.view((0, o2), (p0, 2)).into_owned();
-            let gee = g.view((o2, o2), (2, 2)).into_owned();
+            let gne = g.view((0, o2), (p0, w)).into_owned();
+            let gee = g.view((o2, o2), (w, w)).into_owned();
             let s = gee - gne.transpose() * ch.solve(&gne);
             let mu = s.symmetric_eigenvalues().min();
             let size = if mu > 0.0 {
@@ -129,9 +132,9 @@ fn where_min(
     )
 }
 
-/// The statistic a 2-parameter effect must reach: the chi-square quantile
+/// The statistic a `k`-parameter effect must reach: the chi-square quantile
 /// at the choice's false-alarm rate split over the alternatives tried.
-fn detection_threshold(d: &Diagnosis) -> f64 {
+fn detection_threshold(d: &Diagnosis, k: f64) -> f64 {
     let alternatives: usize = d
         .hypotheses
         .iter()
@@ -139,7 +142,7 @@ fn detection_threshold(d: &Diagnosis) -> f64 {
         .map(|c| c.alternatives)
         .sum::<usize>()
         .max(1);
-    chi2_quantile_upper(2.0, d.false_alarm / alternatives as f64)
+    chi2_quantile_upper(k, d.false_alarm / alternatives as f64)
 }
 
 /// What would tell `a` from `b`.
@@ -164,12 +167,19 @@ pub fn suggestion(a: Effect, b: Effect) -> &'static str {
 }
 
 /// The observability of every hypothesis of `d` (see the module docs).
-pub fn analyse(d: &Diagnosis, data: &FitData<'_>) -> Vec<Observability> {
+///
+/// `data_de`: the same data with the nominal terms carrying `dA/de` at
+/// `e = 1`, for the shaft modulus (without it the modulus gets a note only).
+pub fn analyse(
+    d: &Diagnosis,
+    data: &FitData<'_>,
+    data_de: Option<&FitData<'_>>,
+) -> Vec<Observability> {
     let nominal = &d.nominal;
     let base = &nominal.model;
     let theta0 = &nominal.fit.theta;
     let n_nodes = data.terms.first().map_or(0, |t| t.b_node.ncols());
-    let t2 = detection_threshold(d);
+    let t2 = detection_threshold(d, 2.0);
     let planes = &base.pr.param.plane_nodes;
     let mut out = Vec::new();
     for effect in Effect::BANK {
@@ -204,12 +214,21 @@ pub fn analyse(d: &Diagnosis, data: &FitData<'_>) -> Vec<Observability> {
                     base.scales.q,
                     "m",
                 ),
+                Effect::ShaftStiffnessError if data_de.is_some() => (
+                    vec![Extension::EScale],
+                    vec!["the shaft".to_string()],
+                    crate::diagnose::extended::E_STEP,
+                    "(relative change of E and G)",
+                ),
                 _ => (Vec::new(), Vec::new(), 1.0, ""),
             };
-        let sizes = if exts.is_empty() {
-            None
-        } else {
-            min_detectable(base, data, theta0, d.sigma2, t2, &exts, scale)
+        let sizes = match (effect, data_de) {
+            _ if exts.is_empty() => None,
+            (Effect::ShaftStiffnessError, Some(dd)) => {
+                let t1 = detection_threshold(d, 1.0);
+                min_detectable(base, dd, theta0, d.sigma2, t1, &exts, scale)
+            }
+            _ => min_detectable(base, data, theta0, d.sigma2, t2, &exts, scale),
         };
         let (min_size, best_at, min_size_worst, worst_at) = match &sizes {
             Some(v) => where_min(v, &names),
@@ -239,6 +258,15 @@ pub fn analyse(d: &Diagnosis, data: &FitData<'_>) -> Vec<Observability> {
             _ => Vec::new(),
         };
         let mut note = match (min_size, &best_at, min_size_worst, &worst_at) {
+            (Some(a), Some(_), Some(_), Some(_))
+                if a.is_finite() && effect == Effect::ShaftStiffnessError =>
+            {
+                format!(
+                    "{}: detectable from a {:.1e} relative change of the shaft's modulus (through the shift of the critical speeds and mode shapes in the range)",
+                    effect.name(),
+                    a
+                )
+            }
             (Some(a), Some(wa), Some(b), Some(wb)) if a.is_finite() => {
                 if b.is_finite() {
                     format!(
@@ -296,7 +324,7 @@ pub fn min_detectable_single(d: &Diagnosis, data: &FitData<'_>, ext: Extension) 
         Extension::Bow { .. } | Extension::Runout => base.scales.q,
         _ => return None,
     };
-    let t2 = detection_threshold(d);
+    let t2 = detection_threshold(d, 2.0);
     let v = min_detectable(
         base,
         data,
