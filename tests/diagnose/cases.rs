@@ -318,7 +318,8 @@ fn generator_is_deterministic() {
     assert!(rpm_to_rad_s(15000.0) > 0.0);
 }
 
-/// One case printed in full: `ROTORID_EFFECT=shaft_bow ROTORID_SEED=3`.
+/// One case printed in full: `ROTORID_EFFECT=shaft_bow ROTORID_SEED=3`
+/// (`ROTORID_NOISE=draw` as in the confusion matrix).
 #[test]
 #[ignore]
 fn debug_case() {
@@ -343,9 +344,16 @@ fn debug_case() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(15000.0);
     let sp: Vec<f64> = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
-    let case = generate(&m, effect, seed, &sp, Some(0.001)).unwrap();
+    // ROTORID_NOISE: a relative level, or `draw` for the generator's own
+    // draw (as the confusion matrix does); 0.001 by default.
+    let noise = match std::env::var("ROTORID_NOISE").as_deref() {
+        Ok("draw") => None,
+        Ok(s) => s.parse().ok(),
+        Err(_) => Some(0.001),
+    };
+    let case = generate(&m, effect, seed, &sp, noise).unwrap();
     let d = diagnose(&m, &case.meas, &DiagnoseOptions::default()).unwrap();
-    println!("hidden {}", case.hidden.description);
+    println!("hidden {} (noise {})", case.hidden.description, case.noise);
     let nom = predictions_text(&m, &d, &case);
     println!("{nom}");
 }

@@ -639,12 +639,33 @@ pub fn diagnose(
     {
         let mut best: Option<(Fit, ExtendedModel, usize)> = None;
         let mut alt = 0;
+        // Where the nominal model misfits a bearing's channels most: a
+        // pedestal's resonance shows there.
+        let r_nominal = fit::evaluate(&base, &data, &fit::entries(&base, &data), &theta0, false)
+            .map(|(r, _)| r)
+            .ok();
+        let n_out = data.inv_w.first().map_or(0, Vec::len);
         for bearing in 0..nb {
             let m = with_ext(vec![Extension::Pedestal { bearing }]);
             if !n_room(m.n_params()) {
                 continue;
             }
             alt += 1;
+            let peak_ratio = r_nominal.as_ref().and_then(|r| {
+                let k = (0..samples.len()).max_by(|&a, &b| {
+                    let e = |k: usize| -> f64 {
+                        (4 * bearing..4 * bearing + 4)
+                            .map(|i| r[2 * k * n_out + i].powi(2))
+                            .sum()
+                    };
+                    e(a).total_cmp(&e(b))
+                })?;
+                Some(samples[k].omega / scales.omega)
+            });
+            let mut ratios = vec![0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4];
+            if let Some(p) = peak_ratio {
+                ratios.extend([0.97 * p, 1.03 * p]);
+            }
             // Screen a grid of natural frequencies and masses by three
             // iterations each (fewer rank the starts wrongly: the basin of
             // a resonance is narrow), then fit from the two best starts.
@@ -652,7 +673,7 @@ pub fn diagnose(
             // own values (a large pedestal distorts the nominal fit).
             let mut starts: Vec<Fit> = Vec::new();
             for nominal_start in [&theta0, &theta_model] {
-                for ratio in [0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4] {
+                for &ratio in &ratios {
                     for mass in [0.5, 1.5] {
                         let ped = PedestalParams {
                             mass: mass * scales.mass,
