@@ -22,39 +22,53 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let speeds: Vec<f64> = (1..=300).map(|i| 50.0 * i as f64).collect();
     let mut effects = vec![Effect::None];
     effects.extend_from_slice(&Effect::BANK);
-    let mut header_done = false;
+    let mut runs: Vec<(Effect, Effect, Vec<(&'static str, f64)>, f64)> = Vec::new();
     for effect in effects {
         let case = generate(&model, effect, seed, &speeds, Some(0.001))?;
         let t = std::time::Instant::now();
         let d = diagnose(&model, &case.meas, &DiagnoseOptions::default())?;
         let total = t.elapsed().as_secs_f64();
-        if !header_done {
-            print!("{:<24}", "hidden -> named");
-            for (name, _) in &d.stages {
-                print!(" {:>10}", short(name));
-            }
-            println!(" {:>8}", "total s");
-            header_done = true;
-        }
-        print!(
-            "{:<24}",
-            format!("{} -> {}", short(effect.name()), short(d.effect.name()))
-        );
-        for (_, s) in &d.stages {
-            print!(" {s:>10.3}");
-        }
-        println!(" {total:>8.3}");
+        runs.push((effect, d.effect, d.stages, total));
     }
+    // One row per stage, one column per hidden effect (seconds).
+    print!("{:<34}", "stage \\ hidden effect");
+    for (hidden, ..) in &runs {
+        print!(" {:>9}", short(hidden.name()));
+    }
+    println!();
+    let stages: Vec<&str> = runs
+        .first()
+        .map_or(Vec::new(), |r| r.2.iter().map(|s| s.0).collect());
+    for (i, name) in stages.iter().enumerate() {
+        print!("{name:<34}");
+        for (_, _, st, _) in &runs {
+            print!(" {:>9.3}", st.get(i).map_or(f64::NAN, |s| s.1));
+        }
+        println!();
+    }
+    print!("{:<34}", "total");
+    for (.., total) in &runs {
+        print!(" {total:>9.3}");
+    }
+    println!();
+    print!("{:<34}", "named");
+    for (_, named, ..) in &runs {
+        print!(" {:>9}", short(named.name()));
+    }
+    println!();
     Ok(())
 }
 
-/// A column-wide abbreviation of a stage or effect name.
-fn short(name: &str) -> String {
-    let s: String = name
-        .split(['_', ' ', ','])
-        .filter(|w| !w.is_empty())
-        .map(|w| w.chars().take(4).collect::<String>())
-        .collect::<Vec<_>>()
-        .join("_");
-    s.chars().take(10).collect()
+/// A short column label for an effect.
+fn short(name: &str) -> &'static str {
+    match name {
+        "none" => "none",
+        "speed_dependent_bearing" => "speed_law",
+        "foundation_flexibility" => "pedestal",
+        "shaft_bow" => "bow",
+        "probe_runout" => "runout",
+        "extra_unbalance_plane" => "plane",
+        "shaft_stiffness_error" => "modulus",
+        _ => "unexpl.",
+    }
 }
