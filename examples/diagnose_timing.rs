@@ -13,6 +13,9 @@ use rotorid::diagnose::generator::generate;
 use rotorid::diagnose::{diagnose, DiagnoseOptions, Effect};
 use rotorid::model::RotorModel;
 
+/// Hidden effect, named effect, stage times (s), total (s).
+type Run = (Effect, Effect, Vec<(&'static str, f64)>, f64);
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seed: u64 = match std::env::args().nth(1) {
         Some(s) => s.parse()?,
@@ -22,7 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let speeds: Vec<f64> = (1..=300).map(|i| 50.0 * i as f64).collect();
     let mut effects = vec![Effect::None];
     effects.extend_from_slice(&Effect::BANK);
-    let mut runs: Vec<(Effect, Effect, Vec<(&'static str, f64)>, f64)> = Vec::new();
+    let mut runs: Vec<Run> = Vec::new();
     for effect in effects {
         let case = generate(&model, effect, seed, &speeds, Some(0.001))?;
         let t = std::time::Instant::now();
