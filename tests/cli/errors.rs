@@ -271,7 +271,17 @@ fn unknown_model_and_missing_files_exit_2() {
             "--measurements",
             "/no/such/file.csv",
         ],
-        "",
+        "file not found: /no/such/file.csv",
+    );
+    fails(
+        &[
+            "diagnose",
+            "--model",
+            "paper",
+            "--measurements",
+            "/no/such/file.csv",
+        ],
+        "file not found: /no/such/file.csv",
     );
     fails(
         &[

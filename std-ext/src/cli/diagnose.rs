@@ -45,7 +45,7 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     )?;
     let model = super::load_model(&args.model)?.model;
     let meas = crate::io::measurement::read_csv(&args.measurements)
-        .map_err(|e| CliError::new(format!("{}: {e}", args.measurements.display())))?;
+        .map_err(|e| super::measurement_error(&args.measurements, e))?;
     if meas.samples.len() < 8 {
         return Err(CliError::new(format!(
             "{}: {} speeds: the diagnosis needs at least 8 (and many more to tell effects apart)",

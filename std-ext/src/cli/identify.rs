@@ -172,7 +172,7 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     let model = super::load_model(&args.model)?.model;
     let file = args.measurements.display().to_string();
     let (meas, located) = crate::io::measurement::read_csv_located(&args.measurements)
-        .map_err(|e| CliError::new(format!("{file}: {e}")))?;
+        .map_err(|e| super::measurement_error(&args.measurements, e))?;
     check_response_range(&meas, &located).map_err(|e| CliError::new(format!("{file}: {e}")))?;
     let structure = match args.formulation {
         Formulation::Physical => Structure::physical(args.order),

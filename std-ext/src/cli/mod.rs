@@ -309,3 +309,20 @@ where
 pub fn main_from_env() -> i32 {
     main_with_args(std::env::args_os())
 }
+
+/// A measurement file's error as one line: `file not found: X` for a
+/// missing file, the error itself for other I/O errors (it names the file),
+/// `X: error` for the file's contents.
+pub fn measurement_error(
+    path: &std::path::Path,
+    e: crate::io::measurement::MeasurementError,
+) -> CliError {
+    use crate::io::measurement::MeasurementError;
+    match e {
+        MeasurementError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+            CliError::new(format!("file not found: {}", path.display()))
+        }
+        e @ MeasurementError::Io { .. } => CliError::new(e.to_string()),
+        e => CliError::new(format!("{}: {e}", path.display())),
+    }
+}
