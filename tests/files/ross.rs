@@ -211,7 +211,7 @@ fn ross_detection_by_key() {
 
 #[test]
 fn older_ross_files_without_version_key_are_detected() {
-    let old = paper_ross().replace("ross_version = \"2.0.0\"\n", "");
+    let old = paper_ross().replace("ross_version = \"3.1.0\"\n", "");
     assert!(rotorid::io::model_file::is_ross(&old));
     assert_eq!(parse_ross(&old).unwrap().shaft, RotorModel::paper().shaft);
     assert!(!rotorid::io::model_file::is_ross(

@@ -804,7 +804,7 @@ fn arr(v: &[f64]) -> String {
     )
 }
 
-/// Writes a model as a ROSS rotor file (format 2.x), the inverse of
+/// Writes a model as a ROSS rotor file (format 3.x, `ross_version = "3.1.0"`), the inverse of
 /// [`parse_ross`]: shaft elements and their coaxial layers, disks,
 /// bearings (constant or tables over `frequency`, with `interpolation` for
 /// PCHIP and extrapolated linear tables), pedestals as a linked
@@ -816,10 +816,10 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "# ROSS rotor file (format 2.x) written by rotorid: {}",
+        "# ROSS rotor file (format 3.x) written by rotorid: {}",
         model.name
     );
-    let _ = writeln!(s, "ross_version = \"2.0.0\"\n\n[parameters]");
+    let _ = writeln!(s, "ross_version = \"3.1.0\"\n\n[parameters]");
     let damping = model.rotor_damping;
     if !damping.is_zero() {
         let _ = writeln!(
