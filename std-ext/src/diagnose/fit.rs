@@ -53,6 +53,9 @@ pub struct FitData<'a> {
     pub node_q: &'a [Vec<Complex64>],
     /// The terms at each sample's speed.
     pub terms: &'a [SpeedTerms],
+    /// The readings of every sample: bearing channels, then node probes
+    /// (m), joined once.
+    pub readings: Vec<Vec<Complex64>>,
     /// `1 / w_(n,c)`.
     pub inv_w: Vec<Vec<f64>>,
 }
@@ -71,28 +74,33 @@ impl<'a> FitData<'a> {
         node_q: &'a [Vec<Complex64>],
         terms: &'a [SpeedTerms],
     ) -> Self {
-        let reading = |k: usize| -> Vec<Complex64> {
-            let mut y = samples[k].q.clone();
-            if let Some(x) = node_q.get(k) {
-                y.extend_from_slice(x);
-            }
-            y
-        };
-        let nq = samples.first().map_or(0, |s| s.q.len()) + node_q.first().map_or(0, Vec::len);
+        let readings: Vec<Vec<Complex64>> = samples
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                let mut y = s.q.clone();
+                if let Some(x) = node_q.get(k) {
+                    y.extend_from_slice(x);
+                }
+                y
+            })
+            .collect();
+        let nq = readings.first().map_or(0, Vec::len);
         let n = samples.len().max(1) as f64;
         let floor: Vec<f64> = (0..nq)
             .map(|c| {
-                let ms = (0..samples.len())
-                    .map(|k| reading(k).get(c).map_or(0.0, |z| z.norm_sqr()))
+                let ms = readings
+                    .iter()
+                    .map(|y| y.get(c).map_or(0.0, |z| z.norm_sqr()))
                     .sum::<f64>()
                     / n;
                 FLOOR * ms.sqrt()
             })
             .collect();
-        let inv_w = (0..samples.len())
-            .map(|k| {
-                reading(k)
-                    .iter()
+        let inv_w = readings
+            .iter()
+            .map(|y| {
+                y.iter()
                     .zip(&floor)
                     .map(|(q, f)| {
                         let w = q.norm().max(*f);
@@ -109,17 +117,9 @@ impl<'a> FitData<'a> {
             samples,
             node_q,
             terms,
+            readings,
             inv_w,
         }
-    }
-
-    /// The readings of sample `k`: bearing channels, then node probes.
-    pub fn reading(&self, k: usize) -> Vec<Complex64> {
-        let mut y = self.samples[k].q.clone();
-        if let Some(x) = self.node_q.get(k) {
-            y.extend_from_slice(x);
-        }
-        y
     }
 
     /// Number of real equations `2 N`.
@@ -181,13 +181,7 @@ pub fn evaluate(
     let mut jac = jacobian.then(|| DMatrix::zeros(n, p));
     let nq = data.terms.first().map_or(0, |st| model.n_outputs(st));
     let mut jz = DMatrix::<Complex64>::zeros(nq, p);
-    let with_nodes = !data.node_q.is_empty();
-    for (k, (s, st)) in data.samples.iter().zip(data.terms).enumerate() {
-        let meas = if with_nodes {
-            std::borrow::Cow::Owned(data.reading(k))
-        } else {
-            std::borrow::Cow::Borrowed(&s.q)
-        };
+    for (k, (meas, st)) in data.readings.iter().zip(data.terms).enumerate() {
         if meas.len() != nq || model.n_outputs(st) != nq || data.inv_w[k].len() != nq {
             return Err(PredictError::Dimension);
         }
