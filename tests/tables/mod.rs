@@ -4,5 +4,6 @@
 mod blob;
 mod cli;
 mod grid;
+mod modal;
 mod reduction;
 mod source;

@@ -258,7 +258,8 @@ pub fn identify(
     progress: Option<&dyn Fn(usize)>,
 ) -> Result<Identification, IdentifyError> {
     let fe = crate::fe::assembly::FeModel::new(model)?;
-    let reducer = crate::reduce::Reducer::new(&fe, model)?;
+    let banded = crate::reduce::Reducer::new(&fe, model)?;
+    let reducer = banded.many();
     let mut kept: Vec<TermsAt> = Vec::with_capacity(meas.samples.len());
     let mut terms = |omega: f64| -> Result<TermsAt, IdentifyError> {
         let t = reducer.reduce(omega)?;

@@ -104,6 +104,9 @@ use crate::fe::assembly::{Dir, FeError, FeModel};
 use crate::fe::banded::{BandedError, BandedMatrix};
 use crate::model::{ModelError, RotorModel};
 
+pub mod modal;
+pub use modal::ModalReducer;
+
 /// The poles of the reduced model (rad/s, increasing), per matrix: `A`
 /// has every pole of `Y`, `B` only those the unbalance excites (see
 /// [`rotorid_core::table`]).

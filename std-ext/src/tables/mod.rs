@@ -114,7 +114,8 @@ fn model_table(model: &RotorModel, poles: PoleSets, terms: Vec<ReducedTerms>) ->
 }
 
 /// The table of `model` on the given speeds (rad/s, > 0, strictly
-/// increasing): one banded reduction per speed ([`Reducer`]), plus the poles
+/// increasing): the modal reduction at every speed ([`Reducer::many`]:
+/// one eigendecomposition, then a matrix-vector product per speed), plus the poles
 /// up to [`POLE_RANGE_FACTOR`] times the highest speed (at most
 /// [`MAX_POLES`]), for the [`DEFAULT_STRUCTURE`] and the
 /// [`auto_scaling`] at the highest speed.
@@ -123,9 +124,10 @@ pub fn build(model: &RotorModel, speeds: &[f64]) -> Result<ModelTable, TablesErr
     let reducer = Reducer::new(&fe, model)?;
     let top = speeds.iter().copied().fold(0.0, f64::max);
     let poles = reducer.pole_sets(POLE_RANGE_FACTOR * top, MAX_POLES);
+    let many = reducer.many();
     let terms = speeds
         .iter()
-        .map(|&w| reducer.reduce(w))
+        .map(|&w| many.reduce(w))
         .collect::<Result<Vec<_>, _>>()?;
     let table = model_table(model, poles, terms);
     table.validate()?;
@@ -158,7 +160,8 @@ pub fn build_adaptive(
     let fe = FeModel::new(model).map_err(ReductionError::from)?;
     let reducer = Reducer::new(&fe, model)?;
     let poles = reducer.pole_sets(POLE_RANGE_FACTOR * omega_max, MAX_POLES);
-    let g = grid::adaptive(|w| reducer.reduce(w), &poles, omega_min, omega_max, opts)
+    let many = reducer.many();
+    let g = grid::adaptive(|w| many.reduce(w), &poles, omega_min, omega_max, opts)
         .map_err(|e| TablesError::Grid(e.to_string()))?;
     let summary = AdaptiveSummary {
         tol: opts.tol,
