@@ -48,6 +48,39 @@ fn compare(model: &RotorModel, grid: &[f64]) -> (f64, f64) {
     (diff, ratio)
 }
 
+/// The paper rotor's interior is axisymmetric: the eigenproblem splits
+/// into its whirl halves, with the same terms as the unsplit one.
+#[test]
+fn whirl_split_equals_the_whole_eigenproblem() {
+    let model = RotorModel::paper();
+    let fe = FeModel::new(&model).unwrap();
+    let banded = Reducer::new(&fe, &model).unwrap();
+    let (split, whole) = (banded.modal().unwrap(), banded.modal_unsplit().unwrap());
+    assert!(split.whirl_split());
+    assert!(!whole.whirl_split());
+    let mut mu_s: Vec<f64> = split.mu().to_vec();
+    let mut mu_w: Vec<f64> = whole.mu().to_vec();
+    mu_s.sort_by(f64::total_cmp);
+    mu_w.sort_by(f64::total_cmp);
+    let scale = mu_w.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    let d_mu = mu_s
+        .iter()
+        .zip(&mu_w)
+        .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+    let poles = banded.poles(3200.0, 64);
+    let mut ratio: f64 = 0.0;
+    for w in uniform_rad_s(50.0, 15000.0, 50.0).unwrap() {
+        let d = worst(&split.reduce(w).unwrap(), &whole.reduce(w).unwrap());
+        ratio = ratio.max(d / (1e-10 + 2e-12 / pole_distance(w, &poles)));
+    }
+    println!(
+        "whirl split vs whole: eigenvalues {:.2e} of the largest, terms {ratio:.3} of the bound",
+        d_mu / scale
+    );
+    assert!(d_mu <= 1e-13 * scale, "{d_mu}");
+    assert!(ratio < 1.0, "{ratio}");
+}
+
 #[test]
 fn modal_equals_banded_on_the_paper_grid() {
     let grid = uniform_rad_s(5.0, 15000.0, 5.0).unwrap();

@@ -345,7 +345,7 @@ fn bad_bearing_layout_is_an_error() {
 /// Workloads of the benchmark (`std-ext/benches/tables.rs`), for instruction
 /// counts under `valgrind --tool=callgrind` on a busy machine:
 /// `valgrind --tool=callgrind target/debug/deps/lib-* --ignored --exact tables::reduction::workload_1000_speeds_banded`.
-fn workload(dense: bool) {
+fn workload(kind: &str) {
     let model = RotorModel::paper();
     let fe = FeModel::new(&model).unwrap();
     let speeds = rotorid::tables::grid::linspace(
@@ -354,8 +354,13 @@ fn workload(dense: bool) {
         1000,
     );
     let mut acc = 0.0;
-    if dense {
+    if kind == "dense" {
         let r = DenseReducer::new(&fe, &model).unwrap();
+        for &w in &speeds {
+            acc += r.reduce(w).unwrap().a.norm();
+        }
+    } else if kind == "modal" {
+        let r = Reducer::new(&fe, &model).unwrap().modal().unwrap();
         for &w in &speeds {
             acc += r.reduce(w).unwrap().a.norm();
         }
@@ -370,12 +375,18 @@ fn workload(dense: bool) {
 
 #[test]
 #[ignore = "benchmark workload, see workload()"]
+fn workload_1000_speeds_modal() {
+    workload("modal");
+}
+
+#[test]
+#[ignore = "benchmark workload, see workload()"]
 fn workload_1000_speeds_banded() {
-    workload(false);
+    workload("banded");
 }
 
 #[test]
 #[ignore = "benchmark workload, see workload()"]
 fn workload_1000_speeds_dense() {
-    workload(true);
+    workload("dense");
 }

@@ -47,10 +47,10 @@
 //! `eps |K| / (u^T K u)` relative, the same order, so none of the three forms
 //! is the more exact one there.
 
-use nalgebra::{Cholesky, DMatrix, DVector, SymmetricEigen};
+use nalgebra::{Cholesky, DMatrix, SymmetricEigen};
 use num_complex::Complex64;
 
-use super::{assemble_vy, dense_k_h, ReducedTerms, Reducer, ReductionError, Statics};
+use super::{dense_k_h, ReducedTerms, Reducer, ReductionError, Statics};
 
 /// Iteration limit of the Hermitian eigensolver (nalgebra's implicit QR):
 /// far above what a well-posed `C` needs (a few per eigenvalue).
@@ -68,72 +68,276 @@ pub struct ModalReducer {
     /// order, real and imaginary parts interleaved
     /// (`2 (2 N_b) (2 N_b + N_p)` rows).
     residues: DMatrix<f64>,
+    /// Whether the interior was split into its whirl halves.
+    split: bool,
+}
+
+/// Relative size below which the coupling of the two whirl subspaces is
+/// round-off (an axisymmetric interior, [`whirl_pairs`]).
+const ISOTROPY_TOL: f64 = 1e-13;
+
+/// For an axisymmetric interior, the pairs `(y, z)` and `(phi_y, phi_z)` of
+/// each node as interior positions `(p0, p0 + 1)`, if `K_ii` and `H_ii`
+/// commute with the quarter turn about the shaft axis
+/// `J: (y, z, phi_y, phi_z) -> (-z, y, -phi_z, phi_y)`; `None` otherwise.
+///
+/// `J^2 = -I`; its eigenspaces (`J b = +-j b`) are spanned by
+/// `b_p = (e_p0 -+ j e_p1) / sqrt(2)`, one vector per pair. A matrix that
+/// commutes with `J` maps each eigenspace into itself, so in the unitary
+/// basis `[B_+, B_-]` the interior splits into two independent halves
+/// (forward and backward whirl), each `n_i / 2` square: the Cholesky, the
+/// triangular solves and the eigendecomposition cost a quarter of the
+/// whole. Commuting with `J` means every 2 x 2 block `X[p, q]` of a pair of
+/// pairs has the form `[[a, b], [-b, a]]`; that is checked to
+/// [`ISOTROPY_TOL`] of the largest entry (a point mass with `mx != my`, or
+/// anything else that breaks the symmetry, keeps the full problem).
+fn whirl_pairs(
+    interior: &[usize],
+    k: &DMatrix<f64>,
+    h: &DMatrix<Complex64>,
+) -> Option<Vec<(usize, usize)>> {
+    let n = interior.len();
+    if n % 2 != 0 {
+        return None;
+    }
+    let mut pairs = Vec::with_capacity(n / 2);
+    for (p0, w) in interior.chunks_exact(2).enumerate() {
+        let (g0, g1) = (*w.first()?, *w.get(1)?);
+        // (y, z) or (phi_y, phi_z) of one node: global 4 node + {0, 1} or {2, 3}.
+        if g0 % 2 != 0 || g1 != g0 + 1 {
+            return None;
+        }
+        pairs.push((2 * p0, 2 * p0 + 1));
+    }
+    let kmax = k.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    let hmax = h.iter().fold(0.0_f64, |m, x| m.max(x.norm()));
+    for &(p0, p1) in &pairs {
+        for &(q0, q1) in &pairs {
+            let kd = (k[(p0, q0)] - k[(p1, q1)]).abs() + (k[(p0, q1)] + k[(p1, q0)]).abs();
+            let hd = (h[(p0, q0)] - h[(p1, q1)]).norm() + (h[(p0, q1)] + h[(p1, q0)]).norm();
+            if kd > ISOTROPY_TOL * kmax || hd > ISOTROPY_TOL * hmax {
+                return None;
+            }
+        }
+    }
+    Some(pairs)
+}
+
+/// The basis of one part of the interior: the whole (identity), or one
+/// whirl subspace `b_p = (e_p0 - s j e_p1) / sqrt(2)`, `s = +-1`.
+#[derive(Debug, Clone, Copy)]
+enum Part<'p> {
+    Whole(usize),
+    Whirl(&'p [(usize, usize)], f64),
+}
+
+impl Part<'_> {
+    fn dim(&self) -> usize {
+        match self {
+            Part::Whole(n) => *n,
+            Part::Whirl(pairs, _) => pairs.len(),
+        }
+    }
+
+    /// `B^H X B` (`dim x dim`) of a square interior matrix.
+    fn project<T: Copy + Into<Complex64>>(&self, x: &DMatrix<T>) -> DMatrix<Complex64> {
+        let at = |r: usize, c: usize| -> Complex64 { x[(r, c)].into() };
+        match *self {
+            Part::Whole(n) => DMatrix::from_fn(n, n, &at),
+            Part::Whirl(pairs, s) => {
+                let js = Complex64::new(0.0, s);
+                DMatrix::from_fn(pairs.len(), pairs.len(), |p, q| {
+                    let ((p0, p1), (q0, q1)) = (pairs[p], pairs[q]);
+                    (at(p0, q0) + at(p1, q1) - js * at(p0, q1) + js * at(p1, q0)) * 0.5
+                })
+            }
+        }
+    }
+
+    /// `B^H R` (`dim x ncols`).
+    fn left(&self, r: &DMatrix<Complex64>) -> DMatrix<Complex64> {
+        match *self {
+            Part::Whole(_) => r.clone(),
+            Part::Whirl(pairs, s) => {
+                let js = Complex64::new(0.0, s);
+                let h = std::f64::consts::FRAC_1_SQRT_2;
+                DMatrix::from_fn(pairs.len(), r.ncols(), |p, c| {
+                    let (p0, p1) = pairs[p];
+                    (r[(p0, c)] + js * r[(p1, c)]) * h
+                })
+            }
+        }
+    }
+
+    /// `V B` (`nrows x dim`).
+    fn right(&self, v: &DMatrix<Complex64>) -> DMatrix<Complex64> {
+        match *self {
+            Part::Whole(_) => v.clone(),
+            Part::Whirl(pairs, s) => {
+                let js = Complex64::new(0.0, s);
+                let h = std::f64::consts::FRAC_1_SQRT_2;
+                DMatrix::from_fn(v.nrows(), pairs.len(), |r, p| {
+                    let (p0, p1) = pairs[p];
+                    (v[(r, p0)] - js * v[(r, p1)]) * h
+                })
+            }
+        }
+    }
+}
+
+/// `L^-1 X` for a lower-triangular `L` with a band profile: row `i` of
+/// `L` has its nonzeros in columns `first[i]..=i` (`first` from
+/// [`band_profile`]), so forward substitution costs `O(n b)` per column of
+/// `X` instead of `O(n^2)`. The Cholesky factor of a banded matrix keeps
+/// its band exactly (no fill outside the envelope; the entries there are
+/// computed as exact zeros). `None` if a diagonal entry is zero.
+fn solve_lower_banded(
+    l: &DMatrix<Complex64>,
+    first: &[usize],
+    x: &DMatrix<Complex64>,
+) -> Option<DMatrix<Complex64>> {
+    let mut y = x.clone();
+    for mut col in y.column_iter_mut() {
+        for (i, &fi) in first.iter().enumerate() {
+            let mut acc = col[i];
+            for j in fi..i {
+                acc -= l[(i, j)] * col[j];
+            }
+            let d = l[(i, i)];
+            if d.re == 0.0 && d.im == 0.0 {
+                return None;
+            }
+            col[i] = acc / d;
+        }
+    }
+    Some(y)
+}
+
+/// Per row of the lower-triangular `l`, the first column holding a nonzero
+/// (the row's own index if none before the diagonal).
+fn band_profile(l: &DMatrix<Complex64>) -> Vec<usize> {
+    (0..l.nrows())
+        .map(|i| {
+            (0..i)
+                .find(|&j| {
+                    let z = l[(i, j)];
+                    z.re != 0.0 || z.im != 0.0
+                })
+                .unwrap_or(i)
+        })
+        .collect()
+}
+
+/// One part's eigenvalues and the factors `P` (`2 N_b x dim`) and `Q`
+/// (`dim x ncols`) of its residues `R_k = P[:, k] Q[k, :]`.
+type PartModes = (Vec<f64>, DMatrix<Complex64>, DMatrix<Complex64>);
+
+/// Eigenvalues and residue factors of one part (module docs, in the
+/// part's basis `B`): `B^H K B = L L^H`, `L^-1 B^H H B L^-H = U mu U^H`,
+/// `P = V_L B L^-H U`, `Q = U^H L^-1 B^H [V, T_i]`.
+fn part_modes(
+    part: Part<'_>,
+    k: &DMatrix<f64>,
+    h: &DMatrix<Complex64>,
+    st: &Statics,
+) -> Result<PartModes, ReductionError> {
+    let kp = part.project(k);
+    let kp = (&kp + kp.adjoint()) * Complex64::from(0.5);
+    let hp = part.project(h);
+    let hp = (&hp + hp.adjoint()) * Complex64::from(0.5);
+    let chol = Cholesky::new(kp).ok_or_else(|| {
+        ReductionError::Invalid(
+            "the bearings do not hold the shaft (K_ii not positive definite)".into(),
+        )
+    })?;
+    let l = chol.l();
+    let first = band_profile(&l);
+    let solve = |x: &DMatrix<Complex64>| {
+        solve_lower_banded(&l, &first, x)
+            .ok_or_else(|| ReductionError::Invalid("Cholesky factor of K_ii is singular".into()))
+    };
+    // C = L^-1 H L^-H by two triangular solves (H Hermitian).
+    let y = solve(&hp)?;
+    let ct = solve(&y.adjoint())?;
+    let c = (&ct + ct.adjoint()) * Complex64::from(0.5);
+    let eig = SymmetricEigen::try_new(c, f64::EPSILON, EIGEN_MAX_ITER).ok_or_else(|| {
+        ReductionError::Invalid("the eigensolver for the modal reduction did not converge".into())
+    })?;
+    let u = &eig.eigenvectors;
+    let p = solve(&part.right(&st.v_l).adjoint())?.adjoint() * u;
+    let q = u.adjoint() * solve(&part.left(&st.rhs))?;
+    Ok((eig.eigenvalues.iter().copied().collect(), p, q))
 }
 
 impl Reducer<'_> {
     /// The modal form of this reduction (module docs of
     /// [`crate::reduce::modal`]): one Cholesky of `K_ii`, one Hermitian
-    /// eigendecomposition of `C` and the residues, `O(n_i^3)` once.
-    /// Fails if `K_ii` is not positive definite or the eigensolver does not
-    /// converge.
+    /// eigendecomposition of `C` and the residues, `O(n_i^3)` once; for an
+    /// axisymmetric interior (every FE model of shaft, disks and isotropic
+    /// point masses) the forward and backward whirl halves separately, a
+    /// quarter of that ([`whirl_pairs`]). Fails if `K_ii` is not positive
+    /// definite or the eigensolver does not converge.
     pub fn modal(&self) -> Result<ModalReducer, ReductionError> {
+        self.modal_with(true)
+    }
+
+    /// [`Reducer::modal`] without the whirl split even where it applies
+    /// (one eigenproblem of the whole interior): the same numbers, for
+    /// checking the split.
+    pub fn modal_unsplit(&self) -> Result<ModalReducer, ReductionError> {
+        self.modal_with(false)
+    }
+
+    fn modal_with(&self, split: bool) -> Result<ModalReducer, ReductionError> {
         let (kd, hd) = dense_k_h(self.fe);
         let ii = &self.interior;
         let n = ii.len();
         let k =
             DMatrix::<f64>::from_fn(n, n, |r, c| 0.5 * (kd[(ii[r], ii[c])] + kd[(ii[c], ii[r])]));
         let h = DMatrix::<Complex64>::from_fn(n, n, |r, c| hd[(ii[r], ii[c])]);
-        let h = (&h + h.adjoint()) * Complex64::from(0.5);
-        let chol = Cholesky::new(k).ok_or_else(|| {
-            ReductionError::Invalid(
-                "the bearings do not hold the shaft (K_ii not positive definite)".into(),
-            )
-        })?;
-        let l = chol.l().map(Complex64::from);
-        let singular = || ReductionError::Invalid("Cholesky factor of K_ii is singular".into());
-        // C = L^-1 H L^-T by two triangular solves (L real).
-        let y = l.solve_lower_triangular(&h).ok_or_else(singular)?;
-        let ct = l
-            .solve_lower_triangular(&y.adjoint())
-            .ok_or_else(singular)?;
-        let c = (&ct + ct.adjoint()) * Complex64::from(0.5);
-        let eig = SymmetricEigen::try_new(c, f64::EPSILON, EIGEN_MAX_ITER).ok_or_else(|| {
-            ReductionError::Invalid(
-                "the eigensolver for the modal reduction did not converge".into(),
-            )
-        })?;
-        let u = &eig.eigenvectors;
-        let mu: Vec<f64> = eig.eigenvalues.iter().copied().collect();
-        // P = (L^-1 V_L^T)^T U  (2 N_b x n),  Q = U^H L^-1 [V, T_i]  (n x (2 N_b + N_p)).
-        let p = l
-            .solve_lower_triangular(&self.statics.v_l.transpose())
-            .ok_or_else(singular)?
-            .transpose()
-            * u;
-        let q = u.adjoint()
-            * l.solve_lower_triangular(&self.statics.rhs)
-                .ok_or_else(singular)?;
-        let (nq, ncol) = (p.nrows(), q.ncols());
+        let pairs = if split { whirl_pairs(ii, &k, &h) } else { None };
+        let parts: Vec<Part<'_>> = match &pairs {
+            Some(p) => vec![Part::Whirl(p, 1.0), Part::Whirl(p, -1.0)],
+            None => vec![Part::Whole(n)],
+        };
+        let nq = self.statics.v_l.nrows();
+        let ncol = self.statics.rhs.ncols();
+        let mut mu = Vec::with_capacity(n);
         let mut residues = DMatrix::<f64>::zeros(2 * nq * ncol, n);
-        for (kk, mut col) in residues.column_iter_mut().enumerate() {
-            for c in 0..ncol {
-                for r in 0..nq {
-                    let v = p[(r, kk)] * q[(kk, c)];
-                    let at = 2 * (c * nq + r);
-                    col[at] = v.re;
-                    col[at + 1] = v.im;
+        let mut kk = 0;
+        for part in parts {
+            let (m, p, q) = part_modes(part, &k, &h, &self.statics)?;
+            debug_assert_eq!(m.len(), part.dim());
+            for (j, mj) in m.into_iter().enumerate() {
+                let mut col = residues.column_mut(kk);
+                for c in 0..ncol {
+                    for r in 0..nq {
+                        let v = p[(r, j)] * q[(j, c)];
+                        let at = 2 * (c * nq + r);
+                        col[at] = v.re;
+                        col[at + 1] = v.im;
+                    }
                 }
+                mu.push(mj);
+                kk += 1;
             }
         }
         Ok(ModalReducer {
             statics: self.statics.clone(),
             mu,
             residues,
+            split: pairs.is_some(),
         })
     }
 }
 
 impl ModalReducer {
+    /// Whether the eigenproblem was split into the forward and backward
+    /// whirl halves (an axisymmetric interior, see [`Reducer::modal`]).
+    pub fn whirl_split(&self) -> bool {
+        self.split
+    }
+
     /// The eigenvalues `mu_k` of `C` (s^2/rad^2), in the eigensolver's order.
     pub fn mu(&self) -> &[f64] {
         &self.mu
@@ -148,25 +352,56 @@ impl ModalReducer {
             )));
         }
         let w2 = omega * omega;
-        let mut d = DVector::<f64>::zeros(self.mu.len());
-        for (dk, &mu) in d.iter_mut().zip(&self.mu) {
+        let nq = self.statics.v_l.nrows();
+        let ncol = self.statics.rhs.ncols();
+        let rows = 2 * nq * ncol;
+        // flat = sum_k d_k R_k over the modes, four at a time (one pass
+        // over `flat` per four residue columns; the columns are contiguous).
+        let mut d = Vec::with_capacity(self.mu.len());
+        for &mu in &self.mu {
             let den = 1.0 - w2 * mu;
             if den == 0.0 {
                 return Err(ReductionError::Invalid(format!(
                     "Z_ii singular at {omega} rad/s (speed on a pinned-shaft resonance)"
                 )));
             }
-            *dk = 1.0 / den;
+            d.push(1.0 / den);
         }
-        let nq = self.statics.v_l.nrows();
-        let ncol = self.statics.rhs.ncols();
-        let mut flat = DVector::<f64>::zeros(2 * nq * ncol);
-        flat.gemv(1.0, &self.residues, &d, 0.0);
-        let vy = DMatrix::from_fn(nq, ncol, |r, c| {
+        let mut flat = vec![0.0; rows];
+        let cols = self.residues.as_slice().chunks_exact(rows);
+        let mut quads = d.chunks_exact(4);
+        let mut cols4 = self.residues.as_slice().chunks_exact(4 * rows);
+        for (dq, block) in (&mut quads).zip(&mut cols4) {
+            let (c0, rest) = block.split_at(rows);
+            let (c1, rest) = rest.split_at(rows);
+            let (c2, c3) = rest.split_at(rows);
+            if let [d0, d1, d2, d3] = *dq {
+                for ((((y, a), b), c), e) in flat.iter_mut().zip(c0).zip(c1).zip(c2).zip(c3) {
+                    *y += a * d0 + b * d1 + c * d2 + e * d3;
+                }
+            }
+        }
+        let done = d.len() - quads.remainder().len();
+        for (col, &dk) in cols.skip(done).zip(quads.remainder()) {
+            for (y, r) in flat.iter_mut().zip(col) {
+                *y += r * dk;
+            }
+        }
+        // assemble_vy without temporaries: A = S_K - w2 M_red - w2^2 VY_A,
+        // B = (T_red + w2 VY_B) w2.
+        let vy = |r: usize, c: usize| {
             let at = 2 * (c * nq + r);
             Complex64::new(flat[at], flat[at + 1])
+        };
+        let (w2c, w4c) = (Complex64::from(w2), Complex64::from(w2 * w2));
+        let st = &self.statics;
+        let a = DMatrix::from_fn(nq, nq, |r, c| {
+            st.s_k[(r, c)] - st.m_red[(r, c)] * w2c - vy(r, c) * w4c
         });
-        let terms = assemble_vy(&self.statics, &vy, omega);
+        let b = DMatrix::from_fn(nq, ncol - nq, |r, c| {
+            (st.t_red[(r, c)] + vy(r, nq + c) * w2c) * w2c
+        });
+        let terms = ReducedTerms { omega, a, b };
         if terms
             .a
             .iter()
