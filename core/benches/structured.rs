@@ -1,0 +1,261 @@
+//! The identification's filter update, block-structured against dense:
+//! the block-arrowhead QRD/RLS (`rotorid_core::blockqrd`), the dense Givens
+//! QRD/RLS (`rotorid_core::qrdrls`), the conventional RLS (Eqs. 10-13) and
+//! the paper's stack-and-QR, on the same stream of rows with the structure
+//! of the physical regression: `2 N_b` channels, each giving a real and an
+//! imaginary row that touch only that channel's `W` bearing coefficients
+//! and the `S` shared unbalance unknowns (`BlockShape::of`). Cases:
+//! `N_b = 2, N_p = 3` and `N_b = 4, N_p = 5`, order 1 and 2, f32 and f64;
+//! and the growth of the cost with `N_b = 1..8` (`N_p = 3`, order 1, f64),
+//! structured against dense Givens.
+//!
+//! `cargo bench -p rotorid-core --features baseline --bench structured -- --warm-up-time 1 --measurement-time 2`
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use rotorid_core::baseline::{ConventionalRls, StackQrRls};
+use rotorid_core::blockqrd::{BlockQrdRls, BlockShape};
+use rotorid_core::parametrization::Structure;
+use rotorid_core::qrdrls::VectorQrdRls;
+use rotorid_core::Real;
+use std::hint::black_box;
+
+const STEPS: usize = 256;
+const LAMBDA: f64 = 0.999;
+const DELTA: f64 = 1e-3;
+
+#[path = "../src/testrng.rs"]
+mod testrng;
+use testrng::SplitMix64;
+
+/// A stream of `STEPS` updates of `N` rows over `shape`: row `j` belongs
+/// to channel `j / 2` (real and imaginary row of each channel), non-zero in
+/// that channel's block and in the shared columns.
+#[allow(clippy::type_complexity)]
+fn stream<T: Real, const M: usize, const N: usize>(
+    shape: BlockShape,
+) -> Vec<([[T; M]; N], [T; N])> {
+    let mut rng = SplitMix64::new(0x5EED);
+    let w: [T; M] = core::array::from_fn(|_| T::lit(rng.sym()));
+    let nbw = shape.blocks * shape.width;
+    (0..STEPS)
+        .map(|_| {
+            let u: [[T; M]; N] = core::array::from_fn(|j| {
+                let b = j / 2;
+                core::array::from_fn(|k| {
+                    let in_block = k >= b * shape.width && k < (b + 1) * shape.width;
+                    if in_block || k >= nbw {
+                        T::lit(rng.sym())
+                    } else {
+                        T::zero()
+                    }
+                })
+            });
+            let d: [T; N] = core::array::from_fn(|j| {
+                let mut acc = T::lit(1e-3 * rng.sym());
+                for k in 0..M {
+                    acc += u[j][k] * w[k];
+                }
+                acc
+            });
+            (u, d)
+        })
+        .collect()
+}
+
+fn structured<
+    T: Real,
+    const NB: usize,
+    const W: usize,
+    const S: usize,
+    const M: usize,
+    const N: usize,
+>(
+    c: &mut Criterion,
+    group: &str,
+    param: &str,
+    baselines: bool,
+) {
+    let shape = BlockShape {
+        blocks: NB,
+        width: W,
+        shared: S,
+    };
+    assert_eq!(shape.unknowns(), M);
+    assert_eq!(N, 2 * NB);
+    let data = stream::<T, M, N>(shape);
+    let (lambda, delta) = (T::lit(LAMBDA), T::lit(DELTA));
+    let mut g = c.benchmark_group(group.to_string());
+    let (mut xi, mut gamma) = ([T::zero(); N], [T::zero(); N]);
+
+    let mut blk = BlockQrdRls::<T, NB, W, S>::new(lambda, delta).expect("valid parameters");
+    let mut i = 0usize;
+    g.bench_function(BenchmarkId::new("structured", param), |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            blk.update_rows(
+                black_box(u.as_flattened()),
+                black_box(d),
+                &mut xi,
+                &mut gamma,
+            )
+            .expect("finite data");
+            black_box(&xi);
+        })
+    });
+
+    let mut dense = VectorQrdRls::<T, M, N>::new(lambda, delta).expect("valid parameters");
+    let mut i = 0usize;
+    g.bench_function(BenchmarkId::new("dense_givens", param), |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            black_box(
+                dense
+                    .update(black_box(u), black_box(d))
+                    .expect("finite data"),
+            )
+        })
+    });
+
+    if baselines {
+        let mut conv = ConventionalRls::<T>::new(M, delta, None).expect("valid parameters");
+        let mut i = 0usize;
+        g.bench_function(BenchmarkId::new("conventional_rls", param), |b| {
+            b.iter(|| {
+                let (u, d) = &data[i % STEPS];
+                i += 1;
+                conv.update(
+                    black_box(u.as_flattened()),
+                    black_box(d),
+                    lambda,
+                    &mut xi,
+                    &mut gamma,
+                )
+                .expect("finite data");
+                black_box(&xi);
+            })
+        });
+        let mut stack = StackQrRls::<T>::new(M, delta, None).expect("valid parameters");
+        let mut i = 0usize;
+        g.bench_function(BenchmarkId::new("stack_and_qr", param), |b| {
+            b.iter(|| {
+                let (u, d) = &data[i % STEPS];
+                i += 1;
+                stack
+                    .update(black_box(u.as_flattened()), black_box(d), lambda)
+                    .expect("finite data");
+            })
+        });
+    }
+    g.finish();
+}
+
+/// `case!(T, N_b, N_p, order, group, param, baselines)`.
+macro_rules! case {
+    ($t:ty, $nb:expr, $np:expr, $order:expr, $c:expr, $group:expr, $param:expr, $base:expr) => {{
+        const SH: BlockShape = BlockShape::of(Structure::physical($order), $nb, $np);
+        structured::<
+            $t,
+            { SH.blocks },
+            { SH.width },
+            { SH.shared },
+            { SH.blocks * SH.width + SH.shared },
+            { 2 * SH.blocks },
+        >($c, $group, $param, $base);
+    }};
+}
+
+fn benches(c: &mut Criterion) {
+    case!(
+        f64,
+        2,
+        3,
+        1,
+        c,
+        "identification_update/f64",
+        "Nb2_Np3_order1",
+        true
+    );
+    case!(
+        f64,
+        2,
+        3,
+        2,
+        c,
+        "identification_update/f64",
+        "Nb2_Np3_order2",
+        true
+    );
+    case!(
+        f64,
+        4,
+        5,
+        1,
+        c,
+        "identification_update/f64",
+        "Nb4_Np5_order1",
+        true
+    );
+    case!(
+        f64,
+        4,
+        5,
+        2,
+        c,
+        "identification_update/f64",
+        "Nb4_Np5_order2",
+        true
+    );
+    case!(
+        f32,
+        2,
+        3,
+        1,
+        c,
+        "identification_update/f32",
+        "Nb2_Np3_order1",
+        true
+    );
+    case!(
+        f32,
+        2,
+        3,
+        2,
+        c,
+        "identification_update/f32",
+        "Nb2_Np3_order2",
+        true
+    );
+    case!(
+        f32,
+        4,
+        5,
+        1,
+        c,
+        "identification_update/f32",
+        "Nb4_Np5_order1",
+        true
+    );
+    case!(
+        f32,
+        4,
+        5,
+        2,
+        c,
+        "identification_update/f32",
+        "Nb4_Np5_order2",
+        true
+    );
+    case!(f64, 1, 3, 1, c, "growth_with_bearings/f64", "Nb1", false);
+    case!(f64, 2, 3, 1, c, "growth_with_bearings/f64", "Nb2", false);
+    case!(f64, 3, 3, 1, c, "growth_with_bearings/f64", "Nb3", false);
+    case!(f64, 4, 3, 1, c, "growth_with_bearings/f64", "Nb4", false);
+    case!(f64, 5, 3, 1, c, "growth_with_bearings/f64", "Nb5", false);
+    case!(f64, 6, 3, 1, c, "growth_with_bearings/f64", "Nb6", false);
+    case!(f64, 7, 3, 1, c, "growth_with_bearings/f64", "Nb7", false);
+    case!(f64, 8, 3, 1, c, "growth_with_bearings/f64", "Nb8", false);
+}
+
+criterion_group!(structured_benches, benches);
+criterion_main!(structured_benches);
