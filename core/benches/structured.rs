@@ -7,7 +7,10 @@
 //! and the `S` shared unbalance unknowns (`BlockShape::of`). Cases:
 //! `N_b = 2, N_p = 3` and `N_b = 4, N_p = 5`, order 1 and 2, f32 and f64;
 //! and the growth of the cost with `N_b = 1..8` (`N_p = 3`, order 1, f64),
-//! structured against dense Givens.
+//! structured against dense Givens. `dense_givens_dense_rows` is the dense
+//! filter on rows without structural zeros: the general `O(M^2)` per row
+//! cost that the structure avoids (on the structured rows the dense kernel
+//! already skips the rotations of zero entries).
 //!
 //! `cargo bench -p rotorid-core --features baseline --bench structured -- --warm-up-time 1 --measurement-time 2`
 
@@ -33,6 +36,7 @@ use testrng::SplitMix64;
 #[allow(clippy::type_complexity)]
 fn stream<T: Real, const M: usize, const N: usize>(
     shape: BlockShape,
+    all_dense: bool,
 ) -> Vec<([[T; M]; N], [T; N])> {
     let mut rng = SplitMix64::new(0x5EED);
     let w: [T; M] = core::array::from_fn(|_| T::lit(rng.sym()));
@@ -43,7 +47,7 @@ fn stream<T: Real, const M: usize, const N: usize>(
                 let b = j / 2;
                 core::array::from_fn(|k| {
                     let in_block = k >= b * shape.width && k < (b + 1) * shape.width;
-                    if in_block || k >= nbw {
+                    if all_dense || in_block || k >= nbw {
                         T::lit(rng.sym())
                     } else {
                         T::zero()
@@ -82,7 +86,8 @@ fn structured<
     };
     assert_eq!(shape.unknowns(), M);
     assert_eq!(N, 2 * NB);
-    let data = stream::<T, M, N>(shape);
+    let data = stream::<T, M, N>(shape, false);
+    let dense_rows = stream::<T, M, N>(shape, true);
     let (lambda, delta) = (T::lit(LAMBDA), T::lit(DELTA));
     let mut g = c.benchmark_group(group.to_string());
     let (mut xi, mut gamma) = ([T::zero(); N], [T::zero(); N]);
@@ -119,6 +124,21 @@ fn structured<
     });
 
     if baselines {
+        // The general filter's cost: every entry of every row non-zero, no
+        // rotation skipped (O(M^2) per row).
+        let mut general = VectorQrdRls::<T, M, N>::new(lambda, delta).expect("valid parameters");
+        let mut i = 0usize;
+        g.bench_function(BenchmarkId::new("dense_givens_dense_rows", param), |b| {
+            b.iter(|| {
+                let (u, d) = &dense_rows[i % STEPS];
+                i += 1;
+                black_box(
+                    general
+                        .update(black_box(u), black_box(d))
+                        .expect("finite data"),
+                )
+            })
+        });
         let mut conv = ConventionalRls::<T>::new(M, delta, None).expect("valid parameters");
         let mut i = 0usize;
         g.bench_function(BenchmarkId::new("conventional_rls", param), |b| {
