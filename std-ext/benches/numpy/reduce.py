@@ -18,13 +18,14 @@ and evaluates the literal dense Schur complement (Eqs. 38/39 of
 
 It writes one array of shape (n_speeds, 2N_b, 2N_b + N_p), `[A | B]` per
 speed, to a .npy file, and prints the time of the computation alone
-(`time.perf_counter`, file reading and writing excluded).
+(`time.perf_counter` and `time.process_time`, file reading and writing
+excluded; the CPU time counts every BLAS thread).
 
 Reproduce (from the workspace root):
 
     cargo run --release --example export_matrices -- /tmp/rotorid-npy
     python std-ext/benches/numpy/reduce.py /tmp/rotorid-npy --check
-    /usr/bin/time -f '%e s wall %U s user' \
+    OPENBLAS_NUM_THREADS=1 /usr/bin/time -f '%e s wall %U s user' \
         python std-ext/benches/numpy/reduce.py /tmp/rotorid-npy
     /usr/bin/time -f '%e s wall %U s user' \
         target/release/rotorid tables --model paper \
@@ -37,6 +38,10 @@ Options:
                  of model.json (banded split reduction and modal reduction)
     --batched    one stacked numpy.linalg.solve over all speeds instead of
                  a Python loop over the speeds (same results)
+
+OPENBLAS_NUM_THREADS=1 keeps OpenBLAS on one thread, as rotorid is; on a
+loaded 2-core machine its default (one thread per core) made the 1000
+small solves about 15x slower (threads waiting for each other).
 
 The literal formula subtracts numbers of the order of the shaft's element
 stiffness to get A; its relative accuracy is about eps |Z_BB| / |A|
@@ -122,15 +127,15 @@ def main():
     omegas = speeds()
     red = reduce_batched if a.batched else reduce_loop
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     AB = red(K, M, G, T, b, i, omegas)
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     out = a.out or os.path.join(a.dir, "numpy_AB.npy")
     np.save(out, AB)
     print(
         f"numpy {np.__version__}: {len(omegas)} speeds, n = {n}, "
         f"{len(b)} bearing DOFs, {T.shape[1]} planes, "
-        f"{'batched' if a.batched else 'loop'}: compute {1e3 * (t1 - t0):.1f} ms; wrote {out}"
+        f"{'batched' if a.batched else 'loop'}: compute {1e3 * (t1 - t0):.1f} ms wall, {1e3 * (c1 - c0):.1f} ms CPU; wrote {out}"
     )
 
     if a.check:
