@@ -40,8 +40,9 @@ Options:
                  a Python loop over the speeds (same results)
 
 OPENBLAS_NUM_THREADS=1 keeps OpenBLAS on one thread, as rotorid is; on a
-loaded 2-core machine its default (one thread per core) made the 1000
-small solves about 15x slower (threads waiting for each other).
+loaded 2-core machine its default (one thread per core) made the whole
+script 7 to 60 times slower (threads waiting for each other on the small
+solves).
 
 The literal formula subtracts numbers of the order of the shaft's element
 stiffness to get A; its relative accuracy is about eps |Z_BB| / |A|
