@@ -79,10 +79,15 @@ fn nearest(ours: &[Mode], lambda: Complex64) -> &Mode {
 /// largest log-decrement difference; whirl must agree for the forward and
 /// backward modes at speed > 0 (ROSS's label at rest is decided by rounding).
 fn modal_agreement(name: &str) -> (f64, f64) {
-    let fe = FeModel::new(&load(name)).unwrap();
-    let r = results(name);
+    modal_agreement_at(name, &load(name), &results(name)["modal"]["speeds"])
+}
+
+/// [`modal_agreement`] of `model` against ROSS's `speeds` list (`wn`,
+/// `evalue_re`, ... per speed, as `make.py` writes them).
+fn modal_agreement_at(name: &str, model: &RotorModel, speeds: &Value) -> (f64, f64) {
+    let fe = FeModel::new(model).unwrap();
     let (mut worst, mut worst_dec) = (0.0f64, 0.0f64);
-    for sp in r["modal"]["speeds"].as_array().unwrap() {
+    for sp in speeds.as_array().unwrap() {
         let omega = sp["speed_rad_s"].as_f64().unwrap();
         let ours = modes(&fe, omega);
         let (re, im) = (floats(&sp["evalue_re"]), floats(&sp["evalue_im"]));
@@ -352,4 +357,31 @@ fn ross_writer_round_trips_the_fixtures() {
         assert_eq!(back.bearings, m.bearings, "{name}");
         assert_eq!(back.rotor_damping, m.rotor_damping, "{name}");
     }
+}
+
+/// A file written by `rotorid identify --ross-out` (physical order 2 from
+/// the paper rotor's sweep with 1 % noise, seed 1: bearings as 31-point
+/// PCHIP tables over 50..15000 rpm) loads in ROSS 3.1.0 without a warning,
+/// and ROSS's eigenvalues of it at 0..6000 rpm (0 rpm: below the table,
+/// extrapolated with the end slopes by both) are ours to 1e-9 relative,
+/// log decrements to 1e-9 (`paper_identified.check.json`, from `make.py
+/// --check-export`).
+#[test]
+fn identify_export_agrees_with_ross() {
+    let name = "paper_identified";
+    let model = load(name);
+    for b in &model.bearings {
+        let rotorid::model::BearingLaw::Table { speeds, .. } = &b.law else {
+            panic!("table expected: {:?}", b.law)
+        };
+        assert_eq!(speeds.len(), rotorid::io::ross::ROSS_TABLE_POINTS);
+    }
+    let text = std::fs::read_to_string(fixture(&format!("{name}.check.json"))).unwrap();
+    let check: Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(check["loads"], true);
+    assert_eq!(check["load_warnings"].as_array().unwrap().len(), 0);
+    let (ev, dec) = modal_agreement_at(name, &model, &check["modal"]);
+    eprintln!("{name}: eigenvalues {ev:.1e}, log_dec {dec:.1e}");
+    assert!(ev < 1e-9, "eigenvalues differ by {ev:e}");
+    assert!(dec < 1e-9, "log decrements differ by {dec:e}");
 }

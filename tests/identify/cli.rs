@@ -198,3 +198,125 @@ fn a_misfit_is_a_warning_not_an_error() {
         .iter()
         .any(|w| w.as_str().unwrap().contains("the model lacks something")));
 }
+
+/// `--ross-out` writes the model with the identified bearings, as
+/// rotorid's ROSS reader reads them back: constant `K`, `C` equal to the
+/// JSON's (physical structure, order 1; the JSON is read back through
+/// serde_json's float parser, hence 1e-15 relative, a few ulps); a law
+/// that changes with speed (physical order 2, the paper structure) as a
+/// 31-point PCHIP table over the measured speeds (50..15000 rpm) whose
+/// last point is the JSON's coefficients at the last speed. The noise-free
+/// data make every table entry the model's values to 1e-6 (stiffness) and
+/// 1e-5 (damping). Writing over an input is refused.
+#[test]
+fn identify_ross_out_holds_the_identified_bearings() {
+    use rotorid::model::{BearingLaw, TableInterpolation};
+    let model = RotorModel::paper();
+    let meas = simulate(&model, &sweep(50.0, 15000.0, 50.0));
+    let csv = tmp("sweep.csv");
+    rotorid::io::measurement::write_csv(&meas, &csv, Default::default()).unwrap();
+    let truth = [
+        ([5e7, 0.5e7, 1e7, 7e7], [500.0, 50.0, 100.0, 700.0]),
+        ([5e7, 1e7, 0.5e7, 7e7], [500.0, 100.0, 50.0, 700.0]),
+    ];
+    let keys = ["yy", "yz", "zy", "zz"];
+    for (formulation, order) in [("physical", "1"), ("physical", "2"), ("paper", "1")] {
+        let json = tmp(&format!("id-{formulation}-{order}.json"));
+        let ross = tmp(&format!("id-{formulation}-{order}.toml"));
+        let out = cli([
+            "identify",
+            "--model",
+            "paper",
+            "--measurements",
+            csv.to_str().unwrap(),
+            "--formulation",
+            formulation,
+            "--order",
+            order,
+            "--json",
+            json.to_str().unwrap(),
+            "--ross-out",
+            ross.to_str().unwrap(),
+        ]);
+        assert!(out.success(), "{}", out.stderr);
+        assert!(
+            out.stderr.contains(&format!("wrote {}", ross.display())),
+            "{}",
+            out.stderr
+        );
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let text = std::fs::read_to_string(&ross).unwrap();
+        assert!(rotorid::io::model_file::is_ross(&text));
+        let back = rotorid::io::model_file::load_model(&ross).unwrap();
+        assert_eq!(back.shaft, model.shaft);
+        assert_eq!(back.disks, model.disks);
+        assert_eq!(back.planes, model.planes);
+        assert_eq!(back.bearings.len(), 2);
+        for (m, b) in back.bearings.iter().enumerate() {
+            assert_eq!(b.node, model.bearings[m].node);
+            assert_eq!(b.pedestal, None);
+            let last = match (&b.law, formulation, order) {
+                (BearingLaw::Constant(c), "physical", "1") => *c,
+                (
+                    BearingLaw::Table {
+                        speeds,
+                        coefficients,
+                        interpolation,
+                    },
+                    _,
+                    _,
+                ) if (formulation, order) != ("physical", "1") => {
+                    assert_eq!(*interpolation, TableInterpolation::Pchip);
+                    assert_eq!(speeds.len(), rotorid::io::ross::ROSS_TABLE_POINTS);
+                    assert_eq!(speeds[0], rotorid::units::rpm_to_rad_s(50.0));
+                    assert_eq!(speeds[30], rotorid::units::rpm_to_rad_s(15000.0));
+                    for c in coefficients {
+                        for j in 0..4 {
+                            let (k, d) = (truth[m].0[j], truth[m].1[j]);
+                            assert!((c.k[j] - k).abs() < 1e-6 * k, "{formulation} {order}");
+                            assert!((c.c[j] - d).abs() < 1e-5 * d, "{formulation} {order}");
+                        }
+                    }
+                    coefficients[30]
+                }
+                (law, _, _) => panic!("{formulation} {order}: {law:?}"),
+            };
+            let tol = if order == "1" && formulation == "physical" {
+                1e-15
+            } else {
+                1e-12
+            };
+            for (j, key) in keys.iter().enumerate() {
+                let k = v["bearings"][m]["k"][key].as_f64().unwrap();
+                let c = v["bearings"][m]["c"][key].as_f64().unwrap();
+                assert!(
+                    (last.k[j] - k).abs() <= tol * k.abs(),
+                    "k{key} {}",
+                    last.k[j]
+                );
+                assert!(
+                    (last.c[j] - c).abs() <= tol * c.abs(),
+                    "c{key} {}",
+                    last.c[j]
+                );
+            }
+        }
+    }
+    let out = cli([
+        "identify",
+        "--model",
+        "paper",
+        "--measurements",
+        csv.to_str().unwrap(),
+        "--ross-out",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status, 2);
+    assert!(
+        out.stderr.contains("--ross-out") && out.stderr.contains("refusing to overwrite an input"),
+        "{}",
+        out.stderr
+    );
+    assert_eq!(out.stderr.trim_end().lines().count(), 1);
+}

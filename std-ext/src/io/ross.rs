@@ -809,8 +809,10 @@ fn arr(v: &[f64]) -> String {
 /// bearings (constant or tables over `frequency`, with `interpolation` for
 /// PCHIP and extrapolated linear tables), pedestals as a linked
 /// `PointMass` with a bearing to ground, rotor damping in `[parameters]`.
-/// Polynomial bearing laws, unbalance and bow have no ROSS equivalent here
-/// and are refused.
+/// Polynomial and dynamic-stiffness bearing laws have no ROSS equivalent
+/// and are refused ([`tabulate_for_ross`] turns them into tables first);
+/// unbalance, bow and the unbalance planes are not written (a ROSS rotor
+/// file carries none; the reader takes the disk nodes as planes).
 pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
     model.validate()?;
     let mut s = String::new();
@@ -957,6 +959,69 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
         }
     }
     Ok(s)
+}
+
+/// Speeds of the table that [`tabulate_for_ross`] writes for a bearing law
+/// that changes with speed (ROSS warns below 5).
+pub const ROSS_TABLE_POINTS: usize = 31;
+
+/// `model` with every bearing law that a ROSS file cannot hold
+/// ([`BearingLaw::Polynomial`], [`BearingLaw::DynamicStiffness`]) replaced
+/// by a PCHIP table ([`TableInterpolation::Pchip`], ROSS's own) of `points`
+/// speeds spaced evenly over `omega_min..=omega_max` (rad/s), holding the
+/// law's `K(Omega)` (N/m) and `C(Omega)` (N s/m) at each, so that
+/// [`to_ross_toml`] can write it. A law that is the same at every speed of
+/// the range (e.g. a polynomial whose higher terms are zero) becomes
+/// [`BearingLaw::Constant`]; constant laws and tables are kept. Between the
+/// points the table is the PCHIP interpolant of the law, beyond them the
+/// straight line with the end slope (ROSS's extrapolation), not the law.
+/// Refused (`RossError::Format`): a range that is not finite, negative or
+/// empty (`omega_max <= omega_min`) when a law needs a table, or fewer than
+/// 2 points.
+pub fn tabulate_for_ross(
+    model: &RotorModel,
+    omega_min: f64,
+    omega_max: f64,
+    points: usize,
+) -> Result<RotorModel, RossError> {
+    let mut out = model.clone();
+    for (i, b) in out.bearings.iter_mut().enumerate() {
+        if !matches!(
+            b.law,
+            BearingLaw::Polynomial { .. } | BearingLaw::DynamicStiffness { .. }
+        ) {
+            continue;
+        }
+        if !(omega_min.is_finite() && omega_max.is_finite() && omega_min >= 0.0)
+            || omega_max <= omega_min
+            || points < 2
+        {
+            return Err(RossError::Format(format!(
+                "bearing {}: its law changes with speed and a ROSS file holds it only as a table over a speed range; got {omega_min}..={omega_max} rad/s with {points} points (need 0 <= min < max, at least 2 points)",
+                i + 1
+            )));
+        }
+        let speeds: Vec<f64> = (0..points)
+            .map(|j| {
+                if j + 1 == points {
+                    omega_max
+                } else {
+                    omega_min + (omega_max - omega_min) * j as f64 / (points - 1) as f64
+                }
+            })
+            .collect();
+        let coefficients: Vec<BearingCoefficients> = speeds.iter().map(|&w| b.law.at(w)).collect();
+        b.law = if coefficients.iter().all(|c| *c == coefficients[0]) {
+            BearingLaw::Constant(coefficients[0])
+        } else {
+            BearingLaw::Table {
+                speeds,
+                coefficients,
+                interpolation: TableInterpolation::Pchip,
+            }
+        };
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
