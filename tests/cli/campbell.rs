@@ -87,8 +87,8 @@ fn ours(j: &Value, key: &str) -> Vec<(f64, String)> {
 /// 1e-7 relative: the refinement, not the grid, sets them). ROSS converges
 /// its Newton iteration only to `rtol = 0.005`; the measured agreement is
 /// far better (printed). Where ROSS says forward or backward, so do we.
-/// `support_masses` is refused by the reader (pedestal mx != my) and is not
-/// checked.
+/// `support_masses` has pedestals (ROSS point masses, one with mx != my),
+/// whose modes are among those checked.
 #[test]
 fn critical_speeds_of_every_whirl_match_ross_at_any_step() {
     for name in [
@@ -97,6 +97,7 @@ fn critical_speeds_of_every_whirl_match_ross_at_any_step() {
         "stepped_hollow",
         "bearing_tables",
         "coaxial_sleeve",
+        "support_masses",
     ] {
         let model = fixture(&format!("{name}.toml"));
         let model = model.to_str().unwrap();

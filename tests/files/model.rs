@@ -182,6 +182,20 @@ fn bearing_table_polynomial_and_pedestal_forms() {
     let w = rotorid::units::rpm_to_rad_s(3000.0);
     assert!((b.law.at(w).k[0] - 2e7).abs() < 1e-6);
     assert_eq!(b.pedestal.unwrap().k, [2e8, 3e8]);
+    assert_eq!(b.pedestal.unwrap().mass, [40.0, 40.0]);
+    // A pedestal mass per direction, [m_y, m_z].
+    let two = text.replace("mass = 40.0", "mass = [40.0, 65.0]");
+    let m = parse_model_file(&two).unwrap().model;
+    assert_eq!(m.bearings[1].pedestal.unwrap().mass, [40.0, 65.0]);
+    let e = err(&text.replace("mass = 40.0", "mass = [40.0, -65.0]"));
+    assert!(e.starts_with("bearing[2].pedestal.mass[2]: "), "{e}");
+    let e = err(&text.replace("mass = 40.0", "mass = [40.0, 1e300]"));
+    assert!(e.starts_with("bearing[2].pedestal.mass[2]: "), "{e}");
+    let e = err(&text.replace("mass = 40.0", "mass = [40.0, 65.0, 1.0]"));
+    assert!(
+        e.contains("bearing[2].pedestal.mass") && e.contains("[m_y, m_z]"),
+        "{e}"
+    );
     let text = edit(
         &paper_text(),
         "k = [5e7, 1e7, 0.5e7, 7e7]\nc = [500.0, 100.0, 50.0, 700.0]\n",
@@ -233,7 +247,7 @@ fn shipped_variants_load() {
     let mut p = RotorModel::paper();
     for b in &mut p.bearings {
         b.pedestal = Some(rotorid::model::Pedestal {
-            mass: 40.0,
+            mass: [40.0, 40.0],
             k: [1e8, 1.5e8],
             c: [2e3, 2e3],
         });

@@ -139,6 +139,36 @@ fn response_agreement(name: &str) -> f64 {
         })
         .collect();
     let speeds = floats(&r["speed_rad_s"]);
+    // ROSS point-mass nodes (beyond the shaft) are our pedestal DOFs: the
+    // point mass `p` is under the bearing whose `n_link` is `p`.
+    let ross_file: toml::Value =
+        toml::from_str(&std::fs::read_to_string(fixture(&format!("{name}.toml"))).unwrap())
+            .unwrap();
+    let linked_bearing = |p: usize| -> usize {
+        let shaft_node = ross_file
+            .as_table()
+            .unwrap()
+            .values()
+            .find(|v| v.get("n_link").and_then(|x| x.as_integer()) == Some(p as i64))
+            .and_then(|v| v.get("n")?.as_integer())
+            .unwrap() as usize;
+        model
+            .bearings
+            .iter()
+            .position(|b| b.node == shaft_node)
+            .unwrap()
+    };
+    let dofs = |node: usize| -> (usize, usize) {
+        if node < fe.n_nodes() {
+            (fe.dof(node, Dir::Y), fe.dof(node, Dir::Z))
+        } else {
+            let b = linked_bearing(node);
+            (
+                fe.pedestal_dof(b, Dir::Y).unwrap(),
+                fe.pedestal_dof(b, Dir::Z).unwrap(),
+            )
+        }
+    };
     let forcing = Forcing {
         unbalance,
         bow: None,
@@ -158,8 +188,9 @@ fn response_agreement(name: &str) -> f64 {
             .map(|(a, b)| Complex64::new(a, b))
             .collect();
         let scale = x.iter().chain(&y).map(|v| v.norm()).fold(0.0, f64::max);
+        let (dy, dz) = dofs(node);
         for (k, q) in resp.iter().enumerate() {
-            let (qy, qz) = (q.q[fe.dof(node, Dir::Y)], q.q[fe.dof(node, Dir::Z)]);
+            let (qy, qz) = (q.q[dy], q.q[dz]);
             worst = worst.max((qy - x[k]).norm() / scale);
             worst = worst.max((qz - y[k]).norm() / scale);
         }
@@ -217,7 +248,12 @@ fn critical_agreement(name: &str) -> f64 {
 /// responses up to 3e-11), log decrements to 1e-9 absolute.
 #[test]
 fn constant_coefficient_fixtures_agree_with_ross() {
-    for name in ["rotor_example", "stepped_hollow", "coaxial_sleeve"] {
+    for name in [
+        "rotor_example",
+        "stepped_hollow",
+        "coaxial_sleeve",
+        "support_masses",
+    ] {
         let (ev, dec) = modal_agreement(name);
         let resp = response_agreement(name);
         eprintln!("{name}: eigenvalues {ev:.1e}, log_dec {dec:.1e}, response {resp:.1e}");
@@ -231,7 +267,12 @@ fn constant_coefficient_fixtures_agree_with_ross() {
 /// 0.005`; ours are converged fixed points: they agree within that rtol.
 #[test]
 fn critical_speeds_agree_with_ross_to_its_tolerance() {
-    for name in ["rotor_example", "stepped_hollow", "bearing_tables"] {
+    for name in [
+        "rotor_example",
+        "stepped_hollow",
+        "bearing_tables",
+        "support_masses",
+    ] {
         let d = critical_agreement(name);
         eprintln!("{name}: critical speeds {d:.1e}");
         assert!(d < 5e-3, "{name}: critical speeds differ by {d:e}");
@@ -329,11 +370,38 @@ fn refused_fixtures_say_why_in_one_line() {
     assert!(seal.contains("seal"), "{seal}");
     let tapered = refused("refused_tapered_shaft.toml");
     assert!(tapered.contains("tapered"), "{tapered}");
-    // A pedestal has one mass for both directions.
-    let pm = refused("support_masses.toml");
-    assert!(
-        pm.starts_with("PointMass_Point Mass 0: ") && pm.contains("mx = 15 kg != my = 20 kg"),
-        "{pm}"
+}
+
+/// The pedestal pattern of `support_masses` (bearing -> `PointMass` by
+/// `n_link`, point mass -> ground): point mass 7 with `mx = 15`, `my = 20`
+/// kg is a pedestal with masses [15, 20] in our y, z (point mass 8, `m =
+/// 18`, [18, 18]); the supports' kxx, kyy and cxx, cyy are its stiffness
+/// and damping. Eigenvalues, log decrements and responses (shaft and
+/// point-mass nodes) are checked in `constant_coefficient_fixtures_agree_with_ross`.
+#[test]
+fn support_masses_become_pedestals_with_a_mass_per_direction() {
+    let m = load("support_masses");
+    let p: Vec<_> = m.bearings.iter().map(|b| (b.node, b.pedestal)).collect();
+    assert_eq!(
+        p,
+        [
+            (
+                0,
+                Some(rotorid::model::Pedestal {
+                    mass: [15.0, 20.0],
+                    k: [2.0e6, 3.0e6],
+                    c: [2000.0, 2500.0]
+                })
+            ),
+            (
+                6,
+                Some(rotorid::model::Pedestal {
+                    mass: [18.0, 18.0],
+                    k: [2.2e6, 3.3e6],
+                    c: [2100.0, 2600.0]
+                })
+            ),
+        ]
     );
 }
 
@@ -347,6 +415,7 @@ fn ross_writer_round_trips_the_fixtures() {
         "stepped_hollow",
         "coaxial_sleeve",
         "bearing_tables",
+        "support_masses",
     ] {
         let m = load(name);
         let text = rotorid::io::ross::to_ross_toml(&m).unwrap();

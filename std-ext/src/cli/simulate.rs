@@ -195,7 +195,7 @@ impl SimulateArgs {
                 ));
             }
             e.pedestal = Some(Pedestal {
-                mass: m,
+                mass: [m, m],
                 k: [k, k],
                 c: [c, c],
             });

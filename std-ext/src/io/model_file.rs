@@ -43,6 +43,7 @@
 //! #   polynomial = { k = [[0,0,0,0], [0,0,0,0], [k2yy, k2yz, k2zy, k2zz]], c = [[...]] }
 //! # optional pedestal (foundation mass) under the bearing:
 //! #   pedestal = { mass = 50.0, k = [1e8, 1e8], c = [2e3, 2e3] }   # [y, z]
+//! #   (mass in kg: one value for y and z, or [m_y, m_z])
 //!
 //! [[unbalance]]                  # optional true unbalance (used by the simulator)
 //! node = 5
@@ -240,10 +241,18 @@ struct RawPolynomial {
     c: Vec<[f64; 4]>,
 }
 
+/// A pedestal mass: one number for both directions, or `[m_y, m_z]`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(untagged, expecting = "a mass in kg, or [m_y, m_z] in kg")]
+enum RawMass {
+    One(f64),
+    Two([f64; 2]),
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawPedestal {
-    mass: f64,
+    mass: RawMass,
     k: [f64; 2],
     c: [f64; 2],
 }
@@ -413,8 +422,21 @@ fn node(field: &str, n: usize, n_nodes: usize) -> Result<usize, ModelFileError> 
 }
 
 fn pedestal(field: &str, p: &RawPedestal) -> Result<Pedestal, ModelFileError> {
-    let mass = finite_pos(&format!("{field}.mass"), p.mass)?;
-    let mass = plausible(&format!("{field}.mass"), mass, MASS)?;
+    let mass = match p.mass {
+        RawMass::One(m) => {
+            let m = finite_pos(&format!("{field}.mass"), m)?;
+            let m = plausible(&format!("{field}.mass"), m, MASS)?;
+            [m, m]
+        }
+        RawMass::Two(m) => {
+            let mut out = [0.0; 2];
+            for j in 0..2 {
+                let name = format!("{field}.mass[{}]", j + 1);
+                out[j] = plausible(&name, finite_pos(&name, m[j])?, MASS)?;
+            }
+            out
+        }
+    };
     let mut k = [0.0; 2];
     let mut c = [0.0; 2];
     for j in 0..2 {

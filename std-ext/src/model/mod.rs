@@ -376,11 +376,15 @@ impl BearingLaw {
 
 /// A pedestal (foundation mass) under a bearing: the bearing acts between
 /// the shaft node and the pedestal mass, which is tied to ground by its own
-/// stiffness and damping in y and z.
+/// stiffness and damping in y and z. The mass may differ between the
+/// directions (a ROSS `PointMass` with `mx != my`: a support that is
+/// heavier in one direction, e.g. a frame that carries mass horizontally
+/// only): the pedestal's equation is, per direction `d = y, z`,
+/// `m_d q_p,d'' + c_d q_p,d' + k_d q_p,d = (bearing force)_d`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pedestal {
-    /// Mass (kg), the same in y and z.
-    pub mass: f64,
+    /// Mass `[m_y, m_z]` (kg), in y and in z.
+    pub mass: [f64; 2],
     /// Stiffness to ground `[ky, kz]` (N/m).
     pub k: [f64; 2],
     /// Damping to ground `[cy, cz]` (N s/m).
@@ -755,8 +759,8 @@ impl RotorModel {
                 }
             }
             if let Some(p) = &b.pedestal {
-                pos(f("pedestal.mass"), p.mass)?;
                 for j in 0..2 {
+                    pos(f(&format!("pedestal.mass[{}]", j + 1)), p.mass[j])?;
                     pos(f(&format!("pedestal.k[{}]", j + 1)), p.k[j])?;
                     if !(p.c[j].is_finite() && p.c[j] >= 0.0) {
                         return Err(ModelError::invalid(
