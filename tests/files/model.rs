@@ -262,3 +262,81 @@ fn shipped_variants_load() {
     assert_eq!(f.effects.runout.len(), 1);
     assert_eq!(f.effects.extra_unbalance[0].node, 13);
 }
+
+/// Probe declarations (`bearing.probes`): two named probes at angles from
+/// +y toward +z; every bad declaration is refused naming its field.
+#[test]
+fn angled_probe_declarations() {
+    let with = |decl: &str| {
+        edit(
+            &paper_text(),
+            "node = 27\n",
+            &format!("node = 27\nprobes = [{decl}]\n"),
+        )
+    };
+    let good = with("{ name = \"2X\", angle_deg = 45.0 }, { name = \"2Y\", angle_deg = -45.0 }");
+    let f = parse_model_file(&good).unwrap();
+    assert_eq!(f.probes.len(), 2);
+    assert!(f.probes[0].is_none());
+    let p = f.probes[1].as_ref().unwrap();
+    assert_eq!(p.names, ["2X".to_string(), "2Y".to_string()]);
+    assert_eq!(p.angles, [45f64.to_radians(), (-45f64).to_radians()]);
+    // y, z back from the readings.
+    let (y, z) = (
+        num_complex::Complex64::new(1e-6, -2e-6),
+        num_complex::Complex64::new(-3e-7, 4e-6),
+    );
+    let back = p.to_yz(p.readings(y, z));
+    assert!((back[0] - y).norm() < 1e-15 * y.norm() && (back[1] - z).norm() < 1e-15 * z.norm());
+    for (decl, field, needle) in [
+        ("{ name = \"2X\", angle_deg = 45.0 }", "bearing[2].probes: ", "expected 2 probes"),
+        (
+            "{ name = \"A\", angle_deg = 0.0 }, { name = \"B\", angle_deg = 90.0 }, { name = \"C\", angle_deg = 45.0 }",
+            "bearing[2].probes: ",
+            "got 3",
+        ),
+        (
+            "{ name = \"2X\", angle_deg = 45.0 }, { name = \"2Y\", angle_deg = 225.0 }",
+            "bearing[2].probes[2].angle_deg: ",
+            "parallel",
+        ),
+        (
+            "{ name = \"2X\", angle_deg = 45.0 }, { name = \"2Y\", angle_deg = 48.0 }",
+            "bearing[2].probes[2].angle_deg: ",
+            "at least 5 deg apart",
+        ),
+        (
+            "{ name = \"2 X\", angle_deg = 45.0 }, { name = \"2Y\", angle_deg = -45.0 }",
+            "bearing[2].probes[1].name: ",
+            "letters, digits",
+        ),
+        (
+            "{ name = \"2X\", angle_deg = 45.0 }, { name = \"2X\", angle_deg = -45.0 }",
+            "bearing[2].probes[2].name: ",
+            "probes[1] too",
+        ),
+        (
+            "{ name = \"b1_y\", angle_deg = 45.0 }, { name = \"2Y\", angle_deg = -45.0 }",
+            "bearing[2].probes[1].name: ",
+            "used twice",
+        ),
+        (
+            "{ name = \"2X\", angle_deg = nan }, { name = \"2Y\", angle_deg = -45.0 }",
+            "bearing[2].probes[1].angle_deg: ",
+            "",
+        ),
+        (
+            "{ name = \"2X\", angle_deg = 400.0 }, { name = \"2Y\", angle_deg = -45.0 }",
+            "bearing[2].probes[1].angle_deg: ",
+            "outside -360..=360",
+        ),
+        (
+            "{ name = \"2X\", angle = 45.0 }, { name = \"2Y\", angle_deg = -45.0 }",
+            "bearing[2].probes[1].angle: ",
+            "unknown field",
+        ),
+    ] {
+        let e = err(&with(decl));
+        assert!(e.starts_with(field) && e.contains(needle), "{decl}: {e}");
+    }
+}

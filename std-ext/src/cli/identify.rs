@@ -206,11 +206,15 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             ("--ross-out", args.ross_out.as_deref()),
         ],
     )?;
-    let model = super::load_model(&args.model)?.model;
+    let model_file = super::load_model(&args.model)?;
     let file = args.measurements.display().to_string();
-    let (meas, located) = crate::io::measurement::read_csv_located(&args.measurements)
-        .map_err(|e| super::measurement_error(&args.measurements, e))?;
+    let (mut meas, located, probe_readings) =
+        super::read_measurements(&args.measurements, &model_file)?;
     check_response_range(&meas, &located).map_err(|e| CliError::new(format!("{file}: {e}")))?;
+    if probe_readings {
+        crate::io::measurement::probes_to_yz(&mut meas, &model_file.probes);
+    }
+    let model = model_file.model;
     let structure = match args.formulation {
         Formulation::Physical => Structure::physical(args.order),
         Formulation::Paper => Structure::paper(args.order),
