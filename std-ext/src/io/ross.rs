@@ -807,8 +807,9 @@ fn arr(v: &[f64]) -> String {
 
 /// Writes a model as a ROSS rotor file (format 3.x, `ross_version = "3.1.0"`), the inverse of
 /// [`parse_ross`]: shaft elements and their coaxial layers, disks,
-/// bearings (constant or tables over `frequency`, with `interpolation` for
-/// PCHIP and extrapolated linear tables), pedestals as a linked
+/// bearings (constant, or tables over ROSS 3's `speed` axis, the rotor
+/// speed in rad/s, at which rotorid evaluates every table; with
+/// `interpolation` for PCHIP and extrapolated linear tables), pedestals as a linked
 /// `PointMass` with a bearing to ground, rotor damping in `[parameters]`.
 /// Polynomial and dynamic-stiffness bearing laws have no ROSS equivalent
 /// and are refused ([`tabulate_for_ross`] turns them into tables first);
@@ -903,7 +904,7 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
             let _ = writeln!(s, "{key} = {}", arr(&zeros));
         }
         if let Some((w, kind)) = speeds {
-            let _ = writeln!(s, "frequency = {}", arr(w));
+            let _ = writeln!(s, "speed = {}", arr(w));
             match kind {
                 TableInterpolation::LinearHold => {}
                 TableInterpolation::LinearExtrapolate => {
