@@ -87,8 +87,8 @@ fn ours(j: &Value, key: &str) -> Vec<(f64, String)> {
 /// 1e-7 relative: the refinement, not the grid, sets them). ROSS converges
 /// its Newton iteration only to `rtol = 0.005`; the measured agreement is
 /// far better (printed). Where ROSS says forward or backward, so do we.
-/// `support_masses` is refused by the reader (pedestal mx != my) and is not
-/// checked.
+/// `support_masses` has pedestals (ROSS point masses, one with mx != my),
+/// whose modes are among those checked.
 #[test]
 fn critical_speeds_of_every_whirl_match_ross_at_any_step() {
     for name in [
@@ -97,6 +97,7 @@ fn critical_speeds_of_every_whirl_match_ross_at_any_step() {
         "stepped_hollow",
         "bearing_tables",
         "coaxial_sleeve",
+        "support_masses",
     ] {
         let model = fixture(&format!("{name}.toml"));
         let model = model.to_str().unwrap();
@@ -315,4 +316,90 @@ fn campbell_json_csv_and_table_agree() {
         o.stderr.trim(),
         "error: file not found: /no/such/dir/rotor.toml"
     );
+}
+
+/// `--modes-plot` draws the lowest `--modes` mode shapes at `--modes-rpm`:
+/// its legend names each mode by the damped frequency the JSON lists at
+/// that speed (here 3000 rpm, a diagram speed) and draws each mode's shape
+/// over the 27 shaft nodes in both panels; bad speeds and an output
+/// colliding with another are refused in one line.
+#[test]
+fn modes_plot_draws_the_lowest_modes_at_the_speed() {
+    let svg = tmp("modes.svg");
+    let json = tmp("modes.json");
+    let out = cli([
+        "campbell",
+        "--model",
+        "paper",
+        "--rpm-max",
+        "6000",
+        "--rpm-step",
+        "1000",
+        "--modes",
+        "3",
+        "--json",
+        json.to_str().unwrap(),
+        "--modes-plot",
+        svg.to_str().unwrap(),
+        "--modes-rpm",
+        "3000",
+    ]);
+    assert!(out.success(), "{}", out.stderr);
+    let j: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let at = j["speeds"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["rpm"].as_f64() == Some(3000.0))
+        .unwrap();
+    let mut hz: Vec<f64> = at["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["frequency_hz"].as_f64().unwrap())
+        .collect();
+    hz.sort_by(f64::total_cmp);
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.contains("Mode shapes: paper at 3000 rpm"));
+    for f in &hz[..3] {
+        assert!(
+            text.contains(&format!("{f:.2} Hz, ")),
+            "{f:.2} Hz not in the legend"
+        );
+    }
+    // Three modes, each at t = 0 and t = T/4 in the legend.
+    assert_eq!(text.matches(" Hz, ").count(), 6);
+    // Each mode's colour draws its shape at t = 0 as one solid line of 27
+    // points (the paper rotor's nodes) in each panel.
+    for hex in ["#1F77B4", "#FF7F0E", "#2CA02C"] {
+        let full = text
+            .lines()
+            .filter(|l| l.contains("<polyline") && l.contains(&format!("stroke=\"{hex}\"")))
+            .filter(|l| {
+                let pts = l.split("points=\"").nth(1).unwrap_or("");
+                pts[..pts.find('"').unwrap_or(0)].split_whitespace().count() == 27
+            })
+            .count();
+        assert_eq!(full, 2, "{hex}");
+    }
+    for (args, needle) in [
+        (
+            vec!["--modes-rpm", "-5"],
+            "--modes-rpm must be finite and >= 0",
+        ),
+        (vec!["--plot", svg.to_str().unwrap()], "name the same file"),
+    ] {
+        let mut all = vec![
+            "campbell",
+            "--model",
+            "paper",
+            "--modes-plot",
+            svg.to_str().unwrap(),
+        ];
+        all.extend(args);
+        let o = cli(all);
+        assert_eq!(o.status, 2);
+        assert!(o.stderr.contains(needle), "{}", o.stderr);
+        assert_eq!(o.stderr.trim_end().lines().count(), 1);
+    }
 }

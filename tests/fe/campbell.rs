@@ -315,7 +315,7 @@ fn pedestal_adds_a_resonance_near_its_own_frequency() {
     let mut ped = RotorModel::paper();
     let (mp, kp) = (100.0, 1.1e8);
     ped.bearings[1].pedestal = Some(Pedestal {
-        mass: mp,
+        mass: [mp, mp],
         k: [kp, kp],
         c: [2e3, 2e3],
     });

@@ -21,7 +21,7 @@ fn max_rel(a: &[Complex64], b: &[Complex64]) -> f64 {
 
 fn with_pedestal(mut m: RotorModel) -> RotorModel {
     m.bearings[1].pedestal = Some(Pedestal {
-        mass: 40.0,
+        mass: [40.0, 55.0],
         k: [3e7, 4e7],
         c: [2e3, 2.5e3],
     });

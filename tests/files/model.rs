@@ -182,6 +182,20 @@ fn bearing_table_polynomial_and_pedestal_forms() {
     let w = rotorid::units::rpm_to_rad_s(3000.0);
     assert!((b.law.at(w).k[0] - 2e7).abs() < 1e-6);
     assert_eq!(b.pedestal.unwrap().k, [2e8, 3e8]);
+    assert_eq!(b.pedestal.unwrap().mass, [40.0, 40.0]);
+    // A pedestal mass per direction, [m_y, m_z].
+    let two = text.replace("mass = 40.0", "mass = [40.0, 65.0]");
+    let m = parse_model_file(&two).unwrap().model;
+    assert_eq!(m.bearings[1].pedestal.unwrap().mass, [40.0, 65.0]);
+    let e = err(&text.replace("mass = 40.0", "mass = [40.0, -65.0]"));
+    assert!(e.starts_with("bearing[2].pedestal.mass[2]: "), "{e}");
+    let e = err(&text.replace("mass = 40.0", "mass = [40.0, 1e300]"));
+    assert!(e.starts_with("bearing[2].pedestal.mass[2]: "), "{e}");
+    let e = err(&text.replace("mass = 40.0", "mass = [40.0, 65.0, 1.0]"));
+    assert!(
+        e.contains("bearing[2].pedestal.mass") && e.contains("[m_y, m_z]"),
+        "{e}"
+    );
     let text = edit(
         &paper_text(),
         "k = [5e7, 1e7, 0.5e7, 7e7]\nc = [500.0, 100.0, 50.0, 700.0]\n",
@@ -233,7 +247,7 @@ fn shipped_variants_load() {
     let mut p = RotorModel::paper();
     for b in &mut p.bearings {
         b.pedestal = Some(rotorid::model::Pedestal {
-            mass: 40.0,
+            mass: [40.0, 40.0],
             k: [1e8, 1.5e8],
             c: [2e3, 2e3],
         });
@@ -247,4 +261,82 @@ fn shipped_variants_load() {
     assert_eq!(f.effects.e_scale, 1.04);
     assert_eq!(f.effects.runout.len(), 1);
     assert_eq!(f.effects.extra_unbalance[0].node, 13);
+}
+
+/// Probe declarations (`bearing.probes`): two named probes at angles from
+/// +y toward +z; every bad declaration is refused naming its field.
+#[test]
+fn angled_probe_declarations() {
+    let with = |decl: &str| {
+        edit(
+            &paper_text(),
+            "node = 27\n",
+            &format!("node = 27\nprobes = [{decl}]\n"),
+        )
+    };
+    let good = with("{ name = \"2X\", angle_deg = 45.0 }, { name = \"2Y\", angle_deg = -45.0 }");
+    let f = parse_model_file(&good).unwrap();
+    assert_eq!(f.probes.len(), 2);
+    assert!(f.probes[0].is_none());
+    let p = f.probes[1].as_ref().unwrap();
+    assert_eq!(p.names, ["2X".to_string(), "2Y".to_string()]);
+    assert_eq!(p.angles, [45f64.to_radians(), (-45f64).to_radians()]);
+    // y, z back from the readings.
+    let (y, z) = (
+        num_complex::Complex64::new(1e-6, -2e-6),
+        num_complex::Complex64::new(-3e-7, 4e-6),
+    );
+    let back = p.to_yz(p.readings(y, z));
+    assert!((back[0] - y).norm() < 1e-15 * y.norm() && (back[1] - z).norm() < 1e-15 * z.norm());
+    for (decl, field, needle) in [
+        ("{ name = \"2X\", angle_deg = 45.0 }", "bearing[2].probes: ", "expected 2 probes"),
+        (
+            "{ name = \"A\", angle_deg = 0.0 }, { name = \"B\", angle_deg = 90.0 }, { name = \"C\", angle_deg = 45.0 }",
+            "bearing[2].probes: ",
+            "got 3",
+        ),
+        (
+            "{ name = \"2X\", angle_deg = 45.0 }, { name = \"2Y\", angle_deg = 225.0 }",
+            "bearing[2].probes[2].angle_deg: ",
+            "parallel",
+        ),
+        (
+            "{ name = \"2X\", angle_deg = 45.0 }, { name = \"2Y\", angle_deg = 48.0 }",
+            "bearing[2].probes[2].angle_deg: ",
+            "at least 5 deg apart",
+        ),
+        (
+            "{ name = \"2 X\", angle_deg = 45.0 }, { name = \"2Y\", angle_deg = -45.0 }",
+            "bearing[2].probes[1].name: ",
+            "letters, digits",
+        ),
+        (
+            "{ name = \"2X\", angle_deg = 45.0 }, { name = \"2X\", angle_deg = -45.0 }",
+            "bearing[2].probes[2].name: ",
+            "probes[1] too",
+        ),
+        (
+            "{ name = \"b1_y\", angle_deg = 45.0 }, { name = \"2Y\", angle_deg = -45.0 }",
+            "bearing[2].probes[1].name: ",
+            "used twice",
+        ),
+        (
+            "{ name = \"2X\", angle_deg = nan }, { name = \"2Y\", angle_deg = -45.0 }",
+            "bearing[2].probes[1].angle_deg: ",
+            "",
+        ),
+        (
+            "{ name = \"2X\", angle_deg = 400.0 }, { name = \"2Y\", angle_deg = -45.0 }",
+            "bearing[2].probes[1].angle_deg: ",
+            "outside -360..=360",
+        ),
+        (
+            "{ name = \"2X\", angle = 45.0 }, { name = \"2Y\", angle_deg = -45.0 }",
+            "bearing[2].probes[1].angle: ",
+            "unknown field",
+        ),
+    ] {
+        let e = err(&with(decl));
+        assert!(e.starts_with(field) && e.contains(needle), "{decl}: {e}");
+    }
 }

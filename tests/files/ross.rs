@@ -107,10 +107,28 @@ cyy = 1500.0
     let text = paper_ross().replacen("n = 0\nkxx", "n = 0\nn_link = 27\nkxx", 1) + extra;
     let m = parse_ross(&text).unwrap();
     let p = m.bearings[0].pedestal.unwrap();
-    assert_eq!(p.mass, 25.0);
+    assert_eq!(p.mass, [25.0, 25.0]);
     assert_eq!(p.k, [2e8, 3e8]);
     assert_eq!(p.c, [1000.0, 1500.0]);
     assert!(m.bearings[1].pedestal.is_none());
+    // A mass per direction (ROSS mx, my = our y, z); mz is axial, unused.
+    let two = text.replacen(
+        "m = 25.0\ntag = \"P0\"",
+        "mx = 25.0\nmy = 40.0\nmz = 1.0\ntag = \"P0\"",
+        1,
+    );
+    let p = parse_ross(&two).unwrap().bearings[0].pedestal.unwrap();
+    assert_eq!(p.mass, [25.0, 40.0]);
+    // Written back as mx, my, and read back the same.
+    let back = parse_ross(&rotorid::io::ross::to_ross_toml(&parse_ross(&two).unwrap()).unwrap());
+    assert_eq!(back.unwrap().bearings[0].pedestal.unwrap(), p);
+    // mx without my is not a point mass ROSS builds.
+    let half = text.replacen("m = 25.0\ntag = \"P0\"", "mx = 25.0\ntag = \"P0\"", 1);
+    let e = parse_ross(&half).unwrap_err().to_string();
+    assert!(
+        e.starts_with("PointMass_P0: ") && e.contains("mx and my"),
+        "{e}"
+    );
     // A point mass with no support to ground is refused.
     let lonely = paper_ross().replacen("n = 0\nkxx", "n = 0\nn_link = 27\nkxx", 1)
         + "[\"PointMass_P0\"]\nn = 27\nm = 25.0\n";

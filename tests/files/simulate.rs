@@ -175,7 +175,7 @@ fn pedestal_adds_a_resonance() {
     // A soft, heavy pedestal: m = 200 kg on 5e7 N/m, about 4800 rpm alone.
     let eff = Effects {
         pedestal: Some(Pedestal {
-            mass: 200.0,
+            mass: [200.0, 200.0],
             k: [5e7, 5e7],
             c: [500.0, 500.0],
         }),

@@ -155,7 +155,7 @@ fn bearing_z(model: &RotorModel, omega: f64) -> DMatrix<Complex64> {
             let zb = Matrix2::from_fn(|r, k| z[(2 * m + r, 2 * m + k)]);
             let zp = Matrix2::from_fn(|r, k| {
                 if r == k {
-                    Complex64::new(p.k[r] - omega * omega * p.mass, omega * p.c[r])
+                    Complex64::new(p.k[r] - omega * omega * p.mass[r], omega * p.c[r])
                 } else {
                     Complex64::new(0.0, 0.0)
                 }
@@ -274,7 +274,7 @@ fn identity_holds_with_a_plane_at_a_bearing_node() {
 fn pedestals_are_an_effective_bearing() {
     let mut m = RotorModel::paper();
     let ped = |mass: f64, k: f64, c: f64| Pedestal {
-        mass,
+        mass: [mass, 1.2 * mass],
         k: [k, 1.3 * k],
         c: [c, 0.7 * c],
     };

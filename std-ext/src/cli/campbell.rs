@@ -50,6 +50,18 @@ pub struct CampbellArgs {
     /// Write the modes per speed and the critical speeds as CSV.
     #[arg(long, value_name = "OUT.csv")]
     pub csv: Option<std::path::PathBuf>,
+    /// Write the shapes of the lowest modes at `--modes-rpm` as SVG (at
+    /// most `--modes`, and at most 6).
+    #[arg(long, value_name = "OUT.svg")]
+    pub modes_plot: Option<std::path::PathBuf>,
+    /// Speed (rpm) of the `--modes-plot` shapes.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "RPM",
+        allow_negative_numbers = true
+    )]
+    pub modes_rpm: f64,
 }
 
 /// Extra modes solved per speed beyond `--modes`, so that a mode leaving
@@ -77,6 +89,7 @@ pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         ("--plot", args.plot.as_deref()),
         ("--json", args.json.as_deref()),
         ("--csv", args.csv.as_deref()),
+        ("--modes-plot", args.modes_plot.as_deref()),
     ];
     super::refuse_overwriting_inputs(Some(&args.model), &[], &outputs)?;
     for (i, (fa, a)) in outputs.iter().enumerate() {
@@ -100,6 +113,12 @@ pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     }
     if args.modes == 0 {
         return Err(CliError("--modes must be at least 1".into()));
+    }
+    if !(args.modes_rpm.is_finite() && args.modes_rpm >= 0.0) {
+        return Err(CliError(format!(
+            "--modes-rpm must be finite and >= 0, got {}",
+            args.modes_rpm
+        )));
     }
     let rpm = uniform_rpm(0.0, args.rpm_max, args.rpm_step)?;
     let omegas: Vec<f64> = rpm.iter().map(|&r| rpm_to_rad_s(r)).collect();
@@ -141,6 +160,32 @@ pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     }
     if let Some(path) = &args.plot {
         report.plot(path, args.rpm_max)?;
+        writeln!(io.err, "wrote {}", path.display())?;
+    }
+    if let Some(path) = &args.modes_plot {
+        let n = args.modes.min(crate::report::campbell::MAX_SHAPE_MODES);
+        let at = campbell_with(
+            &fe,
+            &[rpm_to_rad_s(args.modes_rpm)],
+            &CampbellOptions {
+                max_modes: n,
+                ..CampbellOptions::default()
+            },
+        )?;
+        let modes = at.points.first().map(|p| p.modes.as_slice()).unwrap_or(&[]);
+        if modes.is_empty() {
+            return Err(CliError(format!(
+                "--modes-plot: no mode with a positive damped frequency at {} rpm",
+                args.modes_rpm
+            )));
+        }
+        crate::report::campbell::mode_shape_plot(
+            path,
+            &model_label(&args.model),
+            &file.model,
+            &modes[..modes.len().min(n)],
+            args.modes_rpm,
+        )?;
         writeln!(io.err, "wrote {}", path.display())?;
     }
     Ok(())

@@ -43,9 +43,12 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             ("--plot", args.plot.as_deref()),
         ],
     )?;
-    let model = super::load_model(&args.model)?.model;
-    let meas = crate::io::measurement::read_csv(&args.measurements)
-        .map_err(|e| super::measurement_error(&args.measurements, e))?;
+    let model_file = super::load_model(&args.model)?;
+    let (mut meas, _, probe_readings) = super::read_measurements(&args.measurements, &model_file)?;
+    if probe_readings {
+        crate::io::measurement::probes_to_yz(&mut meas, &model_file.probes);
+    }
+    let model = model_file.model;
     if meas.samples.len() < 8 {
         return Err(CliError::new(format!(
             "{}: {} speeds: the diagnosis needs at least 8 (and many more to tell effects apart)",

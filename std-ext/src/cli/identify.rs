@@ -52,6 +52,37 @@ fn check_response_range(meas: &Measurements, located: &CsvLocations) -> Result<(
     Ok(())
 }
 
+/// The text of the ROSS rotor file `--ross-out` writes: `model` with its
+/// bearing laws replaced by the identified ones
+/// ([`crate::estimate::Identification::identified_model`]; unbalance is not
+/// part of a ROSS rotor file). Constant laws (physical structure, order 1)
+/// are written as constants; laws that change with speed (physical order
+/// P > 1, `K(Omega) = sum_p K_p Omega^p`; the paper structure,
+/// `Z_B = sum_p Omega^p Z_p`) as PCHIP tables of
+/// [`crate::io::ross::ROSS_TABLE_POINTS`] speeds spread evenly over the
+/// measured speed range, which is where the law was fitted.
+fn identified_ross_file(
+    id: &crate::estimate::Identification,
+    model: &crate::model::RotorModel,
+    meas: &Measurements,
+) -> Result<String, CliError> {
+    let omega_min = meas
+        .samples
+        .iter()
+        .map(|s| s.omega)
+        .fold(f64::INFINITY, f64::min);
+    let omega_max = crate::estimate::max_speed(&meas.samples);
+    let identified = id.identified_model(model);
+    let tabulated = crate::io::ross::tabulate_for_ross(
+        &identified,
+        omega_min,
+        omega_max,
+        crate::io::ross::ROSS_TABLE_POINTS,
+    )
+    .map_err(|e| CliError::new(format!("--ross-out: {e}")))?;
+    crate::io::ross::to_ross_toml(&tabulated).map_err(|e| CliError::new(format!("--ross-out: {e}")))
+}
+
 /// Model structure of the identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Formulation {
@@ -104,6 +135,11 @@ pub struct IdentifyArgs {
     /// Write plots (SVG) into this folder.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<std::path::PathBuf>,
+    /// Write the model as a ROSS rotor file with its bearings replaced by
+    /// the identified ones (constant K, C; a law that changes with speed as
+    /// a PCHIP table over the measured speed range).
+    #[arg(long, value_name = "FILE.toml")]
+    pub ross_out: Option<std::path::PathBuf>,
     /// Divide each equation by the norm of its regressor row (weights the
     /// speeds evenly; better with noise proportional to the response).
     #[arg(long)]
@@ -167,13 +203,18 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         &[
             ("--json", args.json.as_deref()),
             ("--plot", args.plot.as_deref()),
+            ("--ross-out", args.ross_out.as_deref()),
         ],
     )?;
-    let model = super::load_model(&args.model)?.model;
+    let model_file = super::load_model(&args.model)?;
     let file = args.measurements.display().to_string();
-    let (meas, located) = crate::io::measurement::read_csv_located(&args.measurements)
-        .map_err(|e| super::measurement_error(&args.measurements, e))?;
+    let (mut meas, located, probe_readings) =
+        super::read_measurements(&args.measurements, &model_file)?;
     check_response_range(&meas, &located).map_err(|e| CliError::new(format!("{file}: {e}")))?;
+    if probe_readings {
+        crate::io::measurement::probes_to_yz(&mut meas, &model_file.probes);
+    }
+    let model = model_file.model;
     let structure = match args.formulation {
         Formulation::Physical => Structure::physical(args.order),
         Formulation::Paper => Structure::paper(args.order),
@@ -241,6 +282,12 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&id.result())?;
         crate::io::output::write_atomic(path, (text + "\n").as_bytes())?;
+    }
+    if let Some(path) = &args.ross_out {
+        let text = identified_ross_file(&id, &model, &meas)?;
+        crate::io::output::write_atomic(path, text.as_bytes())
+            .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
+        writeln!(io.err, "wrote {}", path.display())?;
     }
     if let Some(dir) = &args.plot {
         let rpm_max = crate::units::rad_s_to_rpm(crate::estimate::max_speed(&meas.samples));

@@ -195,7 +195,7 @@ impl SimulateArgs {
                 ));
             }
             e.pedestal = Some(Pedestal {
-                mass: m,
+                mass: [m, m],
                 k: [k, k],
                 c: [c, c],
             });
@@ -278,7 +278,35 @@ pub fn run(args: &SimulateArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         LayoutArg::Complex => CsvLayout::Complex,
         LayoutArg::AmpPhase => CsvLayout::AmplitudePhase,
     };
-    write_csv_with_node_probes(&m, &args.out, layout, &nodes, &node_q)?;
+    if file.has_probes() {
+        // The bearing channels as the declared probes read them (noise and
+        // runout were added to y, z).
+        let mut readings = m.clone();
+        crate::io::measurement::yz_to_probes(&mut readings, &file.probes);
+        for (b, p) in file.probes.iter().enumerate() {
+            if let Some(p) = p {
+                readings.comments.push(format!(
+                    "bearing {}: probes {} at {} deg, {} at {} deg from +y toward +z (reading cos(theta) y + sin(theta) z)",
+                    b + 1,
+                    p.names[0],
+                    p.angles[0].to_degrees(),
+                    p.names[1],
+                    p.angles[1].to_degrees()
+                ));
+            }
+        }
+        let names = crate::io::measurement::model_channel_names(&file.probes);
+        crate::io::measurement::write_csv_channels(
+            &readings,
+            &args.out,
+            layout,
+            Some(&names),
+            &nodes,
+            &node_q,
+        )?;
+    } else {
+        write_csv_with_node_probes(&m, &args.out, layout, &nodes, &node_q)?;
+    }
     writeln!(
         io.err,
         "wrote {} speeds x {} channels to {}",

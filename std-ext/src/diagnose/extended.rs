@@ -768,7 +768,7 @@ mod tests {
         let (k, c) = ped.k_c();
         let mut mp = m.clone();
         mp.bearings[1].pedestal = Some(crate::model::Pedestal {
-            mass: ped.mass,
+            mass: [ped.mass, ped.mass],
             k,
             c,
         });

@@ -147,7 +147,7 @@ pub fn generate(
             let zy = rng.random_range(0.02..0.08);
             let zz = rng.random_range(0.02..0.08);
             let p = Pedestal {
-                mass,
+                mass: [mass, mass],
                 k: [mass * wy * wy, mass * wz * wz],
                 c: [2.0 * zy * mass * wy, 2.0 * zz * mass * wz],
             };

@@ -403,8 +403,8 @@ impl FeModel {
                 self.pedestal_dof(bi, Dir::Y),
                 self.pedestal_dof(bi, Dir::Z),
             ) {
-                d[(iy, iy)] += p.mass;
-                d[(iz, iz)] += p.mass;
+                d[(iy, iy)] += p.mass[0];
+                d[(iz, iz)] += p.mass[1];
             }
         }
         d

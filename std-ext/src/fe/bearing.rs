@@ -10,8 +10,9 @@
 //! Z_B(s) = K + s C          (harmonic at Omega: s = j Omega, Eq. 43)
 //! ```
 //!
-//! A pedestal is a mass `m_p` with its own stiffness and damping to ground,
-//! `Z_P(s) = diag(k_y + s c_y + s^2 m_p, k_z + s c_z + s^2 m_p)`; the bearing acts
+//! A pedestal is a mass (`m_y`, `m_z` in y and z, kg) with its own stiffness
+//! and damping to ground,
+//! `Z_P(s) = diag(k_y + s c_y + s^2 m_y, k_z + s c_z + s^2 m_z)`; the bearing acts
 //! between the shaft node and the pedestal. With no external force on the
 //! pedestal, its equation `Z_B (q_p - q_s) + Z_P q_p = 0` gives
 //!
@@ -55,9 +56,10 @@ pub fn bearing_dynamic_stiffness(law: &BearingLaw, omega: f64, s: Complex64) -> 
     stiffness(&c).map(|v| Complex64::new(v, 0.0)) + damping(&c).map(|v| s * v)
 }
 
-/// Pedestal dynamic stiffness `Z_P(s) = diag(k + s c + s^2 m)` (N/m).
+/// Pedestal dynamic stiffness `Z_P(s) = diag(k_y + s c_y + s^2 m_y,
+/// k_z + s c_z + s^2 m_z)` (N/m).
 pub fn pedestal_dynamic_stiffness(p: &Pedestal, s: Complex64) -> Matrix2<Complex64> {
-    let d = |j: usize| Complex64::new(p.k[j], 0.0) + s * p.c[j] + s * s * p.mass;
+    let d = |j: usize| Complex64::new(p.k[j], 0.0) + s * p.c[j] + s * s * p.mass[j];
     Matrix2::from_diagonal(&Vector2::new(d(0), d(1)))
 }
 
@@ -92,7 +94,7 @@ mod tests {
             c: [500.0, 50.0, 100.0, 700.0],
         });
         let p = Pedestal {
-            mass: 50.0,
+            mass: [50.0, 70.0],
             k: [2e7, 3e7],
             c: [1e3, 2e3],
         };
@@ -112,7 +114,7 @@ mod tests {
         assert!((zb * (qs - qp) - zeff * qs).norm() < 1e-9 * (zeff * qs).norm());
         // A very stiff pedestal gives back the bearing.
         let stiff = Pedestal {
-            mass: 1.0,
+            mass: [1.0, 1.0],
             k: [1e18, 1e18],
             c: [0.0, 0.0],
         };

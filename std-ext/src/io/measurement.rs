@@ -34,6 +34,10 @@
 //!   node at most once. They read the shaft's absolute displacement at that
 //!   node ([`Measurements::node_probes`], [`Measurements::node_q`]); the
 //!   identification uses the bearing columns only, the diagnosis uses all.
+//! - For a model that declares probes at an angle
+//!   ([`crate::model::ProbePair`]), the bearing columns are named by
+//!   channel ([`model_channel_names`], [`parse_csv_channels`]) and hold the
+//!   probes' readings, which [`probes_to_yz`] turns into `y`, `z`.
 //!
 //! The writer prints every number with Rust's shortest round-trip
 //! representation (`{:e}`), so the phasors read back bit for bit; the speed
@@ -46,6 +50,7 @@ use num_complex::Complex64;
 use thiserror::Error;
 
 use crate::io::clip;
+use crate::model::ProbePair;
 use crate::units::{rad_s_to_rpm, rpm_to_rad_s};
 
 /// Most data rows a measurement file may hold (a sweep of one million
@@ -162,29 +167,86 @@ pub enum MeasurementError {
 
 /// Header names of the `2 N_b` channels' columns for a layout.
 pub fn header_columns(n_bearings: usize, layout: CsvLayout) -> Vec<String> {
+    named_header_columns(&default_channel_names(n_bearings), layout)
+}
+
+/// The SPEC's channel names `b1_y, b1_z, b2_y, ...` of `n_bearings`
+/// bearings.
+pub fn default_channel_names(n_bearings: usize) -> Vec<String> {
+    (1..=n_bearings)
+        .flat_map(|b| [format!("b{b}_y"), format!("b{b}_z")])
+        .collect()
+}
+
+/// The channel names of a model's bearings, two per bearing in bearing
+/// order: the names of its declared probes ([`ProbePair`]), or `bK_y`,
+/// `bK_z` for a bearing without.
+pub fn model_channel_names(probes: &[Option<ProbePair>]) -> Vec<String> {
+    let defaults = default_channel_names(probes.len());
+    probes
+        .iter()
+        .enumerate()
+        .flat_map(|(b, p)| match p {
+            Some(p) => p.names.clone(),
+            None => [defaults[2 * b].clone(), defaults[2 * b + 1].clone()],
+        })
+        .collect()
+}
+
+/// Header (with `speed_rpm`) of channels named `names` (`<name>_re,
+/// <name>_im` or `<name>_amp,<name>_phase_deg` each).
+pub fn named_header_columns(names: &[String], layout: CsvLayout) -> Vec<String> {
     let mut cols = vec!["speed_rpm".to_string()];
-    for b in 1..=n_bearings {
-        for dir in ["y", "z"] {
-            match layout {
-                CsvLayout::Complex => {
-                    cols.push(format!("b{b}_{dir}_re"));
-                    cols.push(format!("b{b}_{dir}_im"));
-                }
-                CsvLayout::AmplitudePhase => {
-                    cols.push(format!("b{b}_{dir}_amp"));
-                    cols.push(format!("b{b}_{dir}_phase_deg"));
-                }
+    for n in names {
+        match layout {
+            CsvLayout::Complex => {
+                cols.push(format!("{n}_re"));
+                cols.push(format!("{n}_im"));
+            }
+            CsvLayout::AmplitudePhase => {
+                cols.push(format!("{n}_amp"));
+                cols.push(format!("{n}_phase_deg"));
             }
         }
     }
     cols
 }
 
+/// Replaces, at every sample, the readings of each bearing's declared
+/// probes (in its two channels, as read from a probe-named file) by the
+/// shaft's `Y`, `Z` there ([`ProbePair::to_yz`]). `probes` has one entry per
+/// bearing; bearings without probes are left as they are.
+pub fn probes_to_yz(m: &mut Measurements, probes: &[Option<ProbePair>]) {
+    for s in &mut m.samples {
+        for (b, p) in probes.iter().enumerate() {
+            if let (Some(p), Some(q)) = (p, s.q.get_mut(2 * b..2 * b + 2)) {
+                let yz = p.to_yz([q[0], q[1]]);
+                q.copy_from_slice(&yz);
+            }
+        }
+    }
+}
+
+/// The inverse of [`probes_to_yz`]: each declared probe pair's readings
+/// ([`ProbePair::readings`]) in place of the bearing's `Y`, `Z`.
+pub fn yz_to_probes(m: &mut Measurements, probes: &[Option<ProbePair>]) {
+    for s in &mut m.samples {
+        for (b, p) in probes.iter().enumerate() {
+            if let (Some(p), Some(q)) = (p, s.q.get_mut(2 * b..2 * b + 2)) {
+                let r = p.readings(q[0], q[1]);
+                q.copy_from_slice(&r);
+            }
+        }
+    }
+}
+
 /// Recognises a header line; returns N_b, the layout and the node probes
-/// (0-based nodes).
+/// (0-based nodes). With `channels`, the bearing columns are those
+/// channels' (`<name>_re`, ...), `channels.len() / 2` bearings.
 fn parse_header(
     line_no: usize,
     line: &str,
+    channels: Option<&[String]>,
 ) -> Result<(usize, CsvLayout, Vec<usize>), MeasurementError> {
     let cols: Vec<&str> = line.split(',').map(str::trim).collect();
     let bad = |reason: String| MeasurementError::Header {
@@ -197,7 +259,10 @@ fn parse_header(
             clip(cols.first().copied().unwrap_or(""))
         )));
     }
-    let n_bearing_cols = cols[1..].iter().take_while(|c| c.starts_with('b')).count();
+    let n_bearing_cols = match channels {
+        Some(names) => (2 * names.len()).min(cols.len() - 1),
+        None => cols[1..].iter().take_while(|c| c.starts_with('b')).count(),
+    };
     let n_node_cols = cols.len() - 1 - n_bearing_cols;
     if n_bearing_cols == 0 || n_bearing_cols % 4 != 0 {
         return Err(bad(format!(
@@ -234,7 +299,11 @@ fn parse_header(
         }
         nodes.push(node - 1);
     }
-    let expected: Vec<String> = header_columns(n_b, layout)
+    let bearing_header = match channels {
+        Some(names) => named_header_columns(names, layout),
+        None => header_columns(n_b, layout),
+    };
+    let expected: Vec<String> = bearing_header
         .into_iter()
         .chain(node_probe_columns(&nodes, layout))
         .collect();
@@ -263,6 +332,9 @@ pub struct CsvLocations {
     pub lines: Vec<usize>,
     /// The file's column layout.
     pub layout: CsvLayout,
+    /// The channels' names in the file (`b1_y`, ... or probe names); empty
+    /// means the SPEC's `b1_y, b1_z, ...`.
+    pub channels: Vec<String>,
 }
 
 impl CsvLocations {
@@ -270,11 +342,17 @@ impl CsvLocations {
     /// real part (complex layout) or the amplitude (amplitude/phase
     /// layout) of channel `ch` (0-based, `b1_y, b1_z, b2_y, ...`).
     pub fn channel_column(&self, ch: usize) -> (usize, String) {
-        let b = ch / 2 + 1;
-        let dir = if ch % 2 == 0 { "y" } else { "z" };
+        let base = match self.channels.get(ch) {
+            Some(n) => n.clone(),
+            None => {
+                let b = ch / 2 + 1;
+                let dir = if ch % 2 == 0 { "y" } else { "z" };
+                format!("b{b}_{dir}")
+            }
+        };
         let name = match self.layout {
-            CsvLayout::Complex => format!("b{b}_{dir}_re"),
-            CsvLayout::AmplitudePhase => format!("b{b}_{dir}_amp"),
+            CsvLayout::Complex => format!("{base}_re"),
+            CsvLayout::AmplitudePhase => format!("{base}_amp"),
         };
         (2 + 2 * ch, name)
     }
@@ -282,6 +360,18 @@ impl CsvLocations {
 
 /// [`parse_csv`], also returning where every sample came from.
 pub fn parse_csv_located(text: &str) -> Result<(Measurements, CsvLocations), MeasurementError> {
+    parse_csv_channels(text, None)
+}
+
+/// [`parse_csv_located`] of a file whose bearing columns are the channels
+/// `channels` (two per bearing, e.g. [`model_channel_names`]: probe names
+/// `<name>_re,<name>_im` or `<name>_amp,<name>_phase_deg`), in that order;
+/// `None` is the SPEC's header. The phasors are the columns' values as
+/// they stand (probe readings: see [`probes_to_yz`]).
+pub fn parse_csv_channels(
+    text: &str,
+    channels: Option<&[String]>,
+) -> Result<(Measurements, CsvLocations), MeasurementError> {
     let mut comments = Vec::new();
     let mut header: Option<(usize, CsvLayout, Vec<String>)> = None;
     let mut node_probes = Vec::new();
@@ -303,8 +393,12 @@ pub fn parse_csv_located(text: &str) -> Result<(Measurements, CsvLocations), Mea
             continue;
         }
         let Some((n_b, layout, names)) = &header else {
-            let (n_b, layout, nodes) = parse_header(line_no, line)?;
-            let names = header_columns(n_b, layout)
+            let (n_b, layout, nodes) = parse_header(line_no, line, channels)?;
+            let bearing_header = match channels {
+                Some(c) => named_header_columns(c, layout),
+                None => header_columns(n_b, layout),
+            };
+            let names = bearing_header
                 .into_iter()
                 .chain(node_probe_columns(&nodes, layout))
                 .collect();
@@ -410,6 +504,7 @@ pub fn parse_csv_located(text: &str) -> Result<(Measurements, CsvLocations), Mea
         CsvLocations {
             lines,
             layout: file_layout,
+            channels: channels.map(<[String]>::to_vec).unwrap_or_default(),
         },
     ))
 }
@@ -431,6 +526,20 @@ pub fn read_csv_located(
     parse_csv_located(&text)
 }
 
+/// [`read_csv_located`] with the bearing channels named `channels`
+/// ([`parse_csv_channels`]).
+pub fn read_csv_channels(
+    path: impl AsRef<Path>,
+    channels: Option<&[String]>,
+) -> Result<(Measurements, CsvLocations), MeasurementError> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|source| MeasurementError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    parse_csv_channels(&text, channels)
+}
+
 /// The speed column's value for `omega` (rad/s): rpm rounded to 12
 /// significant digits, so that a grid speed such as 1000 rpm, which the
 /// rad/s round trip turns into 999.9999999999999, is written as `1000`.
@@ -446,14 +555,31 @@ fn speed_for_file(omega: f64) -> f64 {
 /// non-finite or negative speed or a non-finite phasor.
 pub fn to_csv_string(m: &Measurements, layout: CsvLayout) -> Result<String, MeasurementError> {
     if m.node_probes.is_empty() {
-        bearing_csv_string(m, layout)
+        bearing_csv_string(m, layout, None)
     } else {
         to_csv_string_with_node_probes(m, layout, &m.node_probes, &m.node_q)
     }
 }
 
 /// The comments, the bearing columns and the rows of [`to_csv_string`].
-fn bearing_csv_string(m: &Measurements, layout: CsvLayout) -> Result<String, MeasurementError> {
+fn bearing_csv_string(
+    m: &Measurements,
+    layout: CsvLayout,
+    channels: Option<&[String]>,
+) -> Result<String, MeasurementError> {
+    if let Some(c) = channels {
+        if c.len() != 2 * m.n_bearings {
+            return Err(MeasurementError::Inconsistent {
+                index: 0,
+                reason: format!(
+                    "{} channel names for {} bearings (expected {})",
+                    c.len(),
+                    m.n_bearings,
+                    2 * m.n_bearings
+                ),
+            });
+        }
+    }
     let mut out = String::new();
     for c in &m.comments {
         // A comment containing a line break would break the format.
@@ -461,7 +587,11 @@ fn bearing_csv_string(m: &Measurements, layout: CsvLayout) -> Result<String, Mea
             let _ = writeln!(out, "# {part}");
         }
     }
-    out.push_str(&header_columns(m.n_bearings, layout).join(","));
+    let header = match channels {
+        Some(c) => named_header_columns(c, layout),
+        None => header_columns(m.n_bearings, layout),
+    };
+    out.push_str(&header.join(","));
     out.push('\n');
     for (index, s) in m.samples.iter().enumerate() {
         let bad = |reason: String| MeasurementError::Inconsistent { index, reason };
@@ -553,7 +683,20 @@ pub fn to_csv_string_with_node_probes(
     nodes: &[usize],
     node_q: &[Vec<Complex64>],
 ) -> Result<String, MeasurementError> {
-    let text = bearing_csv_string(m, layout)?;
+    to_csv_string_channels(m, layout, None, nodes, node_q)
+}
+
+/// [`to_csv_string_with_node_probes`] with the bearing channels named
+/// `channels` (two per bearing, e.g. probe names; `None`: `b1_y, ...`);
+/// the phasors are written as they stand (see [`yz_to_probes`]).
+pub fn to_csv_string_channels(
+    m: &Measurements,
+    layout: CsvLayout,
+    channels: Option<&[String]>,
+    nodes: &[usize],
+    node_q: &[Vec<Complex64>],
+) -> Result<String, MeasurementError> {
+    let text = bearing_csv_string(m, layout, channels)?;
     if nodes.is_empty() {
         return Ok(text);
     }
@@ -638,8 +781,21 @@ pub fn write_csv_with_node_probes(
     nodes: &[usize],
     node_q: &[Vec<Complex64>],
 ) -> Result<(), MeasurementError> {
+    write_csv_channels(m, path, layout, None, nodes, node_q)
+}
+
+/// [`write_csv_with_node_probes`] with named bearing channels
+/// ([`to_csv_string_channels`]), written atomically.
+pub fn write_csv_channels(
+    m: &Measurements,
+    path: impl AsRef<Path>,
+    layout: CsvLayout,
+    channels: Option<&[String]>,
+    nodes: &[usize],
+    node_q: &[Vec<Complex64>],
+) -> Result<(), MeasurementError> {
     let path = path.as_ref();
-    let text = to_csv_string_with_node_probes(m, layout, nodes, node_q)?;
+    let text = to_csv_string_channels(m, layout, channels, nodes, node_q)?;
     crate::io::output::write_atomic(path, text.as_bytes()).map_err(|e| MeasurementError::Io {
         path: path.display().to_string(),
         source: match e {
@@ -656,13 +812,14 @@ mod tests {
     #[test]
     fn header_both_layouts() {
         assert_eq!(
-            parse_header(1, "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im").unwrap(),
+            parse_header(1, "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im", None).unwrap(),
             (1, CsvLayout::Complex, vec![])
         );
         assert_eq!(
             parse_header(
                 1,
-                "speed_rpm, b1_y_amp,b1_y_phase_deg,b1_z_amp,b1_z_phase_deg"
+                "speed_rpm, b1_y_amp,b1_y_phase_deg,b1_z_amp,b1_z_phase_deg",
+                None
             )
             .unwrap(),
             (1, CsvLayout::AmplitudePhase, vec![])
@@ -670,7 +827,8 @@ mod tests {
         assert_eq!(
             parse_header(
                 1,
-                "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,n14_y_re,n14_y_im,n14_z_re,n14_z_im"
+                "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,n14_y_re,n14_y_im,n14_z_re,n14_z_im",
+                None
             )
             .unwrap(),
             (1, CsvLayout::Complex, vec![13])
@@ -682,10 +840,10 @@ mod tests {
             "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,n3_y_amp,n3_y_phase_deg,n3_z_amp,n3_z_phase_deg",
             "speed_rpm,b1_y_re,b1_y_im,b1_z_re,b1_z_im,n3_y_re,n3_y_im",
         ] {
-            assert!(parse_header(1, bad).is_err(), "{bad}");
+            assert!(parse_header(1, bad, None).is_err(), "{bad}");
         }
-        assert!(parse_header(1, "speed_rpm,b1_y_re,b1_y_im,b1_z_im,b1_z_re").is_err());
-        assert!(parse_header(1, "speed,b1_y_re,b1_y_im,b1_z_re,b1_z_im").is_err());
-        assert!(parse_header(1, "speed_rpm").is_err());
+        assert!(parse_header(1, "speed_rpm,b1_y_re,b1_y_im,b1_z_im,b1_z_re", None).is_err());
+        assert!(parse_header(1, "speed,b1_y_re,b1_y_im,b1_z_re,b1_z_im", None).is_err());
+        assert!(parse_header(1, "speed_rpm", None).is_err());
     }
 }

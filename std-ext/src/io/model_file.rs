@@ -43,6 +43,9 @@
 //! #   polynomial = { k = [[0,0,0,0], [0,0,0,0], [k2yy, k2yz, k2zy, k2zz]], c = [[...]] }
 //! # optional pedestal (foundation mass) under the bearing:
 //! #   pedestal = { mass = 50.0, k = [1e8, 1e8], c = [2e3, 2e3] }   # [y, z]
+//! #   (mass in kg: one value for y and z, or [m_y, m_z])
+//! # optional two probes, angles (deg) from +y toward +z ([`ProbePair`]):
+//! #   probes = [{ name = "1X", angle_deg = 45.0 }, { name = "1Y", angle_deg = -45.0 }]
 //!
 //! [[unbalance]]                  # optional true unbalance (used by the simulator)
 //! node = 5
@@ -81,7 +84,7 @@ use crate::model::plausible::{
 };
 use crate::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, BowPoint, Disk, Material, ModelError,
-    Pedestal, ProbeReference, ProportionalDamping, RotorModel, ShaftBow, ShaftElement,
+    Pedestal, ProbePair, ProbeReference, ProportionalDamping, RotorModel, ShaftBow, ShaftElement,
     TableInterpolation, Unbalance,
 };
 use crate::units::rpm_to_rad_s;
@@ -146,6 +149,26 @@ pub struct ModelFile {
     pub model: RotorModel,
     /// Effects of the `[simulate]` section (all off when absent).
     pub effects: Effects,
+    /// The probes declared per bearing (bearing order; `None`: the SPEC's
+    /// `y`, `z` channels), see [`ProbePair`].
+    pub probes: Vec<Option<ProbePair>>,
+}
+
+impl ModelFile {
+    /// A model with no `[simulate]` effects and no declared probes.
+    pub fn plain(model: RotorModel) -> Self {
+        let probes = vec![None; model.bearings.len()];
+        ModelFile {
+            model,
+            effects: Effects::default(),
+            probes,
+        }
+    }
+
+    /// True if some bearing declares its probes.
+    pub fn has_probes(&self) -> bool {
+        self.probes.iter().any(Option::is_some)
+    }
 }
 
 // ---------------------------------------------------------------------------
@@ -223,6 +246,14 @@ struct RawBearing {
     table: Option<RawTable>,
     polynomial: Option<RawPolynomial>,
     pedestal: Option<RawPedestal>,
+    probes: Option<Vec<RawProbe>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawProbe {
+    name: String,
+    angle_deg: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -240,10 +271,18 @@ struct RawPolynomial {
     c: Vec<[f64; 4]>,
 }
 
+/// A pedestal mass: one number for both directions, or `[m_y, m_z]`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(untagged, expecting = "a mass in kg, or [m_y, m_z] in kg")]
+enum RawMass {
+    One(f64),
+    Two([f64; 2]),
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawPedestal {
-    mass: f64,
+    mass: RawMass,
     k: [f64; 2],
     c: [f64; 2],
 }
@@ -413,8 +452,21 @@ fn node(field: &str, n: usize, n_nodes: usize) -> Result<usize, ModelFileError> 
 }
 
 fn pedestal(field: &str, p: &RawPedestal) -> Result<Pedestal, ModelFileError> {
-    let mass = finite_pos(&format!("{field}.mass"), p.mass)?;
-    let mass = plausible(&format!("{field}.mass"), mass, MASS)?;
+    let mass = match p.mass {
+        RawMass::One(m) => {
+            let m = finite_pos(&format!("{field}.mass"), m)?;
+            let m = plausible(&format!("{field}.mass"), m, MASS)?;
+            [m, m]
+        }
+        RawMass::Two(m) => {
+            let mut out = [0.0; 2];
+            for j in 0..2 {
+                let name = format!("{field}.mass[{}]", j + 1);
+                out[j] = plausible(&name, finite_pos(&name, m[j])?, MASS)?;
+            }
+            out
+        }
+    };
     let mut k = [0.0; 2];
     let mut c = [0.0; 2];
     for j in 0..2 {
@@ -627,8 +679,14 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         ));
     }
     let mut bearings = Vec::new();
+    let mut probe_pairs = Vec::new();
     for (i, b) in raw.bearing.iter().enumerate() {
         let f = |k: &str| format!("bearing[{}].{k}", i + 1);
+        let pair = match &b.probes {
+            Some(p) => Some(probe_pair(&f("probes"), p)?),
+            None => None,
+        };
+        probe_pairs.push((b.node, i, pair));
         let n = node(&f("node"), b.node, n_nodes)?;
         let law = match (&b.k, &b.c, &b.table, &b.polynomial) {
             (Some(k), Some(c), None, None) => {
@@ -721,6 +779,38 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         });
     }
     bearings.sort_by_key(|b| b.node);
+    probe_pairs.sort_by_key(|p| p.0);
+    // Channel names must be unique over the model (the file's columns).
+    let mut seen: Vec<String> = Vec::new();
+    for (b, (_, i, pair)) in probe_pairs.iter().enumerate() {
+        let names: Vec<(String, String)> = match pair {
+            Some(p) => p
+                .names
+                .iter()
+                .enumerate()
+                .map(|(j, n)| {
+                    (
+                        n.clone(),
+                        format!("bearing[{}].probes[{}].name", i + 1, j + 1),
+                    )
+                })
+                .collect(),
+            None => ["y", "z"]
+                .iter()
+                .map(|d| (format!("b{}_{d}", b + 1), format!("bearing[{}]", i + 1)))
+                .collect(),
+        };
+        for (n, field) in names {
+            if seen.contains(&n) {
+                return Err(ModelFileError::field(
+                    field,
+                    format!("channel name \"{n}\" is used twice (probe names and the b<K>_y, b<K>_z of bearings without probes must differ)"),
+                ));
+            }
+            seen.push(n);
+        }
+    }
+    let probes: Vec<Option<ProbePair>> = probe_pairs.into_iter().map(|p| p.2).collect();
 
     let mut planes = Vec::new();
     for (i, &p) in raw.planes.iter().enumerate() {
@@ -750,7 +840,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         Some(ShaftBow { points })
     };
 
-    let probes = match raw.probes.as_deref() {
+    let probe_reference = match raw.probes.as_deref() {
         None | Some("relative") => ProbeReference::Relative,
         Some("absolute") => ProbeReference::Absolute,
         Some(other) => {
@@ -769,7 +859,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         planes,
         unbalance,
         bow,
-        probes,
+        probes: probe_reference,
         rotor_damping: ProportionalDamping::default(),
         shaft_layers: Vec::new(),
     };
@@ -821,7 +911,78 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
             )?);
         }
     }
-    Ok(ModelFile { model, effects })
+    Ok(ModelFile {
+        model,
+        effects,
+        probes,
+    })
+}
+
+/// Longest probe name.
+const MAX_PROBE_NAME: usize = 32;
+
+/// A bearing's `probes = [{ name, angle_deg }, { name, angle_deg }]`:
+/// exactly two, names of 1 to 32 ASCII letters, digits, `_` or `-`,
+/// finite angles within +-360 deg whose axes are at least
+/// [`ProbePair::MIN_SEPARATION_DEG`] apart (mod 180 deg).
+fn probe_pair(field: &str, raw: &[RawProbe]) -> Result<ProbePair, ModelFileError> {
+    if raw.len() != 2 {
+        return Err(ModelFileError::field(
+            field,
+            format!(
+                "expected 2 probes (two non-parallel axes give y and z), got {}",
+                raw.len()
+            ),
+        ));
+    }
+    let mut names = [String::new(), String::new()];
+    let mut angles = [0.0; 2];
+    for (j, p) in raw.iter().enumerate() {
+        let f = |k: &str| format!("{field}[{}].{k}", j + 1);
+        let ok = !p.name.is_empty()
+            && p.name.len() <= MAX_PROBE_NAME
+            && p.name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+        if !ok {
+            return Err(ModelFileError::field(
+                f("name"),
+                format!(
+                    "\"{}\": 1 to {MAX_PROBE_NAME} ASCII letters, digits, '_' or '-' (it names the file's columns)",
+                    crate::io::clip(&p.name)
+                ),
+            ));
+        }
+        let a = finite(&f("angle_deg"), p.angle_deg)?;
+        if a.abs() > 360.0 {
+            return Err(ModelFileError::field(
+                f("angle_deg"),
+                format!("{a} deg is outside -360..=360"),
+            ));
+        }
+        names[j] = p.name.clone();
+        angles[j] = a.to_radians();
+    }
+    if names[0] == names[1] {
+        return Err(ModelFileError::field(
+            format!("{field}[2].name"),
+            format!("\"{}\" is the name of probes[1] too", names[1]),
+        ));
+    }
+    let pair = ProbePair { names, angles };
+    let separation = pair.determinant().abs().asin().to_degrees();
+    if separation < ProbePair::MIN_SEPARATION_DEG {
+        return Err(ModelFileError::field(
+            format!("{field}[2].angle_deg"),
+            format!(
+                "{} deg is parallel to probes[1] at {} deg within {separation:.2} deg: the axes must be at least {} deg apart to give y and z",
+                raw[1].angle_deg,
+                raw[0].angle_deg,
+                ProbePair::MIN_SEPARATION_DEG
+            ),
+        ));
+    }
+    Ok(pair)
 }
 
 fn unbalance_entry(
@@ -855,11 +1016,7 @@ pub fn load_model_file(path: impl AsRef<Path>) -> Result<ModelFile, ModelFileErr
         source,
     })?;
     if is_ross(&text) {
-        let model = crate::io::ross::parse_ross(&text)?;
-        Ok(ModelFile {
-            model,
-            effects: Effects::default(),
-        })
+        Ok(ModelFile::plain(crate::io::ross::parse_ross(&text)?))
     } else {
         parse_model_file(&text)
     }
@@ -884,10 +1041,7 @@ pub fn builtin_model(name: &str) -> Option<RotorModel> {
 /// path, with its `[simulate]` effects.
 pub fn model_file_by_name_or_path(name_or_path: &str) -> Result<ModelFile, ModelFileError> {
     if let Some(model) = builtin_model(name_or_path) {
-        return Ok(ModelFile {
-            model,
-            effects: Effects::default(),
-        });
+        return Ok(ModelFile::plain(model));
     }
     let p = Path::new(name_or_path);
     if !p.exists() {

@@ -58,11 +58,12 @@
 //!   `kp_pid`, ...), are refused by those keys.
 //! - **Pedestals.** The ROSS pattern "bearing at shaft node s with
 //!   `n_link = p`, a `PointMass` at node p, and a bearing at node p (no
-//!   link) to ground" becomes a bearing at s on a [`Pedestal`] (mass `m`,
-//!   or `mx = my`; stiffness `[kxx, kyy]` and damping `[cxx, cyy]` of the
-//!   ground bearing, which must be constant with no cross-coupling). A
-//!   point mass with `mx != my` is refused (a pedestal has one mass), as is
-//!   any other use of `n_link` or `PointMass`.
+//!   link) to ground" becomes a bearing at s on a [`Pedestal`] (masses
+//!   `[mx, my]` in our y, z, or `m` in both when only `m` is given, as
+//!   ROSS's `PointMass` reads its arguments; the axial `mz` is ignored;
+//!   stiffness `[kxx, kyy]` and damping `[cxx, cyy]` of the ground
+//!   bearing, which must be constant with no cross-coupling). Any other
+//!   use of `n_link` or `PointMass` is refused.
 //! - **Unbalance planes.** A ROSS rotor carries none; the disk nodes are
 //!   taken as the planes to identify.
 //! - Every other class (seals, magnetic, ball/roller, fluid-film bearings,
@@ -712,23 +713,23 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                     return Err(unsupported(pm_name, "point mass linked to two bearings"));
                 }
                 // `mz` (axial) acts on a DOF the lateral model does not have.
-                let mass = match (pm.m, pm.mx, pm.my) {
-                    (Some(m), None, None) => m,
-                    (None, Some(mx), Some(my)) if mx == my => mx,
-                    (Some(m), Some(mx), Some(my)) if mx == m && my == m => m,
-                    (_, Some(mx), Some(my)) if mx != my => {
-                        return Err(unsupported(
-                            pm_name,
-                            format!("point mass with mx = {mx} kg != my = {my} kg (a pedestal has one mass for both directions)"),
-                        ))
-                    }
+                // As ROSS's PointMass: `m` alone is the mass in every
+                // direction; once `mx`, `my` or `mz` is given, `mx`, `my`
+                // are the masses (ROSS x, y = our y, z) and `m` is unused.
+                let mass = match (pm.m, pm.mx, pm.my, pm.mz) {
+                    (Some(m), None, None, None) => [m, m],
+                    (_, Some(mx), Some(my), _) => [mx, my],
                     _ => {
-                        return Err(unsupported(
-                            pm_name,
-                            "point mass needs m, or mx equal to my",
-                        ))
+                        return Err(RossError::Field {
+                            element: pm_name.clone(),
+                            reason: "point mass needs m, or both mx and my".into(),
+                        })
                     }
                 };
+                let mass = [
+                    plausible(pm_name, "mx", mass[0], MASS)?,
+                    plausible(pm_name, "my", mass[1], MASS)?,
+                ];
                 let gl = bearing_law(g_name, g)?;
                 let BearingLaw::Constant(gc) = gl else {
                     return Err(unsupported(g_name, "speed-dependent pedestal support"));
@@ -745,8 +746,8 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                     mass,
                     k: [gc.k[0], gc.k[3]],
                     c: [
-                        gc.c[0] + rotor_damping.alpha * mass,
-                        gc.c[3] + rotor_damping.alpha * mass,
+                        gc.c[0] + rotor_damping.alpha * mass[0],
+                        gc.c[3] + rotor_damping.alpha * mass[1],
                     ],
                 })
             }
@@ -806,11 +807,14 @@ fn arr(v: &[f64]) -> String {
 
 /// Writes a model as a ROSS rotor file (format 3.x, `ross_version = "3.1.0"`), the inverse of
 /// [`parse_ross`]: shaft elements and their coaxial layers, disks,
-/// bearings (constant or tables over `frequency`, with `interpolation` for
-/// PCHIP and extrapolated linear tables), pedestals as a linked
+/// bearings (constant, or tables over ROSS 3's `speed` axis, the rotor
+/// speed in rad/s, at which rotorid evaluates every table; with
+/// `interpolation` for PCHIP and extrapolated linear tables), pedestals as a linked
 /// `PointMass` with a bearing to ground, rotor damping in `[parameters]`.
-/// Polynomial bearing laws, unbalance and bow have no ROSS equivalent here
-/// and are refused.
+/// Polynomial and dynamic-stiffness bearing laws have no ROSS equivalent
+/// and are refused ([`tabulate_for_ross`] turns them into tables first);
+/// unbalance, bow and the unbalance planes are not written (a ROSS rotor
+/// file carries none; the reader takes the disk nodes as planes).
 pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
     model.validate()?;
     let mut s = String::new();
@@ -900,7 +904,7 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
             let _ = writeln!(s, "{key} = {}", arr(&zeros));
         }
         if let Some((w, kind)) = speeds {
-            let _ = writeln!(s, "frequency = {}", arr(w));
+            let _ = writeln!(s, "speed = {}", arr(w));
             match kind {
                 TableInterpolation::LinearHold => {}
                 TableInterpolation::LinearExtrapolate => {
@@ -938,25 +942,99 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
         });
         bearing_table(&mut s, &format!("Bearing {i}"), b.node, link, speeds, &co);
         if let (Some(p), Some(ped)) = (link, b.pedestal) {
+            // `m` for one mass; `mx`, `my` (and `mz`, axial, unused here:
+            // equal to `my`) for two, as ROSS writes a PointMass.
+            let masses = if ped.mass[0] == ped.mass[1] {
+                format!("m = {}", f(ped.mass[0]))
+            } else {
+                format!(
+                    "mx = {}\nmy = {}\nmz = {}",
+                    f(ped.mass[0]),
+                    f(ped.mass[1]),
+                    f(ped.mass[1])
+                )
+            };
             let _ = writeln!(
                 s,
-                "[\"PointMass_Pedestal {i}\"]\nn = {p}\nm = {}\ntag = \"Pedestal {i}\"\n",
-                f(ped.mass)
+                "[\"PointMass_Pedestal {i}\"]\nn = {p}\n{masses}\ntag = \"Pedestal {i}\"\n",
             );
             // The reader adds the rotor damping alpha m of the point mass.
             let g = BearingCoefficients {
                 k: [ped.k[0], 0.0, 0.0, ped.k[1]],
                 c: [
-                    ped.c[0] - damping.alpha * ped.mass,
+                    ped.c[0] - damping.alpha * ped.mass[0],
                     0.0,
                     0.0,
-                    ped.c[1] - damping.alpha * ped.mass,
+                    ped.c[1] - damping.alpha * ped.mass[1],
                 ],
             };
             bearing_table(&mut s, &format!("Support {i}"), p, None, None, &[g]);
         }
     }
     Ok(s)
+}
+
+/// Speeds of the table that [`tabulate_for_ross`] writes for a bearing law
+/// that changes with speed (ROSS warns below 5).
+pub const ROSS_TABLE_POINTS: usize = 31;
+
+/// `model` with every bearing law that a ROSS file cannot hold
+/// ([`BearingLaw::Polynomial`], [`BearingLaw::DynamicStiffness`]) replaced
+/// by a PCHIP table ([`TableInterpolation::Pchip`], ROSS's own) of `points`
+/// speeds spaced evenly over `omega_min..=omega_max` (rad/s), holding the
+/// law's `K(Omega)` (N/m) and `C(Omega)` (N s/m) at each, so that
+/// [`to_ross_toml`] can write it. A law that is the same at every speed of
+/// the range (e.g. a polynomial whose higher terms are zero) becomes
+/// [`BearingLaw::Constant`]; constant laws and tables are kept. Between the
+/// points the table is the PCHIP interpolant of the law, beyond them the
+/// straight line with the end slope (ROSS's extrapolation), not the law.
+/// Refused (`RossError::Format`): a range that is not finite, negative or
+/// empty (`omega_max <= omega_min`) when a law needs a table, or fewer than
+/// 2 points.
+pub fn tabulate_for_ross(
+    model: &RotorModel,
+    omega_min: f64,
+    omega_max: f64,
+    points: usize,
+) -> Result<RotorModel, RossError> {
+    let mut out = model.clone();
+    for (i, b) in out.bearings.iter_mut().enumerate() {
+        if !matches!(
+            b.law,
+            BearingLaw::Polynomial { .. } | BearingLaw::DynamicStiffness { .. }
+        ) {
+            continue;
+        }
+        if !(omega_min.is_finite() && omega_max.is_finite() && omega_min >= 0.0)
+            || omega_max <= omega_min
+            || points < 2
+        {
+            return Err(RossError::Format(format!(
+                "bearing {}: its law changes with speed and a ROSS file holds it only as a table over a speed range; got {omega_min}..={omega_max} rad/s with {points} points (need 0 <= min < max, at least 2 points)",
+                i + 1
+            )));
+        }
+        let speeds: Vec<f64> = (0..points)
+            .map(|j| {
+                if j + 1 == points {
+                    omega_max
+                } else {
+                    omega_min + (omega_max - omega_min) * j as f64 / (points - 1) as f64
+                }
+            })
+            .collect();
+        let coefficients: Vec<BearingCoefficients> = speeds.iter().map(|&w| b.law.at(w)).collect();
+        b.law = if coefficients.iter().all(|c| *c == coefficients[0]) {
+            BearingLaw::Constant(coefficients[0])
+        } else {
+            BearingLaw::Table {
+                speeds,
+                coefficients,
+                interpolation: TableInterpolation::Pchip,
+            }
+        };
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -979,7 +1057,7 @@ mod tests {
     fn pedestal_and_table_round_trip() {
         let mut m = RotorModel::paper();
         m.bearings[0].pedestal = Some(Pedestal {
-            mass: 30.0,
+            mass: [30.0, 45.0],
             k: [1e8, 2e8],
             c: [1e3, 2e3],
         });

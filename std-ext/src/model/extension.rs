@@ -191,7 +191,15 @@ impl Effects {
         if let Some(p) = &self.pedestal {
             out.push(format!(
                 "effect: pedestal m={} kg k=[{}, {}] N/m c=[{}, {}] N s/m under every bearing",
-                p.mass, p.k[0], p.k[1], p.c[0], p.c[1]
+                if p.mass[0] == p.mass[1] {
+                    format!("{}", p.mass[0])
+                } else {
+                    format!("[{}, {}]", p.mass[0], p.mass[1])
+                },
+                p.k[0],
+                p.k[1],
+                p.c[0],
+                p.c[1]
             ));
         }
         for b in &self.bow {
@@ -359,7 +367,7 @@ mod tests {
         let eff = Effects {
             e_scale: 1.05,
             pedestal: Some(Pedestal {
-                mass: 20.0,
+                mass: [20.0, 20.0],
                 k: [1e8, 2e8],
                 c: [1e3, 1e3],
             }),

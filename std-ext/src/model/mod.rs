@@ -376,11 +376,15 @@ impl BearingLaw {
 
 /// A pedestal (foundation mass) under a bearing: the bearing acts between
 /// the shaft node and the pedestal mass, which is tied to ground by its own
-/// stiffness and damping in y and z.
+/// stiffness and damping in y and z. The mass may differ between the
+/// directions (a ROSS `PointMass` with `mx != my`: a support that is
+/// heavier in one direction, e.g. a frame that carries mass horizontally
+/// only): the pedestal's equation is, per direction `d = y, z`,
+/// `m_d q_p,d'' + c_d q_p,d' + k_d q_p,d = (bearing force)_d`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pedestal {
-    /// Mass (kg), the same in y and z.
-    pub mass: f64,
+    /// Mass `[m_y, m_z]` (kg), in y and in z.
+    pub mass: [f64; 2],
     /// Stiffness to ground `[ky, kz]` (N/m).
     pub k: [f64; 2],
     /// Damping to ground `[cy, cz]` (N s/m).
@@ -514,6 +518,55 @@ pub enum ProbeReference {
     Relative,
     /// Shaft absolute motion.
     Absolute,
+}
+
+/// Two displacement probes at a bearing whose axes lie in the y-z plane at
+/// angles `theta_1`, `theta_2` (rad) measured from +y toward +z (the sense
+/// of rotation, README "Conventions"): a probe at `theta` reads the
+/// displacement along `u = (cos theta, sin theta)`, phasor
+/// `P = cos theta Y + sin theta Z` (m, same phasor convention as `Y`, `Z`).
+/// API 670 X-Y probes at 45 degrees either side of a vertical +y are
+/// `theta = +45` and `-45` degrees. The two readings give `Y`, `Z` by
+/// solving the 2 x 2 projection,
+///
+/// ```text
+/// [P1]   [cos t1  sin t1] [Y]        Y = ( sin t2 P1 - sin t1 P2) / D
+/// [P2] = [cos t2  sin t2] [Z],       Z = (-cos t2 P1 + cos t1 P2) / D,
+///                                    D = sin(t2 - t1),
+/// ```
+///
+/// which amplifies a probe's noise by up to `1 / |D|` and, unless the
+/// probes are orthogonal, correlates the noise of `Y` and `Z`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProbePair {
+    /// Probe names (the measurement file's column prefixes).
+    pub names: [String; 2],
+    /// Angles `theta_1`, `theta_2` (rad) from +y toward +z.
+    pub angles: [f64; 2],
+}
+
+impl ProbePair {
+    /// Smallest accepted angle between the two probe axes (deg): below it
+    /// the projection amplifies noise more than `1 / sin(5 deg)` = 11.5 times.
+    pub const MIN_SEPARATION_DEG: f64 = 5.0;
+
+    /// `D = sin(theta_2 - theta_1)`, the determinant of the projection.
+    pub fn determinant(&self) -> f64 {
+        (self.angles[1] - self.angles[0]).sin()
+    }
+
+    /// The probes' readings `P_i = cos theta_i Y + sin theta_i Z` (m).
+    pub fn readings(&self, y: Complex64, z: Complex64) -> [Complex64; 2] {
+        self.angles.map(|t| y * t.cos() + z * t.sin())
+    }
+
+    /// `Y`, `Z` (m) from the readings (the projection solved, see above).
+    pub fn to_yz(&self, p: [Complex64; 2]) -> [Complex64; 2] {
+        let d = self.determinant();
+        let (c1, s1) = (self.angles[0].cos(), self.angles[0].sin());
+        let (c2, s2) = (self.angles[1].cos(), self.angles[1].sin());
+        [(p[0] * s2 - p[1] * s1) / d, (p[1] * c1 - p[0] * c2) / d]
+    }
 }
 
 impl RotorModel {
@@ -755,8 +808,8 @@ impl RotorModel {
                 }
             }
             if let Some(p) = &b.pedestal {
-                pos(f("pedestal.mass"), p.mass)?;
                 for j in 0..2 {
+                    pos(f(&format!("pedestal.mass[{}]", j + 1)), p.mass[j])?;
                     pos(f(&format!("pedestal.k[{}]", j + 1)), p.k[j])?;
                     if !(p.c[j].is_finite() && p.c[j] >= 0.0) {
                         return Err(ModelError::invalid(

@@ -701,6 +701,148 @@ fn draw_legend(
     Ok(())
 }
 
+/// Most modes [`mode_shape_plot`] draws (more curves are not readable).
+pub const MAX_SHAPE_MODES: usize = 6;
+
+/// The mode shapes `modes` (the shaft DOFs of [`Mode::shape`], as
+/// [`crate::fe::campbell::campbell_with`] returns them at one speed) of
+/// `model` at `rpm`, as SVG: the displacement along the shaft (axial
+/// position x in m from the left end) in y (top panel) and z (bottom
+/// panel). Each shape is scaled so that its largest translation
+/// `max_n max(|Y_n|, |Z_n|)` is 1 and turned so that this component is
+/// real and positive; the motion `Re{Y exp(j w t)}` is drawn at `t = 0`
+/// (`Re Y`, solid) and a quarter period later (`-Im Y`, dashed), which
+/// together fix each node's orbit (a forward circular mode shows in y at
+/// `t = 0` and in z a quarter period later). Grey vertical lines mark the
+/// bearings. At most [`MAX_SHAPE_MODES`] modes.
+pub fn mode_shape_plot(
+    path: &Path,
+    label: &str,
+    model: &crate::model::RotorModel,
+    modes: &[crate::fe::campbell::Mode],
+    rpm: f64,
+) -> Result<(), PlotError> {
+    use crate::report::plot::{panel_plot, Panel, PlotOptions, Series, VLine};
+    let data_err = |reason: String| PlotError::Data {
+        path: path.display().to_string(),
+        reason,
+    };
+    if modes.is_empty() || modes.len() > MAX_SHAPE_MODES {
+        return Err(data_err(format!(
+            "{} modes to draw (1..={MAX_SHAPE_MODES})",
+            modes.len()
+        )));
+    }
+    let mut x = vec![0.0];
+    for e in &model.shaft {
+        x.push(x[x.len() - 1] + e.length);
+    }
+    let n_nodes = x.len();
+    let mut top = Vec::new();
+    let mut bottom = Vec::new();
+    for (k, m) in modes.iter().enumerate() {
+        if m.shape.len() < 4 * n_nodes {
+            return Err(data_err(format!(
+                "mode {} has {} shaft DOFs, the model {}",
+                k + 1,
+                m.shape.len(),
+                4 * n_nodes
+            )));
+        }
+        // The largest translation, made real and positive.
+        let peak = (0..n_nodes)
+            .flat_map(|n| [m.shape[4 * n], m.shape[4 * n + 1]])
+            .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+            .unwrap_or_default();
+        if peak.norm() == 0.0 {
+            return Err(data_err(format!("mode {} has no translation", k + 1)));
+        }
+        let scale = peak.conj() / (peak.norm() * peak.norm());
+        let at = |dir: usize| -> Vec<num_complex::Complex64> {
+            (0..n_nodes).map(|n| m.shape[4 * n + dir] * scale).collect()
+        };
+        let (y, z) = (at(0), at(1));
+        let color = MODE_COLORS[k % MODE_COLORS.len()];
+        let name = format!(
+            "{:.2} Hz, {}, log dec {:.3}",
+            rad_s_to_hz(m.frequency),
+            whirl_name(m.whirl),
+            m.log_dec
+        );
+        for (panel, v) in [(&mut top, &y), (&mut bottom, &z)] {
+            panel.push(
+                Series::line(
+                    format!("{name}, t = 0"),
+                    x.clone(),
+                    v.iter().map(|c| c.re).collect(),
+                )
+                .color(color)
+                .width(2),
+            );
+            panel.push(
+                Series::line(
+                    format!("{name}, t = T/4"),
+                    x.clone(),
+                    v.iter().map(|c| -c.im).collect(),
+                )
+                .color(color)
+                .dash_pattern(7, 4),
+            );
+        }
+    }
+    let bearings: Vec<VLine> = model
+        .bearings
+        .iter()
+        .map(|b| VLine {
+            x: x[b.node],
+            label: "bearings".to_string(),
+        })
+        .collect();
+    let range = Some((-1.1, 1.1));
+    let top_opts = PlotOptions {
+        y_range: range,
+        vlines: bearings.clone(),
+        ..PlotOptions::default()
+    };
+    let bottom_opts = PlotOptions {
+        y_range: range,
+        vlines: bearings
+            .into_iter()
+            .map(|v| VLine {
+                label: String::new(),
+                ..v
+            })
+            .collect(),
+        ..PlotOptions::default()
+    };
+    // Each mode's series are in both panels: the legend lists the top's.
+    let bottom: Vec<Series> = bottom
+        .into_iter()
+        .map(|s| Series {
+            label: String::new(),
+            ..s
+        })
+        .collect();
+    panel_plot(
+        path,
+        &format!("Mode shapes: {label} at {rpm} rpm (largest displacement 1)"),
+        "axial position x (m)",
+        &[
+            Panel {
+                y_label: "y (-)",
+                series: &top,
+                opts: &top_opts,
+            },
+            Panel {
+                y_label: "z (-)",
+                series: &bottom,
+                opts: &bottom_opts,
+            },
+        ],
+        (1150, 800),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -657,12 +657,27 @@ where
         .y_label_area_size(Y_LABEL_AREA)
         .build_cartesian_2d(xr.clone(), yr)
         .map_err(|e| e.to_string())?;
+    // A tick at zero computed from the range may come out as round-off
+    // (-2.2e-16): within 1e-9 of the axis span it is 0 (linear axes only).
+    let x_span = xr.end - xr.start;
+    let y_span = {
+        let r = chart.y_range();
+        r.end - r.start
+    };
+    let snap = |v: f64, span: f64, linear: bool| {
+        if linear && v.abs() <= 1e-9 * span.abs() {
+            0.0
+        } else {
+            v
+        }
+    };
+    let log_y = opts.log_y;
     chart
         .configure_mesh()
         .x_desc(labels.x)
         .y_desc(labels.y)
-        .x_label_formatter(&|v| tick_label(*v))
-        .y_label_formatter(&|v| tick_label(*v))
+        .x_label_formatter(&|v| tick_label(snap(*v, x_span, true)))
+        .y_label_formatter(&|v| tick_label(snap(*v, y_span, !log_y)))
         .light_line_style(RGBColor(235, 235, 235))
         .draw()
         .map_err(|e| e.to_string())?;
