@@ -318,6 +318,9 @@ where
     /// Errors (all checked before anything is written): `Dimension` (also
     /// for a row with non-zeros in two blocks), `InvalidLambda`,
     /// `NonFinite`, `OutOfRange`.
+    // index proven: `block_of` gives `b < blocks` (checked for every row
+    // above), so `b W + W <= blocks W`, the length of `blk`.
+    #[allow(clippy::indexing_slicing)]
     pub fn update_rows(
         &mut self,
         u: &[F],
@@ -386,6 +389,10 @@ where
     /// Folds the row held in `work_b` (block `b`) and `work_s` with
     /// right-hand side `d`; returns `(xi, gamma)`. Leaves the work rows
     /// zero. Lengths were checked by the caller.
+    // index proven: `b < blocks` and the lengths of every buffer checked
+    // by the caller (`check_lengths`); `i < W` (or `S`) indexes rows of
+    // `W` (`S`) entries.
+    #[allow(clippy::indexing_slicing)]
     #[inline]
     fn fold_row(&mut self, b: usize, d: F) -> (F, T) {
         let (w, s) = (self.shape.width, self.shape.shared);
@@ -483,6 +490,9 @@ where
     /// `D_b w_b = p_b - C_b w_s`.
     ///
     /// Errors: `Dimension`; `Singular` as [`qrdrls::solve_weights`].
+    // index proven: lengths checked (`check_lengths`, `w_out`), `i < S`
+    // (`W`) in rows of `S` (`W`) entries, `b < blocks`.
+    #[allow(clippy::indexing_slicing)]
     pub fn solve_weights(&self, w_out: &mut [F]) -> Result<(), FilterError> {
         self.check_lengths()?;
         let (w, s) = (self.shape.width, self.shape.shared);
@@ -555,6 +565,9 @@ where
 
     /// The factor and `p` written out densely (`r_out`: `M x M` row-major,
     /// `p_out`: `M`), as the dense filter holds them.
+    // index proven: lengths checked (`check_lengths`, `r_out`, `p_out`);
+    // `b < blocks`, `i, k < W` or `< S`, so every index is below `M^2`.
+    #[allow(clippy::indexing_slicing)]
     pub fn to_dense(&self, r_out: &mut [F], p_out: &mut [F]) -> Result<(), FilterError> {
         self.check_lengths()?;
         let (w, s) = (self.shape.width, self.shape.shared);

@@ -456,7 +456,7 @@ impl<T: Real> GuardState<T> {
     /// The valid part of [`Self::recent`].
     pub fn recent_speeds(&self) -> &[T] {
         let n = usize::try_from(self.excited).map_or(COVERAGE_STEPS, |n| n.min(COVERAGE_STEPS));
-        &self.recent[..n]
+        self.recent.get(..n).unwrap_or(&self.recent)
     }
 
     /// Whether `omega` is a new speed for the recent excited speeds
@@ -488,7 +488,9 @@ impl<T: Real> GuardState<T> {
     pub(crate) fn record_excited(&mut self, omega: T) {
         // `excited % COVERAGE_STEPS` fits in usize whatever usize's width.
         let slot = (self.excited % COVERAGE_STEPS as u64) as usize;
-        self.recent[slot] = omega;
+        if let Some(r) = self.recent.get_mut(slot) {
+            *r = omega;
+        }
         self.excited = self.excited.saturating_add(1);
     }
 }

@@ -498,7 +498,7 @@ fn for_each_bearing_unknown<T: Real, F: ComplexField<RealField = T> + Copy>(
             let j = structure
                 .bearing_index(m, e / 2, e % 2, term)
                 .ok_or(ParamError::Dimension)?;
-            f(e, term, w[j]);
+            f(e, term, *w.get(j).ok_or(ParamError::Dimension)?);
         }
     }
     Ok(())
@@ -507,6 +507,8 @@ fn for_each_bearing_unknown<T: Real, F: ComplexField<RealField = T> + Copy>(
 /// `Z_B^(m)(Omega)` (N/m, `yy, yz, zy, zz`) from the **scaled** weights `w~`
 /// (complex for the paper structure, real for the physical one):
 /// `sum_j g_j(Omega) s_j w~_j`.
+// index proven: `for_each_bearing_unknown` passes entries `e` in `0..4`.
+#[allow(clippy::indexing_slicing)]
 pub fn bearing_dynamic_stiffness<T: Real, F: ComplexField<RealField = T> + Copy>(
     structure: &Structure,
     scaling: &ColumnScaling<T>,
@@ -526,6 +528,8 @@ pub fn bearing_dynamic_stiffness<T: Real, F: ComplexField<RealField = T> + Copy>
 /// Stiffness and damping of bearing `m` at `omega` from the **scaled**
 /// weights (see "Reading stiffness and damping" in the module docs), with
 /// the paper structure's consistency values.
+// index proven: `for_each_bearing_unknown` passes entries `e` in `0..4`.
+#[allow(clippy::indexing_slicing)]
 pub fn bearing_estimate<T: Real, F: ComplexField<RealField = T> + Copy>(
     structure: &Structure,
     scaling: &ColumnScaling<T>,
@@ -578,9 +582,10 @@ pub fn unbalance_estimate<T: Real, F: ComplexField<RealField = T> + Copy>(
         return Err(ParamError::Dimension);
     }
     let j = structure.plane_index(nb, k);
+    let wj = |j: usize| w.get(j).copied().ok_or(ParamError::Dimension);
     let a = match structure.formulation {
-        Formulation::Paper => Complex::new(w[j].real(), w[j].imaginary()),
-        Formulation::Physical => Complex::new(w[j].real(), w[j + 1].real()),
+        Formulation::Paper => Complex::new(wj(j)?.real(), wj(j)?.imaginary()),
+        Formulation::Physical => Complex::new(wj(j)?.real(), wj(j + 1)?.real()),
     };
     Ok(UnbalanceEstimate::from_phasor(a * scaling.unbalance))
 }

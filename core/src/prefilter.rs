@@ -91,6 +91,9 @@ impl<T: Real, const NQ: usize> Prefilter<T, NQ> {
     /// non-finite input ([`IdentifyError::NonFinite`]), `H(w_prev)`
     /// singular or a zero predicted response
     /// ([`IdentifyError::Filter`] with [`FilterError::Singular`]).
+    // index proven: rows and columns below `NQ` (`2 m + 1 < 2 N_b = NQ`,
+    // loop bounds `0..NQ`), planes below `NP`: the arrays' const sizes.
+    #[allow(clippy::indexing_slicing)]
     pub fn new<const NP: usize>(
         config: &Config<T>,
         omega: T,
@@ -198,6 +201,8 @@ impl<T: Real, const NQ: usize> Prefilter<T, NQ> {
     /// Applies `P` to the real rows of the physical structure in place:
     /// `d` (length `2 NQ`), `u` (row-major `2 NQ x m`), complex equation
     /// `i` in rows `2i` (real part) and `2i + 1` (imaginary part).
+    // index proven: `2 i + 1 < 2 NQ`, `j < m` after the length check.
+    #[allow(clippy::indexing_slicing)]
     pub fn apply(&self, d: &mut [T], u: &mut [T], m: usize) -> Result<(), IdentifyError> {
         if d.len() != 2 * NQ || u.len() != 2 * NQ * m {
             return Err(IdentifyError::Dimension);

@@ -111,7 +111,7 @@ impl<T: Real> Equations<'_, T> {
     /// `d_i = (A q)_i`.
     fn d(&self, i: usize) -> Complex<T> {
         let mut s = Complex::new(T::zero(), T::zero());
-        for (aij, qj) in self.a[i * self.nq..(i + 1) * self.nq].iter().zip(self.q) {
+        for (aij, qj) in self.a.iter().skip(i * self.nq).take(self.nq).zip(self.q) {
             s += *aij * *qj;
         }
         s
@@ -126,7 +126,7 @@ impl<T: Real> Equations<'_, T> {
         scaling: &ColumnScaling<T>,
         nb: usize,
         i: usize,
-        mut put: impl FnMut(usize, Complex<T>),
+        mut put: impl FnMut(usize, Complex<T>) -> Result<(), RegressorError>,
     ) -> Result<(), RegressorError> {
         let (m, r) = (i / 2, i % 2);
         for t in 0..structure.terms_per_entry() {
@@ -136,14 +136,19 @@ impl<T: Real> Equations<'_, T> {
                 let j = structure
                     .bearing_index(m, r, c, term)
                     .ok_or(RegressorError::Dimension)?;
-                put(j, -(self.q[2 * m + c] * g));
+                let qc = *self.q.get(2 * m + c).ok_or(RegressorError::Dimension)?;
+                put(j, -(qc * g))?;
             }
         }
         for k in 0..self.np {
-            let bik = self.b[i * self.np + k] * scaling.unbalance;
+            let bik = *self
+                .b
+                .get(i * self.np + k)
+                .ok_or(RegressorError::Dimension)?
+                * scaling.unbalance;
             for part in [UnbalancePart::Phasor, UnbalancePart::Re, UnbalancePart::Im] {
                 if let Some(j) = structure.index(nb, Unknown::Unbalance { plane: k, part }) {
-                    put(j, bik * part.factor());
+                    put(j, bik * part.factor())?;
                 }
             }
         }
@@ -169,10 +174,13 @@ pub fn form_paper<T: Real>(
         return Err(RegressorError::Dimension);
     }
     u.fill(Complex::new(T::zero(), T::zero()));
-    for (i, di) in d.iter_mut().enumerate() {
+    // `m_cols > 0`: `eq.check` gives at least one bearing.
+    for (i, (di, row)) in d.iter_mut().zip(u.chunks_exact_mut(m_cols)).enumerate() {
         *di = eq.d(i);
-        let row = &mut u[i * m_cols..(i + 1) * m_cols];
-        eq.columns(&s, scaling, nb, i, |j, g| row[j] = g)?;
+        eq.columns(&s, scaling, nb, i, |j, g| {
+            *row.get_mut(j).ok_or(RegressorError::Dimension)? = g;
+            Ok(())
+        })?;
     }
     Ok(())
 }
@@ -196,15 +204,24 @@ pub fn form_physical<T: Real>(
         return Err(RegressorError::Dimension);
     }
     u.fill(T::zero());
-    for i in 0..eq.nq {
+    // `m_cols > 0`: `eq.check` gives at least one bearing.
+    for (i, (dd, rows)) in d
+        .chunks_exact_mut(2)
+        .zip(u.chunks_exact_mut(2 * m_cols))
+        .enumerate()
+    {
         let di = eq.d(i);
-        d[2 * i] = di.re;
-        d[2 * i + 1] = di.im;
+        if let [re, im] = dd {
+            (*re, *im) = (di.re, di.im);
+        }
         // Complex coefficient g of a real unknown: Re row gets Re g, Im row Im g.
-        let (re_row, im_row) = u[2 * i * m_cols..(2 * i + 2) * m_cols].split_at_mut(m_cols);
+        let (re_row, im_row) = rows.split_at_mut(m_cols);
         eq.columns(&s, scaling, nb, i, |j, g| {
-            re_row[j] = g.re;
-            im_row[j] = g.im;
+            match (re_row.get_mut(j), im_row.get_mut(j)) {
+                (Some(r), Some(m)) => (*r, *m) = (g.re, g.im),
+                _ => return Err(RegressorError::Dimension),
+            }
+            Ok(())
         })?;
     }
     Ok(())
@@ -228,8 +245,10 @@ pub fn normalise_rows<T: Real, F: nalgebra::ComplexField<RealField = T> + Copy>(
     if u.len() != n * m || d.len() != n {
         return Err(RegressorError::Dimension);
     }
-    for i in 0..n {
-        let row = &mut u[i * m..(i + 1) * m];
+    if m == 0 {
+        return Ok(()); // rows of zero length: nothing to scale
+    }
+    for (row, di) in u.chunks_exact_mut(m).zip(d.iter_mut()) {
         // Scaled 2-norm (no overflow/underflow): max |u_ij| first.
         let mut big = T::zero();
         for x in row.iter() {
@@ -251,7 +270,7 @@ pub fn normalise_rows<T: Real, F: nalgebra::ComplexField<RealField = T> + Copy>(
         for x in row.iter_mut() {
             *x = x.scale(inv);
         }
-        d[i] = d[i].scale(inv);
+        *di = di.scale(inv);
     }
     Ok(())
 }

@@ -15,6 +15,12 @@
 //! whatever the standard deviations say: above [`MISFIT_CHI2`] (and above
 //! a relative misfit of [`PERFECT_FIT`]) the result carries a warning
 //! naming the misfit.
+//!
+//! # Undetermined parameters
+//!
+//! The design analysis of the fit ([`crate::estimate::design`]) names the
+//! parameters the data leave undetermined; a warning lists them (and says
+//! so when the Fisher information could not be analysed).
 
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -154,7 +160,15 @@ pub fn refine(
     let rls_weights = std::mem::replace(&mut id.scaled_weights, fit.weights.clone());
     id.covariance = Some(weight_covariance(&pr, &fit.covariance));
     let noise = check.noise_level.unwrap_or(fit.residual_noise);
-    let design = crate::estimate::design::analyse(&pr, samples, terms, &fit.theta, noise).ok();
+    let design = crate::estimate::design::analyse(&pr, samples, terms, &fit.theta, noise);
+    match &design {
+        Ok(d) if !d.undetermined.is_empty() => check.warnings.push(undetermined_warning(d)),
+        Ok(_) => {}
+        Err(e) => check.warnings.push(format!(
+            "the Fisher information could not be analysed ({e}): which parameters these data determine is not known"
+        )),
+    }
+    let design = design.ok();
     id.refinement = Some(Refinement {
         rls,
         rls_weights,
@@ -164,6 +178,15 @@ pub fn refine(
     });
     id.check = Some(check);
     Ok(())
+}
+
+/// The warning naming the parameters `d` finds undetermined.
+fn undetermined_warning(d: &crate::estimate::design::TestDesign) -> String {
+    format!(
+        "these data do not determine {}: Cramér-Rao bound above {:.0} % of the parameter's magnitude, or in a combination of parameters the speeds do not see; do not use their values",
+        d.undetermined.join(", "),
+        100.0 * crate::estimate::design::UNKNOWN_MAGNITUDE
+    )
 }
 
 /// The covariance of the complex scaled weights, `E[dw dw^H]`, from that
