@@ -704,7 +704,7 @@ fn draw_legend(
 /// Most modes [`mode_shape_plot`] draws (more curves are not readable).
 pub const MAX_SHAPE_MODES: usize = 6;
 
-/// The mode shapes `modes` (the shaft DOFs of [`Mode::shape`], as
+/// The mode shapes `modes` (the shaft DOFs of [`crate::fe::campbell::Mode::shape`], as
 /// [`crate::fe::campbell::campbell_with`] returns them at one speed) of
 /// `model` at `rpm`, as SVG: the displacement along the shaft (axial
 /// position x in m from the left end) in y (top panel) and z (bottom
