@@ -283,16 +283,6 @@ fn unknown_model_and_missing_files_exit_2() {
         ],
         "file not found: /no/such/file.csv",
     );
-    fails(
-        &[
-            "diagnose",
-            "--model",
-            "paper",
-            "--measurements",
-            "/no/such/file.csv",
-        ],
-        "",
-    );
 }
 
 #[test]

@@ -518,12 +518,7 @@ pub fn read_csv(path: impl AsRef<Path>) -> Result<Measurements, MeasurementError
 pub fn read_csv_located(
     path: impl AsRef<Path>,
 ) -> Result<(Measurements, CsvLocations), MeasurementError> {
-    let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|source| MeasurementError::Io {
-        path: path.display().to_string(),
-        source,
-    })?;
-    parse_csv_located(&text)
+    read_csv_channels(path, None)
 }
 
 /// [`read_csv_located`] with the bearing channels named `channels`
