@@ -15,6 +15,8 @@
 //! `cargo bench -p rotorid-core --features baseline --bench structured -- --warm-up-time 1 --measurement-time 2`
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use nalgebra::ComplexField;
+use num_complex::Complex;
 use rotorid_core::baseline::{ConventionalRls, StackQrRls};
 use rotorid_core::blockqrd::{BlockQrdRls, BlockShape};
 use rotorid_core::parametrization::Structure;
@@ -30,32 +32,59 @@ const DELTA: f64 = 1e-3;
 mod testrng;
 use testrng::SplitMix64;
 
+/// A field element with both parts uniform in [-1, 1) (the imaginary part
+/// dropped for a real field).
+trait Sample: ComplexField<RealField = <Self as Sample>::Re> + Copy {
+    type Re: Real;
+    fn sample(rng: &mut SplitMix64) -> Self;
+}
+impl Sample for f64 {
+    type Re = f64;
+    fn sample(rng: &mut SplitMix64) -> Self {
+        rng.sym()
+    }
+}
+impl Sample for f32 {
+    type Re = f32;
+    fn sample(rng: &mut SplitMix64) -> Self {
+        rng.sym() as f32
+    }
+}
+impl<T: Real> Sample for Complex<T> {
+    type Re = T;
+    fn sample(rng: &mut SplitMix64) -> Self {
+        Complex::new(T::lit(rng.sym()), T::lit(rng.sym()))
+    }
+}
+
 /// A stream of `STEPS` updates of `N` rows over `shape`: row `j` belongs
-/// to channel `j / 2` (real and imaginary row of each channel), non-zero in
+/// to channel `j / (N / NB)` (the real and imaginary row of each channel in
+/// the real formulation, one complex row in the complex one), non-zero in
 /// that channel's block and in the shared columns.
 #[allow(clippy::type_complexity)]
-fn stream<T: Real, const M: usize, const N: usize>(
+fn stream<F: Sample, const M: usize, const N: usize>(
     shape: BlockShape,
     all_dense: bool,
-) -> Vec<([[T; M]; N], [T; N])> {
+) -> Vec<([[F; M]; N], [F; N])> {
     let mut rng = SplitMix64::new(0x5EED);
-    let w: [T; M] = core::array::from_fn(|_| T::lit(rng.sym()));
+    let w: [F; M] = core::array::from_fn(|_| F::sample(&mut rng));
     let nbw = shape.blocks * shape.width;
+    let per_block = N / shape.blocks;
     (0..STEPS)
         .map(|_| {
-            let u: [[T; M]; N] = core::array::from_fn(|j| {
-                let b = j / 2;
+            let u: [[F; M]; N] = core::array::from_fn(|j| {
+                let b = j / per_block;
                 core::array::from_fn(|k| {
                     let in_block = k >= b * shape.width && k < (b + 1) * shape.width;
                     if all_dense || in_block || k >= nbw {
-                        T::lit(rng.sym())
+                        F::sample(&mut rng)
                     } else {
-                        T::zero()
+                        F::zero()
                     }
                 })
             });
-            let d: [T; N] = core::array::from_fn(|j| {
-                let mut acc = T::lit(1e-3 * rng.sym());
+            let d: [F; N] = core::array::from_fn(|j| {
+                let mut acc = F::sample(&mut rng).scale(F::Re::lit(1e-3));
                 for k in 0..M {
                     acc += u[j][k] * w[k];
                 }
@@ -67,6 +96,7 @@ fn stream<T: Real, const M: usize, const N: usize>(
 }
 
 fn structured<
+    F: Sample<Re = T>,
     T: Real,
     const NB: usize,
     const W: usize,
@@ -85,14 +115,14 @@ fn structured<
         shared: S,
     };
     assert_eq!(shape.unknowns(), M);
-    assert_eq!(N, 2 * NB);
-    let data = stream::<T, M, N>(shape, false);
-    let dense_rows = stream::<T, M, N>(shape, true);
+    assert_eq!(N % NB, 0);
+    let data = stream::<F, M, N>(shape, false);
+    let dense_rows = stream::<F, M, N>(shape, true);
     let (lambda, delta) = (T::lit(LAMBDA), T::lit(DELTA));
     let mut g = c.benchmark_group(group.to_string());
-    let (mut xi, mut gamma) = ([T::zero(); N], [T::zero(); N]);
+    let (mut xi, mut gamma) = ([F::zero(); N], [T::zero(); N]);
 
-    let mut blk = BlockQrdRls::<T, NB, W, S>::new(lambda, delta).expect("valid parameters");
+    let mut blk = BlockQrdRls::<F, NB, W, S>::new(lambda, delta).expect("valid parameters");
     let mut i = 0usize;
     g.bench_function(BenchmarkId::new("structured", param), |b| {
         b.iter(|| {
@@ -109,7 +139,7 @@ fn structured<
         })
     });
 
-    let mut dense = VectorQrdRls::<T, M, N>::new(lambda, delta).expect("valid parameters");
+    let mut dense = VectorQrdRls::<F, M, N>::new(lambda, delta).expect("valid parameters");
     let mut i = 0usize;
     g.bench_function(BenchmarkId::new("dense_givens", param), |b| {
         b.iter(|| {
@@ -126,7 +156,7 @@ fn structured<
     if baselines {
         // The general filter's cost: every entry of every row non-zero, no
         // rotation skipped (O(M^2) per row).
-        let mut general = VectorQrdRls::<T, M, N>::new(lambda, delta).expect("valid parameters");
+        let mut general = VectorQrdRls::<F, M, N>::new(lambda, delta).expect("valid parameters");
         let mut i = 0usize;
         g.bench_function(BenchmarkId::new("dense_givens_dense_rows", param), |b| {
             b.iter(|| {
@@ -139,7 +169,7 @@ fn structured<
                 )
             })
         });
-        let mut conv = ConventionalRls::<T>::new(M, delta, None).expect("valid parameters");
+        let mut conv = ConventionalRls::<F>::new(M, delta, None).expect("valid parameters");
         let mut i = 0usize;
         g.bench_function(BenchmarkId::new("conventional_rls", param), |b| {
             b.iter(|| {
@@ -156,7 +186,7 @@ fn structured<
                 black_box(&xi);
             })
         });
-        let mut stack = StackQrRls::<T>::new(M, delta, None).expect("valid parameters");
+        let mut stack = StackQrRls::<F>::new(M, delta, None).expect("valid parameters");
         let mut i = 0usize;
         g.bench_function(BenchmarkId::new("stack_and_qr", param), |b| {
             b.iter(|| {
@@ -177,6 +207,7 @@ macro_rules! case {
         const SH: BlockShape = BlockShape::of(Structure::physical($order), $nb, $np);
         structured::<
             $t,
+            $t,
             { SH.blocks },
             { SH.width },
             { SH.shared },
@@ -186,7 +217,27 @@ macro_rules! case {
     }};
 }
 
+/// The paper's own formulation at its size: complex, `N_b = 2`, `N_p = 3`,
+/// order 1 (`M = 19`: 4 channel blocks of 4, 3 shared unbalance unknowns;
+/// one complex row per channel, `N = 4`).
+fn paper_size(c: &mut Criterion) {
+    const SH: BlockShape = BlockShape::of(Structure::paper(1), 2, 3);
+    structured::<Complex<f64>, f64, { SH.blocks }, { SH.width }, { SH.shared }, 19, 4>(
+        c,
+        "paper_size/complex_f64",
+        "Nb2_Np3_order1",
+        true,
+    );
+    structured::<Complex<f32>, f32, { SH.blocks }, { SH.width }, { SH.shared }, 19, 4>(
+        c,
+        "paper_size/complex_f32",
+        "Nb2_Np3_order1",
+        true,
+    );
+}
+
 fn benches(c: &mut Criterion) {
+    paper_size(c);
     case!(
         f64,
         2,

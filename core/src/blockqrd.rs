@@ -100,7 +100,7 @@
 //! # Ok::<(), rotorid_core::qrdrls::FilterError>(())
 //! ```
 
-use crate::givens::{min_normal, rotation_real_pivot};
+use crate::givens::{min_normal, rotation_real_pivot, Rotation};
 use crate::parametrization::Structure;
 use crate::qrdrls::{self, FilterError};
 use crate::Real;
@@ -218,7 +218,66 @@ fn block_of<F: ComplexField<RealField = T> + Copy, T: Real>(
 ) -> Option<usize> {
     let mut found = None;
     for (b, cols) in row.chunks_exact(shape.width).take(shape.blocks).enumerate() {
-        if cols.iter().any(|x| !is_zero(*x)) {
+        if cols.iter().fold(false, |nz, x| nz | !is_zero(*x)) {
+            if found.is_some() {
+                return None;
+            }
+            found = Some(b);
+        }
+    }
+    Some(found.unwrap_or(0))
+}
+
+/// Applies `rot` to the row pair `(r, y)` entry by entry:
+/// `(r_k, y_k) <- (c r_k + s y_k, -s^* r_k + c y_k)` for every `k < K`.
+#[inline(always)]
+fn rotate_full<F, T, const K: usize>(rot: &Rotation<F>, r: &mut [F; K], y: &mut [F; K])
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    for (rk, yk) in r.iter_mut().zip(y.iter_mut()) {
+        let (nr, ny) = rot.apply(*rk, *yk);
+        *rk = nr;
+        *yk = ny;
+    }
+}
+
+/// The rotation of a factor row `r` with pivot `i` and the working row
+/// `y`: on the whole rows ([`rotate_full`], fixed-length loops that the
+/// compiler vectorises) for a real field, on the entries right of the pivot
+/// only for a complex one (whose products cost more than the vector form
+/// saves). Left of the pivot both rows hold exact zeros, which a rotation
+/// keeps zero (see [`BlockFactor::update_rows`]); the caller overwrites
+/// the pivot pair.
+#[inline(always)]
+fn rotate_row<F, T, const K: usize>(rot: &Rotation<F>, r: &mut [F; K], y: &mut [F; K], i: usize)
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    if core::mem::size_of::<F>() == core::mem::size_of::<T>() {
+        rotate_full(rot, r, y);
+    } else {
+        for (rk, yk) in r.iter_mut().zip(y.iter_mut()).skip(i + 1) {
+            let (nr, ny) = rot.apply(*rk, *yk);
+            *rk = nr;
+            *yk = ny;
+        }
+    }
+}
+
+/// [`block_of`] with the layout known at compile time (`row` has at least
+/// `NB W` entries).
+#[inline]
+fn block_of_fixed<F, T, const NB: usize, const W: usize>(row: &[F]) -> Option<usize>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let mut found = None;
+    for (b, cols) in row.chunks_exact(W).take(NB).enumerate() {
+        if cols.iter().fold(false, |nz, x| nz | !is_zero(*x)) {
             if found.is_some() {
                 return None;
             }
@@ -669,6 +728,131 @@ where
     }
 }
 
+impl<F, T, const NB: usize, const W: usize, const S: usize> BlockFactor<F, NB, W, S>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    /// [`BlockMut::update_rows`] with the layout known at compile time:
+    /// the same validation (all of it before anything is written), the same
+    /// rotations on the same entries in the same order (so the same numbers
+    /// to the last bit, checked by the tests), with the loops over `W` and
+    /// `S` fixed in length and the working row held in registers rather
+    /// than in the state. This is the update of [`BlockQrdRls`] and of the
+    /// block-structured identifiers.
+    ///
+    /// Errors (state untouched): `Dimension` (lengths, or a row with
+    /// non-zeros in two blocks), `InvalidLambda`, `NonFinite`, `OutOfRange`.
+    pub fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        let shape = Self::SHAPE;
+        let m = shape.unknowns();
+        let n = d.len();
+        if n.checked_mul(m) != Some(u.len()) || xi.len() != n || gamma.len() != n {
+            return Err(FilterError::Dimension);
+        }
+        qrdrls::validate_lambda(lambda)?;
+        qrdrls::check_finite(u, d)?;
+        if u.chunks_exact(m)
+            .any(|row| block_of_fixed::<F, T, NB, W>(row).is_none())
+        {
+            return Err(FilterError::Dimension);
+        }
+        if lambda != T::one() {
+            self.forget(lambda.sqrt());
+        }
+        for (((row, &dj), xj), gj) in u.chunks_exact(m).zip(d).zip(xi).zip(gamma) {
+            let b = block_of_fixed::<F, T, NB, W>(row).unwrap_or(0);
+            let (x, g) = self.fold_row(b, row, dj);
+            *xj = x;
+            *gj = g;
+        }
+        Ok(())
+    }
+
+    /// `[R p] <- s [R p]` on every stored entry: the strictly lower parts
+    /// of `D_b` and `R_s` are exact zeros, which stay `+0` (`s > 0`), so
+    /// scaling whole arrays gives the same state as scaling the upper
+    /// entries only, in flat loops.
+    fn forget(&mut self, s: T) {
+        let flat = |x: &mut [F]| x.iter_mut().for_each(|x| *x = x.scale(s));
+        flat(self.diag.as_flattened_mut().as_flattened_mut());
+        flat(self.coupling.as_flattened_mut().as_flattened_mut());
+        flat(self.shared.as_flattened_mut());
+        flat(self.pb.as_flattened_mut());
+        flat(&mut self.ps);
+    }
+
+    /// Folds row `row` (`M` entries, non-zero in block `b` and the shared
+    /// columns only) with right-hand side `d`; returns `(xi, gamma)`.
+    ///
+    /// The arithmetic of [`BlockMut::update_rows`] on every stored entry,
+    /// with each rotation applied to the whole rows (`W` or `S` entries,
+    /// fixed-length loops the compiler vectorises) instead of the entries
+    /// right of the pivot only. Left of the pivot both rows hold exact
+    /// zeros (the strictly lower part of `D_b`, `R_s`, kept `+0`, and
+    /// working entries already annihilated or zero from the start), and a
+    /// rotation maps a pair of zeros to zeros: with `c >= 0`,
+    /// `c 0 + s 0 = +0` and `c (+-0) - s^* 0` is a zero. The pivot pair is
+    /// then overwritten with `(rho, 0)` as in the one-sided form.
+    // index proven: `b < NB` (from `block_of`, checked by the caller for
+    // every row), `row.len() = M = NB W + S` (checked by the caller), and
+    // `i, k < W` (`< S`) index arrays of `W` (`S`) entries.
+    #[allow(clippy::indexing_slicing)]
+    #[inline]
+    fn fold_row(&mut self, b: usize, row: &[F], d: F) -> (F, T) {
+        let mut ub = [F::zero(); W];
+        let mut us = [F::zero(); S];
+        ub.copy_from_slice(&row[b * W..(b + 1) * W]);
+        us.copy_from_slice(&row[NB * W..NB * W + S]);
+        let mut e = d; // ends as sqrt(gamma) alpha
+        let mut g = T::one(); // ends as sqrt(gamma)
+        let diag = &mut self.diag[b];
+        let coup = &mut self.coupling[b];
+        let pb = &mut self.pb[b];
+        // Block part: rotations against D_b, applied to [D_b C_b p_b].
+        for i in 0..W {
+            let x = ub[i];
+            if is_zero(x) {
+                continue;
+            }
+            let drow = &mut diag[i];
+            let (rot, rho) = rotation_real_pivot(drow[i].real(), x);
+            rotate_row(&rot, drow, &mut ub, i);
+            drow[i] = F::from_real(rho);
+            ub[i] = F::zero();
+            g *= rot.c;
+            rotate_full(&rot, &mut coup[i], &mut us);
+            let (np, ne) = rot.apply(pb[i], e);
+            pb[i] = np;
+            e = ne;
+        }
+        // Shared part: rotations against R_s, applied to [R_s p_s].
+        for i in 0..S {
+            let x = us[i];
+            if is_zero(x) {
+                continue;
+            }
+            let srow = &mut self.shared[i];
+            let (rot, rho) = rotation_real_pivot(srow[i].real(), x);
+            rotate_row(&rot, srow, &mut us, i);
+            srow[i] = F::from_real(rho);
+            us[i] = F::zero();
+            g *= rot.c;
+            let (np, ne) = rot.apply(self.ps[i], e);
+            self.ps[i] = np;
+            e = ne;
+        }
+        (e.scale(g), g * g)
+    }
+}
+
 /// Owning, fixed-size block-structured QRD/RLS (the counterpart of
 /// [`qrdrls::VectorQrdRls`]): `NB` blocks of `W` unknowns, `S` shared
 /// unknowns, forgetting factor `lambda`, regularisation `delta`.
@@ -720,7 +904,7 @@ where
         gamma: &mut [T],
     ) -> Result<(), FilterError> {
         let lambda = self.lambda;
-        self.factor.view_mut().update_rows(u, d, lambda, xi, gamma)
+        self.factor.update_rows(u, d, lambda, xi, gamma)
     }
 
     /// The weights `w = R^-1 p` into `w` (`M` entries).
@@ -789,9 +973,19 @@ mod tests {
         let (mut xd, mut gd) = (vec![F::zero(); n], vec![T::zero(); n]);
         let mut all_u = Vec::new();
         let mut all_d = Vec::new();
+        // The run-time-shape kernel on slices, to compare with the
+        // fixed-size one of `BlockQrdRls`.
+        let mut sl = BlockFactor::<F, NB, W, S>::zeroed();
+        sl.view_mut().init(T::lit(0.1), None).unwrap();
+        let (mut xs, mut gs) = (vec![F::zero(); n], vec![T::zero(); n]);
         for _ in 0..steps {
             let (u, d) = rows(&mut rng, &shape, n, mk);
             blk.update_rows(&u, &d, &mut xb, &mut gb).unwrap();
+            sl.view_mut()
+                .update_rows(&u, &d, T::lit(lambda), &mut xs, &mut gs)
+                .unwrap();
+            assert_eq!(&sl, blk.factor(), "fixed-size against slice kernel");
+            assert_eq!((&xs, &gs), (&xb, &gb), "fixed-size against slice kernel");
             update_rows(&mut r, &mut p, &u, &d, T::lit(lambda), &mut xd, &mut gd).unwrap();
             assert_eq!(xb, xd, "xi");
             assert_eq!(gb, gd, "gamma");

@@ -311,13 +311,55 @@ where
     }
 }
 
+/// Mutable view of an inline block-structured factor with its layout
+/// known at compile time: the update runs the fixed-size kernel
+/// [`BlockFactor::update_rows`] (the same numbers as [`BlockMut`]'s, to the
+/// last bit); the rest goes through the slice view.
+#[derive(Debug)]
+pub struct BlockFixedMut<'a, F, const NB: usize, const W: usize, const S: usize>(
+    pub &'a mut BlockFactor<F, NB, W, S>,
+);
+
+impl<F, T, const NB: usize, const W: usize, const S: usize> FilterState<F>
+    for BlockFixedMut<'_, F, NB, W, S>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn unknowns(&self) -> usize {
+        BlockFactor::<F, NB, W, S>::SHAPE.unknowns()
+    }
+    fn shape(&self) -> Option<BlockShape> {
+        Some(BlockFactor::<F, NB, W, S>::SHAPE)
+    }
+    fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        self.0.view_mut().init(delta, None)
+    }
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        self.0.update_rows(u, d, lambda, xi, gamma)
+    }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        self.0.view().solve_weights(w)
+    }
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        Ok(self.0.view().diag_ratio())
+    }
+}
+
 impl<F, T, const NB: usize, const W: usize, const S: usize> Factor<F> for BlockFactor<F, NB, W, S>
 where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
     type View<'a>
-        = BlockMut<'a, F>
+        = BlockFixedMut<'a, F, NB, W, S>
     where
         Self: 'a;
 
@@ -325,8 +367,8 @@ where
         BlockFactor::zeroed()
     }
 
-    fn view_mut(&mut self) -> BlockMut<'_, F> {
-        BlockFactor::view_mut(self)
+    fn view_mut(&mut self) -> BlockFixedMut<'_, F, NB, W, S> {
+        BlockFixedMut(self)
     }
 
     fn view(&self) -> FactorRef<'_, F> {

@@ -233,13 +233,17 @@ where
     F: ComplexField,
     F::RealField: Real,
 {
-    if !u.iter().chain(d.iter()).all(|x| x.is_finite()) {
-        return Err(FilterError::NonFinite);
-    }
     let limit = input_limit::<F::RealField>();
-    let within = |x: &F| x.clone().real().abs() <= limit && x.clone().imaginary().abs() <= limit;
-    if u.iter().chain(d.iter()).all(within) {
-        Ok(())
+    // One branch-free pass for the common case: `|x| <= limit` is false
+    // for NaN and the infinities as well as for out-of-range entries.
+    let within = |ok: bool, x: &F| {
+        ok & (x.clone().real().abs() <= limit) & (x.clone().imaginary().abs() <= limit)
+    };
+    if u.iter().fold(true, within) & d.iter().fold(true, within) {
+        return Ok(());
+    }
+    if !u.iter().chain(d.iter()).all(|x| x.is_finite()) {
+        Err(FilterError::NonFinite)
     } else {
         Err(FilterError::OutOfRange)
     }
