@@ -9,7 +9,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use flight_solver::rls::InverseQrRls;
 use nalgebra::SVector;
-use rotorid_bench_flight_solver::{stream, Step, DELTA, LAMBDA, M, N};
+use rotorid_bench_flight_solver::{stream, stream_structured, Step, DELTA, LAMBDA, M, N, NB, S, W};
+use rotorid_core::blockqrd::BlockQrdRls;
 use rotorid_core::qrdrls::VectorQrdRls;
 use std::hint::black_box;
 
@@ -40,6 +41,64 @@ fn benches(c: &mut Criterion) {
         })
     });
 
+    let rows: Vec<[(SVector<f32, M>, SVector<f32, 1>); N]> = data
+        .iter()
+        .map(|(u, d)| {
+            core::array::from_fn(|j| (SVector::from_row_slice(&u[j]), SVector::from_element(d[j])))
+        })
+        .collect();
+    let mut fs = InverseQrRls::<M, 1>::new(1.0 / DELTA, LAMBDA.powf(1.0 / N as f32));
+    let mut i = 0usize;
+    group.bench_function("flight_solver_inverse_qr", |b| {
+        b.iter(|| {
+            for (a, y) in &rows[i % STEPS] {
+                black_box(fs.update(black_box(a), black_box(y)));
+            }
+            i += 1;
+            black_box(fs.params());
+        })
+    });
+    group.finish();
+
+    // The rows of the identification (block structure): the block-
+    // structured filter against flight-solver on the same rows.
+    let data: Vec<Step> = stream_structured(STEPS, 0x5EED).collect();
+    let mut group = c.benchmark_group("real_f32_M22_N8_structured_rows");
+    let mut f = BlockQrdRls::<f32, NB, W, S>::new(LAMBDA, DELTA).expect("valid parameters");
+    let (mut xi, mut gamma) = ([0.0f32; N], [0.0f32; N]);
+    let mut i = 0usize;
+    group.bench_function("rotorid_block_structured", |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            f.update_rows(
+                black_box(u.as_flattened()),
+                black_box(d),
+                &mut xi,
+                &mut gamma,
+            )
+            .expect("finite data");
+            black_box(&xi);
+        })
+    });
+    let mut f = BlockQrdRls::<f32, NB, W, S>::new(LAMBDA, DELTA).expect("valid parameters");
+    let mut w = [0.0f32; M];
+    let mut i = 0usize;
+    group.bench_function("rotorid_block_structured_plus_weights", |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            f.update_rows(
+                black_box(u.as_flattened()),
+                black_box(d),
+                &mut xi,
+                &mut gamma,
+            )
+            .expect("finite data");
+            f.weights(&mut w).expect("regular");
+            black_box(&w);
+        })
+    });
     let rows: Vec<[(SVector<f32, M>, SVector<f32, 1>); N]> = data
         .iter()
         .map(|(u, d)| {

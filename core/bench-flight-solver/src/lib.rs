@@ -12,11 +12,31 @@ pub const LAMBDA: f32 = 0.999;
 /// Regularisation, `R(0) = sqrt(DELTA) I` (flight-solver: `P(0) = I / DELTA`).
 pub const DELTA: f32 = 1e-3;
 
+/// Block layout of the block-structured filter for this problem (physical
+/// structure, order 1, `N_b = 2`, `N_p = 3`): 4 channel blocks of 4
+/// bearing coefficients, then 6 shared unbalance unknowns.
+pub const NB: usize = 4;
+/// Columns per block.
+pub const W: usize = 4;
+/// Shared columns.
+pub const S: usize = 6;
+
 /// One speed step of data.
 pub type Step = ([[f32; M]; N], [f32; N]);
 
 /// Deterministic stream (splitmix64): rows uniform in [-1, 1), `d = U w + 1e-3 noise`.
 pub fn stream(steps: usize, seed: u64) -> impl Iterator<Item = Step> {
+    stream_with(steps, seed, false)
+}
+
+/// As [`stream`], with the rows of the identification: row `j` non-zero
+/// only in the block of channel `j / 2` (columns `4 (j / 2) .. 4 (j / 2) +
+/// 4`) and in the 6 shared columns, as the real regression has them.
+pub fn stream_structured(steps: usize, seed: u64) -> impl Iterator<Item = Step> {
+    stream_with(steps, seed, true)
+}
+
+fn stream_with(steps: usize, seed: u64, structured: bool) -> impl Iterator<Item = Step> {
     let mut state = seed;
     let mut next = move || {
         state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -28,7 +48,18 @@ pub fn stream(steps: usize, seed: u64) -> impl Iterator<Item = Step> {
     };
     let w: [f32; M] = core::array::from_fn(|_| next());
     (0..steps).map(move |_| {
-        let u: [[f32; M]; N] = core::array::from_fn(|_| core::array::from_fn(|_| next()));
+        let u: [[f32; M]; N] = core::array::from_fn(|j| {
+            core::array::from_fn(|k| {
+                let b = j / 2;
+                let active = !structured || (k >= b * W && k < (b + 1) * W) || k >= NB * W;
+                let x = next();
+                if active {
+                    x
+                } else {
+                    0.0
+                }
+            })
+        });
         let d: [f32; N] = core::array::from_fn(|j| {
             let mut acc = 1e-3 * next();
             for k in 0..M {
