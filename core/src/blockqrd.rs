@@ -279,6 +279,36 @@ where
     }
 }
 
+/// The checks of an update, all before anything is written: lengths
+/// (`u` is `N x M`, `xi` and `gamma` have `N = d.len()` entries), `lambda`
+/// in `(0, 1]`, finite entries within [`qrdrls::input_limit`], and every
+/// row non-zero in at most one block (`block` gives `None` otherwise).
+fn validate_rows<F, T>(
+    shape: &BlockShape,
+    u: &[F],
+    d: &[F],
+    lambda: T,
+    xi: &[F],
+    gamma: &[T],
+    block: impl Fn(&[F]) -> Option<usize>,
+) -> Result<(), FilterError>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let m = shape.unknowns();
+    let n = d.len();
+    if n.checked_mul(m) != Some(u.len()) || xi.len() != n || gamma.len() != n {
+        return Err(FilterError::Dimension);
+    }
+    qrdrls::validate_lambda(lambda)?;
+    qrdrls::check_finite(u, d)?;
+    if u.chunks_exact(m).any(|row| block(row).is_none()) {
+        return Err(FilterError::Dimension);
+    }
+    Ok(())
+}
+
 /// [`block_of`] with the layout known at compile time (`row` has at least
 /// `NB W` entries).
 #[inline]
@@ -403,15 +433,7 @@ where
         self.check_lengths()?;
         let shape = self.shape;
         let m = shape.unknowns();
-        let n = d.len();
-        if n.checked_mul(m) != Some(u.len()) || xi.len() != n || gamma.len() != n {
-            return Err(FilterError::Dimension);
-        }
-        qrdrls::validate_lambda(lambda)?;
-        qrdrls::check_finite(u, d)?;
-        if u.chunks_exact(m).any(|row| block_of(&shape, row).is_none()) {
-            return Err(FilterError::Dimension);
-        }
+        validate_rows(&shape, u, d, lambda, xi, gamma, |row| block_of(&shape, row))?;
         if lambda != T::one() {
             self.forget(lambda.sqrt());
         }
@@ -765,17 +787,15 @@ where
     ) -> Result<(), FilterError> {
         let shape = Self::SHAPE;
         let m = shape.unknowns();
-        let n = d.len();
-        if n.checked_mul(m) != Some(u.len()) || xi.len() != n || gamma.len() != n {
-            return Err(FilterError::Dimension);
-        }
-        qrdrls::validate_lambda(lambda)?;
-        qrdrls::check_finite(u, d)?;
-        if u.chunks_exact(m)
-            .any(|row| block_of_fixed::<F, T, NB, W>(row).is_none())
-        {
-            return Err(FilterError::Dimension);
-        }
+        validate_rows(
+            &shape,
+            u,
+            d,
+            lambda,
+            xi,
+            gamma,
+            block_of_fixed::<F, T, NB, W>,
+        )?;
         if lambda != T::one() {
             self.forget(lambda.sqrt());
         }

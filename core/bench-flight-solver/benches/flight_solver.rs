@@ -6,7 +6,8 @@
 //! back-substitution), so the Givens filter is measured both without and
 //! with a back-substitution of the weights per step.
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::measurement::WallTime;
+use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
 use flight_solver::rls::InverseQrRls;
 use nalgebra::SVector;
 use rotorid_bench_flight_solver::{stream, stream_structured, Step, DELTA, LAMBDA, M, N, NB, S, W};
@@ -15,6 +16,27 @@ use rotorid_core::qrdrls::VectorQrdRls;
 use std::hint::black_box;
 
 const STEPS: usize = 256;
+
+/// flight-solver's inverse QR-RLS on `data`, one call per row.
+fn flight_solver(group: &mut BenchmarkGroup<'_, WallTime>, data: &[Step]) {
+    let rows: Vec<[(SVector<f32, M>, SVector<f32, 1>); N]> = data
+        .iter()
+        .map(|(u, d)| {
+            core::array::from_fn(|j| (SVector::from_row_slice(&u[j]), SVector::from_element(d[j])))
+        })
+        .collect();
+    let mut fs = InverseQrRls::<M, 1>::new(1.0 / DELTA, LAMBDA.powf(1.0 / N as f32));
+    let mut i = 0usize;
+    group.bench_function("flight_solver_inverse_qr", |b| {
+        b.iter(|| {
+            for (a, y) in &rows[i % STEPS] {
+                black_box(fs.update(black_box(a), black_box(y)));
+            }
+            i += 1;
+            black_box(fs.params());
+        })
+    });
+}
 
 fn benches(c: &mut Criterion) {
     let data: Vec<Step> = stream(STEPS, 0x5EED).collect();
@@ -41,23 +63,7 @@ fn benches(c: &mut Criterion) {
         })
     });
 
-    let rows: Vec<[(SVector<f32, M>, SVector<f32, 1>); N]> = data
-        .iter()
-        .map(|(u, d)| {
-            core::array::from_fn(|j| (SVector::from_row_slice(&u[j]), SVector::from_element(d[j])))
-        })
-        .collect();
-    let mut fs = InverseQrRls::<M, 1>::new(1.0 / DELTA, LAMBDA.powf(1.0 / N as f32));
-    let mut i = 0usize;
-    group.bench_function("flight_solver_inverse_qr", |b| {
-        b.iter(|| {
-            for (a, y) in &rows[i % STEPS] {
-                black_box(fs.update(black_box(a), black_box(y)));
-            }
-            i += 1;
-            black_box(fs.params());
-        })
-    });
+    flight_solver(&mut group, &data);
     group.finish();
 
     // The rows of the identification (block structure): the block-
@@ -99,23 +105,7 @@ fn benches(c: &mut Criterion) {
             black_box(&w);
         })
     });
-    let rows: Vec<[(SVector<f32, M>, SVector<f32, 1>); N]> = data
-        .iter()
-        .map(|(u, d)| {
-            core::array::from_fn(|j| (SVector::from_row_slice(&u[j]), SVector::from_element(d[j])))
-        })
-        .collect();
-    let mut fs = InverseQrRls::<M, 1>::new(1.0 / DELTA, LAMBDA.powf(1.0 / N as f32));
-    let mut i = 0usize;
-    group.bench_function("flight_solver_inverse_qr", |b| {
-        b.iter(|| {
-            for (a, y) in &rows[i % STEPS] {
-                black_box(fs.update(black_box(a), black_box(y)));
-            }
-            i += 1;
-            black_box(fs.params());
-        })
-    });
+    flight_solver(&mut group, &data);
     group.finish();
 }
 

@@ -22,14 +22,7 @@ fn same_problem_same_weights() {
         }
     }
     let w = f.weights().unwrap();
-    let wf = fs.params();
-    let mut num = 0.0f64;
-    let mut den = 0.0f64;
-    for k in 0..M {
-        num += ((w[k] - wf[(k, 0)]) as f64).powi(2);
-        den += (w[k] as f64).powi(2);
-    }
-    let rd = (num / den).sqrt();
+    let rd = rel_diff(&w, fs.params());
     assert!(rd < 1e-3, "relative difference {rd:e}");
 }
 
@@ -50,13 +43,17 @@ fn same_problem_same_weights_on_structured_rows() {
     }
     let mut w = [0.0f32; M];
     f.weights(&mut w).unwrap();
-    let wf = fs.params();
+    let rd = rel_diff(&w, fs.params());
+    assert!(rd < 1e-3, "relative difference {rd:e}");
+}
+
+/// `|w - wf| / |w|` (Euclidean).
+fn rel_diff(w: &[f32], wf: &nalgebra::SMatrix<f32, M, 1>) -> f64 {
     let mut num = 0.0f64;
     let mut den = 0.0f64;
     for k in 0..M {
         num += ((w[k] - wf[(k, 0)]) as f64).powi(2);
         den += (w[k] as f64).powi(2);
     }
-    let rd = (num / den).sqrt();
-    assert!(rd < 1e-3, "relative difference {rd:e}");
+    (num / den).sqrt()
 }
