@@ -424,8 +424,8 @@ fn invert_fixed<const N: usize>(m_io: &mut [Complex64], inv_io: &mut [Complex64]
     let mut d = [zero; N];
     for k in 0..N {
         let (mut p, mut best) = (k, l1(m[k][k]));
-        for i in k + 1..N {
-            let v = l1(m[k][i]);
+        for (i, &z) in m[k].iter().enumerate().skip(k + 1) {
+            let v = l1(z);
             if v > best {
                 (p, best) = (i, v);
             }
@@ -443,9 +443,9 @@ fn invert_fixed<const N: usize>(m_io: &mut [Complex64], inv_io: &mut [Complex64]
         for i in k + 1..N {
             let l = m[k][i] * d[k];
             m[k][i] = l;
-            for j in k + 1..N {
-                let mkj = m[j][k];
-                m[j][i] -= l * mkj;
+            for col in m.iter_mut().skip(k + 1) {
+                let mkj = col[k];
+                col[i] -= l * mkj;
             }
             for col in inv.iter_mut() {
                 let ikj = col[k];
