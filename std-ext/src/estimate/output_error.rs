@@ -40,8 +40,8 @@
 //!
 //! # Polish: Levenberg-Marquardt
 //!
-//! On the scaled parameters, with the normal equations accumulated speed by
-//! speed (`P x P`, `P` = 22 for the paper rotor; a QR of the full
+//! On the scaled parameters, with the normal equations accumulated block
+//! by block of speeds (`P x P`, `P` = 22 for the paper rotor; a QR of the full
 //! `4 N_s N_b x P` Jacobian would cost more for nothing here), Marquardt's
 //! diagonal scaling and Nielsen's damping update. A well-kept
 //! implementation, the `levenberg-marquardt` crate (a MINPACK port), builds
@@ -445,16 +445,21 @@ fn pass(
     ))
 }
 
-/// One refined-instrumental-variable pass (see the module documentation):
-/// `Re(Z^H X) theta = Re(Z^H y_0)` with the weighted instruments `Z` and
-/// regressors `X` of [`Rows`] and `y_0 = D H^-1 A q_meas`.
-fn iv_pass(data: &Data<'_>, theta: &[f64]) -> Result<Vec<f64>, OutputErrorError> {
+/// The equations of one refined-instrumental-variable pass at `theta`
+/// (see the module documentation), `Re(Z^H X) theta' = Re(Z^H y_0)` with
+/// the weighted instruments `Z` and regressors `X` of [`Rows`] and
+/// `y_0 = D H^-1 A q_meas` (`np x (np + 1)`: `[Re(Z^H X), Re(Z^H y_0)]`),
+/// and `S` at `theta` with the weights of this prediction (the same
+/// number as [`Data::reweighted`]'s: the pass that checks one step's
+/// result sets up the next step).
+fn iv_system(data: &Data<'_>, theta: &[f64]) -> Result<(f64, DMatrix<f64>), PredictError> {
     let (pr, floors) = (data.pr, &data.floors);
     let np = pr.n_params();
     let (nq, npl) = (2 * pr.param.n_bearings(), pr.param.n_planes());
     if theta.len() != np {
-        return Err(PredictError::Dimension.into());
+        return Err(PredictError::Dimension);
     }
+    let mut cost = 0.0;
     let mut solve = Solve::new(nq, npl);
     let mut rows = Rows::new(nq, npl, np, true);
     let zero = Complex64::new(0.0, 0.0);
@@ -464,6 +469,10 @@ fn iv_pass(data: &Data<'_>, theta: &[f64]) -> Result<Vec<f64>, OutputErrorError>
         solve.run(s.omega, t, entries, theta)?;
         for ((wc, q), f) in w.iter_mut().zip(&solve.q).zip(floors) {
             *wc = q.norm().max(*f);
+        }
+        for (c, wc) in w.iter().enumerate() {
+            let d2 = 1.0 / (wc * wc);
+            cost += (s.q[c] - solve.q[c]).norm_sqr() * d2;
         }
         rows.set_speed(&solve.h_inv, b.as_slice(), &w);
         // Instruments from the prediction, regressors from the measurement.
@@ -488,7 +497,12 @@ fn iv_pass(data: &Data<'_>, theta: &[f64]) -> Result<Vec<f64>, OutputErrorError>
         rows.extra(&y0);
         rows.advance();
     }
-    let out = rows.finish();
+    Ok((cost, rows.finish()))
+}
+
+/// The solution of [`iv_system`]'s equations.
+fn solve_iv(out: DMatrix<f64>) -> Result<Vec<f64>, OutputErrorError> {
+    let np = out.nrows();
     let sol = out
         .columns(0, np)
         .into_owned()
@@ -535,8 +549,10 @@ fn levenberg_marquardt(
         };
         let delta = chol.solve(&(-&cur.gradient));
         let trial: Vec<f64> = theta.iter().zip(delta.iter()).map(|(t, d)| t + d).collect();
-        let next = match data.pass(WeightsFrom::Given(w), &trial, true) {
-            Ok((p, _)) => p,
+        // The trial's cost decides; its normal equations are formed only
+        // when the iteration goes on from it.
+        let next = match data.pass(WeightsFrom::Given(w), &trial, false) {
+            Ok((p, _)) => p.cost,
             Err(_) => {
                 mu *= nu;
                 nu *= 2.0;
@@ -546,7 +562,7 @@ fn levenberg_marquardt(
         // Predicted reduction of S/2: -G.delta - delta.N.delta/2.
         let nd = &cur.normal * &delta;
         let predicted = -cur.gradient.dot(&delta) - 0.5 * delta.dot(&nd);
-        let actual = 0.5 * (cur.cost - next.cost);
+        let actual = 0.5 * (cur.cost - next);
         let rho = if predicted > 0.0 {
             actual / predicted
         } else {
@@ -554,14 +570,14 @@ fn levenberg_marquardt(
         };
         let step = delta.amax() / (1.0 + theta.iter().fold(0.0f64, |a, t| a.max(t.abs())));
         if rho > 0.0 {
-            let rel = (cur.cost - next.cost) / cur.cost.max(f64::MIN_POSITIVE);
+            let rel = (cur.cost - next) / cur.cost.max(f64::MIN_POSITIVE);
             theta = trial;
-            cur = next;
-            mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
-            nu = 2.0;
             if rel < opts.tolerance || step < opts.tolerance {
                 return Ok((theta, it, true));
             }
+            cur = data.pass(WeightsFrom::Given(w), &theta, true)?.0;
+            mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+            nu = 2.0;
         } else {
             mu *= nu;
             nu *= 2.0;
@@ -601,27 +617,55 @@ pub fn fit_output_error(
     // the start already fits to round-off, the instrumental-variable
     // equations (whose conditioning is that of the normal equations) must
     // not move it along poorly determined directions.
-    let mut cost = data.reweighted(&theta, false)?.0.cost;
-    for _ in 0..opts.iv_passes {
+    //
+    // The pass that checks a step's result also sets up what follows it:
+    // the next instrumental-variable equations, or after the last one the
+    // normal equations that start the polish (the same numbers as separate
+    // passes, one prediction per speed fewer).
+    let (mut cost, mut system) = if opts.iv_passes > 0 {
+        let (c, sys) = iv_system(&data, &theta)?;
+        (c, Some(sys))
+    } else {
+        (data.reweighted(&theta, false)?.0.cost, None)
+    };
+    let mut fresh = None;
+    for k in 0..opts.iv_passes {
         if cost <= PERFECT * n as f64 {
             break;
         }
-        match iv_pass(&data, &theta) {
-            Ok(t) => match data.reweighted(&t, false) {
-                Ok((p, _)) if p.cost < cost => {
-                    theta = t;
-                    cost = p.cost;
-                }
-                _ => break,
-            },
+        let Some(sys) = system.take() else { break };
+        let t = match solve_iv(sys) {
+            Ok(t) => t,
             Err(OutputErrorError::Predict(_)) | Err(OutputErrorError::Singular) => break,
             Err(e) => return Err(e),
+        };
+        if k + 1 < opts.iv_passes {
+            match iv_system(&data, &t) {
+                Ok((c, sys)) if c < cost => {
+                    theta = t;
+                    cost = c;
+                    system = Some(sys);
+                }
+                _ => break,
+            }
+        } else {
+            match data.reweighted(&t, true) {
+                Ok((p, w)) if p.cost < cost => {
+                    theta = t;
+                    cost = p.cost;
+                    fresh = Some((p, w));
+                }
+                _ => break,
+            }
         }
     }
     let mut iterations = 0;
     let mut converged = false;
     for _ in 0..opts.reweightings.max(1) {
-        let (cur, w) = data.reweighted(&theta, true)?;
+        let (cur, w) = match fresh.take() {
+            Some(f) => f,
+            None => data.reweighted(&theta, true)?,
+        };
         let (t, it, ok) = levenberg_marquardt(&data, &w, (theta, cur), opts)?;
         theta = t;
         iterations += it;
