@@ -40,8 +40,8 @@
 //!
 //! # Polish: Levenberg-Marquardt
 //!
-//! On the scaled parameters, with the normal equations accumulated speed by
-//! speed (`P x P`, `P` = 22 for the paper rotor; a QR of the full
+//! On the scaled parameters, with the normal equations accumulated block
+//! by block of speeds (`P x P`, `P` = 22 for the paper rotor; a QR of the full
 //! `4 N_s N_b x P` Jacobian would cost more for nothing here), Marquardt's
 //! diagonal scaling and Nielsen's damping update. A well-kept
 //! implementation, the `levenberg-marquardt` crate (a MINPACK port), builds
@@ -58,11 +58,11 @@
 //! `s` estimated from the residuals: `s^2 = S / (N - P / 2)`, `N` complex
 //! samples).
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DMatrixView, DVector};
 use num_complex::Complex64;
 use thiserror::Error;
 
-use crate::estimate::predictor::{Entry, PredictError, Predictor, Terms};
+use crate::estimate::predictor::{Entry, PredictError, Predictor, Solve, Terms};
 use crate::io::measurement::Sample;
 
 /// Options of the output-error fit.
@@ -179,11 +179,7 @@ impl<'a> Data<'a> {
     }
 
     /// [`pass`] with weights from this pass's own prediction.
-    fn reweighted(
-        &self,
-        theta: &[f64],
-        jacobian: bool,
-    ) -> Result<(Pass, Vec<Vec<f64>>), PredictError> {
+    fn reweighted(&self, theta: &[f64], jacobian: bool) -> Result<(Pass, Vec<f64>), PredictError> {
         self.pass(WeightsFrom::Prediction(&self.floors), theta, jacobian)
     }
 
@@ -192,7 +188,7 @@ impl<'a> Data<'a> {
         weights: WeightsFrom<'_>,
         theta: &[f64],
         jacobian: bool,
-    ) -> Result<(Pass, Vec<Vec<f64>>), PredictError> {
+    ) -> Result<(Pass, Vec<f64>), PredictError> {
         pass(
             self.pr,
             self.samples,
@@ -218,136 +214,172 @@ fn floors(samples: &[Sample], floor: f64) -> Vec<f64> {
 
 /// Where the weights of a pass come from.
 enum WeightsFrom<'a> {
-    /// Fixed (within a Levenberg-Marquardt polish).
-    Given(&'a [Vec<f64>]),
+    /// Fixed (within a Levenberg-Marquardt polish): `w_(n,c)` at
+    /// `n * nq + c`.
+    Given(&'a [f64]),
     /// This pass's own prediction, with these floors (a reweighting).
     Prediction(&'a [f64]),
 }
 
-/// `out[i][k] += Re(Ga_i^H M Gb_k)` for the sparse columns `G` of the
-/// parameters (see [`pass`]): `ga`, `gb` hold each parameter's scalar
-/// (`-dz q_col` or `da`), `m = H^-H D^2 H^-1`, `mb = M B`,
-/// `bmb = B^H M B`; only `k >= i` when `upper`.
+/// Speeds per block of [`Rows`]: one matrix product per block.
+const BLOCK: usize = 64;
+
+/// The real rows of the weighted Jacobian `X` (and of the instruments `Z`
+/// of an instrumental-variable pass) for a block of speeds, and the
+/// accumulated product `Z^T [X y]` (`Z = X` without instruments).
 ///
-/// The three blocks are gathered once into the Hermitian
-/// `E = [M, M B; (M B)^H, B^H M B]` (`(nq + np)^2`, column-major, in
-/// `scratch`), each parameter's row or plane into its index of `E`, so
-/// that every entry is one look-up and one product, written down the
-/// columns of `out` (the same values as entry by entry).
-#[allow(clippy::too_many_arguments)]
-fn add_products(
-    out: &mut DMatrix<f64>,
-    entries: &[Entry],
-    ga: &[Complex64],
-    gb: &[Complex64],
-    m: &DMatrix<Complex64>,
-    mb: &DMatrix<Complex64>,
-    bmb: &DMatrix<Complex64>,
-    upper: bool,
-    scratch: &mut Products,
-) {
-    let np = entries.len();
-    let (nq, npl) = (m.nrows(), mb.ncols());
-    let n = nq + npl;
-    let e = &mut scratch.e;
-    e.clear();
-    e.resize(n * n, Complex64::new(0.0, 0.0));
-    for c in 0..n {
-        for r in 0..n {
-            e[c * n + r] = match (r < nq, c < nq) {
-                (true, true) => m[(r, c)],
-                (true, false) => mb[(r, c - nq)],
-                (false, true) => mb[(c, r - nq)].conj(),
-                (false, false) => bmb[(r - nq, c - nq)],
-            };
-        }
-    }
-    let idx = &mut scratch.idx;
-    idx.clear();
-    idx.extend(entries.iter().map(|en| match *en {
-        Entry::Bearing { row, .. } => row,
-        Entry::Unbalance { plane, .. } => nq + plane,
-    }));
-    let gi: &mut Vec<Complex64> = &mut scratch.gc;
-    gi.clear();
-    gi.extend(ga.iter().map(|g| g.conj()));
-    let data = out.as_mut_slice();
-    for (k, (&gbk, &ik)) in gb.iter().zip(idx.iter()).enumerate() {
-        let col_e = &e[ik * n..(ik + 1) * n];
-        let rows = if upper { k + 1 } else { np };
-        let col = &mut data[k * np..k * np + rows];
-        for ((o, &g), &ii) in col.iter_mut().zip(gi.iter()).zip(idx.iter()) {
-            *o += (g * col_e[ii] * gbk).re;
-        }
-    }
+/// At a speed with `D = diag(1/w)`, `L = D H^-1` and `Y = [L, L B]`
+/// (`nq x (nq + N_p)`), the weighted column of parameter `i` is
+/// `Y e_(idx_i) g_i` with `g_i` the scalar of its sparse column of `G`:
+/// `-dz q_col` in row `idx_i = row` for a bearing parameter, `da` in
+/// `B`'s column `idx_i = nq + plane` for an unbalance parameter (the
+/// module documentation of [`crate::estimate::predictor`]). Each complex
+/// entry gives two real rows, its real and its imaginary part, so that
+/// `Re(Z^H X) = Z^T X` over the real rows; the rows of [`BLOCK`] speeds
+/// are multiplied at once (a dense matrix product, vectorised; the
+/// columns padded with zeros to a multiple of [`PAD`] so that its kernels
+/// run on whole tiles).
+struct Rows {
+    nq: usize,
+    npl: usize,
+    np: usize,
+    /// Columns of `Z` and of `[X y]` with the padding.
+    lw: usize,
+    rw: usize,
+    /// Real rows per block.
+    cap: usize,
+    /// Real rows filled.
+    filled: usize,
+    /// `[X y]`, column-major `cap x rw`.
+    x: Vec<f64>,
+    /// `Z`, column-major `cap x lw`; empty when `Z` is `X`.
+    z: Vec<f64>,
+    /// `Y` at the current speed, column-major.
+    y: Vec<Complex64>,
+    /// `Z^T [X y]`, `lw x rw` (the first `np x (np + 1)` wanted).
+    out: DMatrix<f64>,
 }
 
-/// Reused buffers of [`add_products`].
-#[derive(Default)]
-struct Products {
-    e: Vec<Complex64>,
-    idx: Vec<usize>,
-    gc: Vec<Complex64>,
-}
+/// Multiple to which [`Rows`] pads its columns (the tile of the widest
+/// kernel of `matrixmultiply`, 8 x 8 with AVX-512).
+const PAD: usize = 8;
 
-/// `-Re(G_i^H v)` for every parameter, with `bv = B^H v`.
-fn add_gradient(
-    out: &mut DVector<f64>,
-    entries: &[Entry],
-    g: &[Complex64],
-    v: &DVector<Complex64>,
-    bv: &DVector<Complex64>,
-) {
-    for (i, en) in entries.iter().enumerate() {
-        let x = match *en {
-            Entry::Bearing { row, .. } => v[row],
-            Entry::Unbalance { plane, .. } => bv[plane],
+impl Rows {
+    fn new(nq: usize, npl: usize, np: usize, instruments: bool) -> Self {
+        let cap = 2 * nq * BLOCK;
+        let (lw, rw) = (np.div_ceil(PAD) * PAD, (np + 1).div_ceil(PAD) * PAD);
+        Rows {
+            nq,
+            npl,
+            np,
+            lw,
+            rw,
+            cap,
+            filled: 0,
+            x: vec![0.0; cap * rw],
+            z: if instruments {
+                vec![0.0; cap * lw]
+            } else {
+                Vec::new()
+            },
+            y: vec![Complex64::new(0.0, 0.0); nq * (nq + npl)],
+            out: DMatrix::zeros(lw, rw),
+        }
+    }
+
+    /// `Y = [D H^-1, D H^-1 B]` from `H^-1` and `B` (column-major) and
+    /// the weights `w`.
+    fn set_speed(&mut self, h_inv: &[Complex64], b: &[Complex64], w: &[f64]) {
+        let nq = self.nq;
+        let (l, lb) = self.y.split_at_mut(nq * nq);
+        for (lc, hc) in l.chunks_exact_mut(nq).zip(h_inv.chunks_exact(nq)) {
+            for ((o, h), wc) in lc.iter_mut().zip(hc).zip(w) {
+                *o = h / wc;
+            }
+        }
+        for (lbk, bk) in lb.chunks_exact_mut(nq).zip(b.chunks_exact(nq)) {
+            lbk.fill(Complex64::new(0.0, 0.0));
+            for (lj, bjk) in l.chunks_exact(nq).zip(bk) {
+                for (o, ljc) in lbk.iter_mut().zip(lj) {
+                    *o += ljc * bjk;
+                }
+            }
+        }
+    }
+
+    /// The weighted columns of every parameter at this speed, with `q`
+    /// multiplying the bearing terms, into `Z` (`instruments`) or `X`.
+    fn columns(&mut self, instruments: bool, entries: &[Entry], q: &[Complex64]) {
+        let (nq, cap, row0) = (self.nq, self.cap, self.filled);
+        let buf = if instruments {
+            &mut self.z
+        } else {
+            &mut self.x
         };
-        out[i] -= (g[i].conj() * x).re;
-    }
-}
-
-/// The scalars of the sparse columns `G` at a speed, with `q` multiplying
-/// the bearing terms.
-fn column_scalars(entries: &[Entry], q: &DVector<Complex64>) -> Vec<Complex64> {
-    entries
-        .iter()
-        .map(|en| match *en {
-            Entry::Bearing { col, dz, .. } => -(dz * q[col]),
-            Entry::Unbalance { da, .. } => da,
-        })
-        .collect()
-}
-
-/// `M = H^-H D^2 H^-1`, `M B`, `B^H M B` for weights `w`.
-fn weighted_products(
-    h_inv: &DMatrix<Complex64>,
-    b: &DMatrix<Complex64>,
-    w: &[f64],
-) -> (DMatrix<Complex64>, DMatrix<Complex64>, DMatrix<Complex64>) {
-    let mut dh = h_inv.clone();
-    for (c, wc) in w.iter().enumerate() {
-        let d2 = 1.0 / (wc * wc);
-        for k in 0..dh.ncols() {
-            dh[(c, k)] *= d2;
+        for (i, en) in entries.iter().enumerate() {
+            let (k, g) = match *en {
+                Entry::Bearing { row, col, dz } => (row, -(dz * q[col])),
+                Entry::Unbalance { plane, da } => (nq + plane, da),
+            };
+            let yk = &self.y[k * nq..(k + 1) * nq];
+            let out = &mut buf[i * cap + row0..i * cap + row0 + 2 * nq];
+            for (o, yr) in out.chunks_exact_mut(2).zip(yk) {
+                let v = yr * g;
+                o[0] = v.re;
+                o[1] = v.im;
+            }
         }
     }
-    let m = h_inv.adjoint() * dh;
-    let mb = &m * b;
-    let bmb = b.adjoint() * &mb;
-    (m, mb, bmb)
+
+    /// The extra column `y` of `[X y]` at this speed.
+    fn extra(&mut self, v: &[Complex64]) {
+        let at = self.np * self.cap + self.filled;
+        for (o, z) in self.x[at..at + 2 * self.nq].chunks_exact_mut(2).zip(v) {
+            o[0] = z.re;
+            o[1] = z.im;
+        }
+    }
+
+    /// Next speed (multiplies a full block out).
+    fn advance(&mut self) {
+        self.filled += 2 * self.nq;
+        if self.filled == self.cap {
+            self.flush();
+        }
+    }
+
+    fn flush(&mut self) {
+        let (k, cap) = (self.filled, self.cap);
+        if k == 0 {
+            return;
+        }
+        // Without instruments the first lw columns of [X y] (X, then y or
+        // padding) stand for Z; the rows of out past np are not read.
+        let left = if self.z.is_empty() { &self.x } else { &self.z };
+        let zt = DMatrixView::from_slice_with_strides(left, self.lw, k, cap, 1);
+        let xy = DMatrixView::from_slice_with_strides(&self.x, k, self.rw, 1, cap);
+        self.out.gemm(1.0, &zt, &xy, 1.0);
+        self.filled = 0;
+    }
+
+    /// `Z^T [X y]` over every speed (`np x (np + 1)`).
+    fn finish(mut self) -> DMatrix<f64> {
+        self.flush();
+        debug_assert_eq!(self.y.len(), self.nq * (self.nq + self.npl));
+        self.out.view((0, 0), (self.np, self.np + 1)).into_owned()
+    }
 }
 
 /// `S`, and with `jacobian` the normal equations, at `theta`; returns the
-/// weights used.
+/// weights used (`w_(n,c)` at `n * nq + c`).
 ///
-/// The normal equations are formed without the Jacobian: with
-/// `dq/dtheta = H^-1 G` (`G` one entry `-dz q_col` in row `row` for a
+/// With `dq/dtheta = H^-1 G` (`G` one entry `-dz q_col` in row `row` for a
 /// bearing parameter, the column `B e_k da` for an unbalance parameter) and
-/// `D = diag(1/w)`, `Re(J^H D^2 J) = Re(G^H M G)` with the small Hermitian
-/// `M = H^-H D^2 H^-1`, and the gradient is `-Re(G^H v)`,
-/// `v = H^-H D^2 (q_meas - q)`: every entry costs O(1) once `M`, `M B`
-/// and `B^H M B` are known (checked against the Jacobian in the tests).
+/// `D = diag(1/w)`, the weighted Jacobian is `D H^-1 G`, one scaled column
+/// of `[D H^-1, D H^-1 B]` per parameter ([`Rows`]); with the weighted
+/// residual `r = D (q_meas - q)` appended, one product of the real rows
+/// gives `Re(J^H D^2 J)` and the gradient `-Re(J^H D^2 (q_meas - q))`
+/// (checked against the Jacobian of the predictor in the tests).
 fn pass(
     pr: &Predictor,
     samples: &[Sample],
@@ -356,105 +388,127 @@ fn pass(
     weights: WeightsFrom<'_>,
     theta: &[f64],
     jacobian: bool,
-) -> Result<(Pass, Vec<Vec<f64>>), PredictError> {
+) -> Result<(Pass, Vec<f64>), PredictError> {
     let np = pr.n_params();
-    let mut out = Pass {
-        normal: DMatrix::zeros(np, np),
-        gradient: DVector::zeros(np),
-        cost: 0.0,
-    };
-    let mut used = Vec::with_capacity(samples.len());
-    let mut scratch = Products::default();
+    let (nq, npl) = (2 * pr.param.n_bearings(), pr.param.n_planes());
+    if theta.len() != np || entries.iter().any(|en| en.len() != np) {
+        return Err(PredictError::Dimension);
+    }
+    let mut solve = Solve::new(nq, npl);
+    let mut rows = jacobian.then(|| Rows::new(nq, npl, np, false));
+    let mut r = vec![Complex64::new(0.0, 0.0); nq];
+    let mut cost = 0.0;
+    let mut used = Vec::with_capacity(samples.len() * nq);
     for (n, ((s, t), en)) in samples.iter().zip(terms).zip(entries).enumerate() {
-        let p = pr.predict_with(s.omega, t, en, theta, false)?;
-        let wn: Vec<f64> = match weights {
-            WeightsFrom::Given(w) => w[n].clone(),
+        solve.run(s.omega, t, en, theta)?;
+        let w0 = used.len();
+        match weights {
+            WeightsFrom::Given(w) => used.extend_from_slice(&w[n * nq..(n + 1) * nq]),
             WeightsFrom::Prediction(floors) => {
-                p.q.iter()
-                    .zip(floors)
-                    .map(|(q, f)| q.norm().max(*f))
-                    .collect()
+                used.extend(solve.q.iter().zip(floors).map(|(q, f)| q.norm().max(*f)))
             }
-        };
-        let nq = wn.len();
-        let mut e = DVector::<Complex64>::zeros(nq);
-        for c in 0..nq {
+        }
+        let wn = &used[w0..];
+        for (c, rc) in r.iter_mut().enumerate() {
             let d2 = 1.0 / (wn[c] * wn[c]);
-            let ec = s.q[c] - p.q[c];
-            out.cost += ec.norm_sqr() * d2;
-            e[c] = ec * d2;
+            let ec = s.q[c] - solve.q[c];
+            cost += ec.norm_sqr() * d2;
+            *rc = ec / wn[c];
         }
-        if jacobian {
-            let b = &t.1;
-            let v = p.h_inv.adjoint() * e;
-            let bv = b.adjoint() * &v;
-            let (m, mb, bmb) = weighted_products(&p.h_inv, b, &wn);
-            let g = column_scalars(en, &p.q);
-            add_gradient(&mut out.gradient, en, &g, &v, &bv);
-            add_products(
-                &mut out.normal,
-                en,
-                &g,
-                &g,
-                &m,
-                &mb,
-                &bmb,
-                true,
-                &mut scratch,
-            );
-        }
-        used.push(wn);
-    }
-    for i in 0..np {
-        for k in 0..i {
-            out.normal[(i, k)] = out.normal[(k, i)];
+        if let Some(rows) = rows.as_mut() {
+            rows.set_speed(&solve.h_inv, t.1.as_slice(), wn);
+            rows.columns(false, en, &solve.q);
+            rows.extra(&r);
+            rows.advance();
         }
     }
-    Ok((out, used))
+    let (normal, gradient) = match rows {
+        Some(rows) => {
+            let out = rows.finish();
+            let mut normal = out.columns(0, np).into_owned();
+            for i in 0..np {
+                for k in 0..i {
+                    normal[(i, k)] = normal[(k, i)];
+                }
+            }
+            (normal, -out.column(np))
+        }
+        None => (DMatrix::zeros(np, np), DVector::zeros(np)),
+    };
+    Ok((
+        Pass {
+            normal,
+            gradient,
+            cost,
+        },
+        used,
+    ))
 }
 
-/// One refined-instrumental-variable pass (see the module documentation).
-fn iv_pass(data: &Data<'_>, theta: &[f64]) -> Result<Vec<f64>, OutputErrorError> {
+/// The equations of one refined-instrumental-variable pass at `theta`
+/// (see the module documentation), `Re(Z^H X) theta' = Re(Z^H y_0)` with
+/// the weighted instruments `Z` and regressors `X` of [`Rows`] and
+/// `y_0 = D H^-1 A q_meas` (`np x (np + 1)`: `[Re(Z^H X), Re(Z^H y_0)]`),
+/// and `S` at `theta` with the weights of this prediction (the same
+/// number as [`Data::reweighted`]'s: the pass that checks one step's
+/// result sets up the next step).
+fn iv_system(data: &Data<'_>, theta: &[f64]) -> Result<(f64, DMatrix<f64>), PredictError> {
     let (pr, floors) = (data.pr, &data.floors);
     let np = pr.n_params();
-    let mut m = DMatrix::<f64>::zeros(np, np);
-    let mut v = DVector::<f64>::zeros(np);
-    let mut scratch = Products::default();
+    let (nq, npl) = (2 * pr.param.n_bearings(), pr.param.n_planes());
+    if theta.len() != np {
+        return Err(PredictError::Dimension);
+    }
+    let mut cost = 0.0;
+    let mut solve = Solve::new(nq, npl);
+    let mut rows = Rows::new(nq, npl, np, true);
+    let zero = Complex64::new(0.0, 0.0);
+    let (mut w, mut aq, mut y0) = (vec![0.0; nq], vec![zero; nq], vec![zero; nq]);
     for ((s, t), entries) in data.samples.iter().zip(data.terms).zip(&data.entries) {
         let (a, b) = t;
-        let p = pr.predict_with(s.omega, t, entries, theta, false)?;
-        let qm = DVector::from_column_slice(&s.q);
-        let w: Vec<f64> =
-            p.q.iter()
-                .zip(floors)
-                .map(|(q, f)| q.norm().max(*f))
-                .collect();
-        // Instruments from the prediction, regressors from the measurement.
-        let gz = column_scalars(entries, &p.q);
-        let gx = column_scalars(entries, &qm);
-        let (mm, mb, bmb) = weighted_products(&p.h_inv, b, &w);
-        add_products(
-            &mut m,
-            entries,
-            &gz,
-            &gx,
-            &mm,
-            &mb,
-            &bmb,
-            false,
-            &mut scratch,
-        );
-        // v_i = Re(Z_i^H D^2 y0) = -Re(Gz_i^H H^-H D^2 H^-1 A q_meas).
-        let y0 = &p.h_inv * (a * &qm);
-        let mut dy = y0;
-        for (c, wc) in w.iter().enumerate() {
-            dy[c] /= wc * wc;
+        solve.run(s.omega, t, entries, theta)?;
+        for ((wc, q), f) in w.iter_mut().zip(&solve.q).zip(floors) {
+            *wc = q.norm().max(*f);
         }
-        let v0 = p.h_inv.adjoint() * dy;
-        let bv0 = b.adjoint() * &v0;
-        add_gradient(&mut v, entries, &gz, &v0, &bv0);
+        for (c, wc) in w.iter().enumerate() {
+            let d2 = 1.0 / (wc * wc);
+            cost += (s.q[c] - solve.q[c]).norm_sqr() * d2;
+        }
+        rows.set_speed(&solve.h_inv, b.as_slice(), &w);
+        // Instruments from the prediction, regressors from the measurement.
+        rows.columns(true, entries, &solve.q);
+        rows.columns(false, entries, &s.q);
+        // y_0 = D H^-1 A q_meas.
+        aq.fill(zero);
+        for (ac, qc) in a.as_slice().chunks_exact(nq).zip(&s.q) {
+            for (o, aic) in aq.iter_mut().zip(ac) {
+                *o += aic * qc;
+            }
+        }
+        y0.fill(zero);
+        for (hc, ac) in solve.h_inv.chunks_exact(nq).zip(&aq) {
+            for (o, hic) in y0.iter_mut().zip(hc) {
+                *o += hic * ac;
+            }
+        }
+        for (yc, wc) in y0.iter_mut().zip(&w) {
+            *yc /= wc;
+        }
+        rows.extra(&y0);
+        rows.advance();
     }
-    let sol = m.lu().solve(&(-v)).ok_or(OutputErrorError::Singular)?;
+    Ok((cost, rows.finish()))
+}
+
+/// The solution of [`iv_system`]'s equations.
+fn solve_iv(out: DMatrix<f64>) -> Result<Vec<f64>, OutputErrorError> {
+    let np = out.nrows();
+    let sol = out
+        .columns(0, np)
+        .into_owned()
+        .lu()
+        .solve(&out.column(np))
+        .ok_or(OutputErrorError::Singular)?;
     if sol.iter().all(|x| x.is_finite()) {
         Ok(sol.as_slice().to_vec())
     } else {
@@ -466,7 +520,7 @@ fn iv_pass(data: &Data<'_>, theta: &[f64]) -> Result<Vec<f64>, OutputErrorError>
 /// iterations and whether the tolerance was met.
 fn levenberg_marquardt(
     data: &Data<'_>,
-    w: &[Vec<f64>],
+    w: &[f64],
     start: (Vec<f64>, Pass),
     opts: &OutputErrorOptions,
 ) -> Result<(Vec<f64>, usize, bool), OutputErrorError> {
@@ -495,8 +549,10 @@ fn levenberg_marquardt(
         };
         let delta = chol.solve(&(-&cur.gradient));
         let trial: Vec<f64> = theta.iter().zip(delta.iter()).map(|(t, d)| t + d).collect();
-        let next = match data.pass(WeightsFrom::Given(w), &trial, true) {
-            Ok((p, _)) => p,
+        // The trial's cost decides; its normal equations are formed only
+        // when the iteration goes on from it.
+        let next = match data.pass(WeightsFrom::Given(w), &trial, false) {
+            Ok((p, _)) => p.cost,
             Err(_) => {
                 mu *= nu;
                 nu *= 2.0;
@@ -506,7 +562,7 @@ fn levenberg_marquardt(
         // Predicted reduction of S/2: -G.delta - delta.N.delta/2.
         let nd = &cur.normal * &delta;
         let predicted = -cur.gradient.dot(&delta) - 0.5 * delta.dot(&nd);
-        let actual = 0.5 * (cur.cost - next.cost);
+        let actual = 0.5 * (cur.cost - next);
         let rho = if predicted > 0.0 {
             actual / predicted
         } else {
@@ -514,14 +570,14 @@ fn levenberg_marquardt(
         };
         let step = delta.amax() / (1.0 + theta.iter().fold(0.0f64, |a, t| a.max(t.abs())));
         if rho > 0.0 {
-            let rel = (cur.cost - next.cost) / cur.cost.max(f64::MIN_POSITIVE);
+            let rel = (cur.cost - next) / cur.cost.max(f64::MIN_POSITIVE);
             theta = trial;
-            cur = next;
-            mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
-            nu = 2.0;
             if rel < opts.tolerance || step < opts.tolerance {
                 return Ok((theta, it, true));
             }
+            cur = data.pass(WeightsFrom::Given(w), &theta, true)?.0;
+            mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+            nu = 2.0;
         } else {
             mu *= nu;
             nu *= 2.0;
@@ -561,27 +617,55 @@ pub fn fit_output_error(
     // the start already fits to round-off, the instrumental-variable
     // equations (whose conditioning is that of the normal equations) must
     // not move it along poorly determined directions.
-    let mut cost = data.reweighted(&theta, false)?.0.cost;
-    for _ in 0..opts.iv_passes {
+    //
+    // The pass that checks a step's result also sets up what follows it:
+    // the next instrumental-variable equations, or after the last one the
+    // normal equations that start the polish (the same numbers as separate
+    // passes, one prediction per speed fewer).
+    let (mut cost, mut system) = if opts.iv_passes > 0 {
+        let (c, sys) = iv_system(&data, &theta)?;
+        (c, Some(sys))
+    } else {
+        (data.reweighted(&theta, false)?.0.cost, None)
+    };
+    let mut fresh = None;
+    for k in 0..opts.iv_passes {
         if cost <= PERFECT * n as f64 {
             break;
         }
-        match iv_pass(&data, &theta) {
-            Ok(t) => match data.reweighted(&t, false) {
-                Ok((p, _)) if p.cost < cost => {
-                    theta = t;
-                    cost = p.cost;
-                }
-                _ => break,
-            },
+        let Some(sys) = system.take() else { break };
+        let t = match solve_iv(sys) {
+            Ok(t) => t,
             Err(OutputErrorError::Predict(_)) | Err(OutputErrorError::Singular) => break,
             Err(e) => return Err(e),
+        };
+        if k + 1 < opts.iv_passes {
+            match iv_system(&data, &t) {
+                Ok((c, sys)) if c < cost => {
+                    theta = t;
+                    cost = c;
+                    system = Some(sys);
+                }
+                _ => break,
+            }
+        } else {
+            match data.reweighted(&t, true) {
+                Ok((p, w)) if p.cost < cost => {
+                    theta = t;
+                    cost = p.cost;
+                    fresh = Some((p, w));
+                }
+                _ => break,
+            }
         }
     }
     let mut iterations = 0;
     let mut converged = false;
     for _ in 0..opts.reweightings.max(1) {
-        let (cur, w) = data.reweighted(&theta, true)?;
+        let (cur, w) = match fresh.take() {
+            Some(f) => f,
+            None => data.reweighted(&theta, true)?,
+        };
         let (t, it, ok) = levenberg_marquardt(&data, &w, (theta, cur), opts)?;
         theta = t;
         iterations += it;
@@ -668,8 +752,10 @@ mod tests {
                 .collect();
             let mut samples = Vec::new();
             let mut terms = Vec::new();
-            for n in 1..=5 {
-                let omega = 300.0 * n as f64;
+            // More speeds than a block of rows holds, the last block part-filled.
+            for n in 1..=(2 * BLOCK + 7) {
+                let omega = 10.0 * n as f64;
+
                 let a = DMatrix::from_fn(4, 4, |i, j| {
                     Complex64::new(
                         2e7 * ((i * 3 + j) as f64 * 0.41).cos()
@@ -709,7 +795,7 @@ mod tests {
             let np = pr.n_params();
             let mut normal = DMatrix::<f64>::zeros(np, np);
             let mut gradient = DVector::<f64>::zeros(np);
-            for ((s, t), wn) in samples.iter().zip(&terms).zip(&w) {
+            for ((s, t), wn) in samples.iter().zip(&terms).zip(w.chunks_exact(4)) {
                 let p = pr.predict(s.omega, t, &theta, true).unwrap();
                 let jac = p.jacobian.unwrap();
                 for c in 0..4 {

@@ -214,27 +214,10 @@ impl Predictor {
         if theta.len() != self.n_params() || entries.len() != self.n_params() {
             return Err(PredictError::Dimension);
         }
-        // Z_B and a are linear in theta: H = A + sum_i theta_i dZ_i,
-        // f = B sum_i theta_i da_i.
-        let mut h = a.clone();
-        let mut ak = vec![Complex64::new(0.0, 0.0); np];
-        for (en, &t) in entries.iter().zip(theta) {
-            match *en {
-                Entry::Bearing { row, col, dz } => h[(row, col)] += dz * t,
-                Entry::Unbalance { plane, da } => ak[plane] += da * t,
-            }
-        }
-        let mut f = DVector::<Complex64>::zeros(nq);
-        for (k, a_k) in ak.iter().enumerate() {
-            for i in 0..nq {
-                f[i] += b[(i, k)] * a_k;
-            }
-        }
-        let h_inv = h
-            .try_inverse()
-            .filter(|m| m.iter().all(|z| z.re.is_finite() && z.im.is_finite()))
-            .ok_or(PredictError::Singular { omega })?;
-        let q = &h_inv * f;
+        let mut solve = Solve::new(nq, np);
+        solve.run(omega, terms, entries, theta)?;
+        let h_inv = DMatrix::from_column_slice(nq, nq, &solve.h_inv);
+        let q = DVector::from_column_slice(&solve.q);
         let jacobian = jacobian.then(|| self.jacobian_with(omega, &h_inv, b, &q));
         Ok(Prediction { q, jacobian, h_inv })
     }
@@ -275,6 +258,219 @@ impl Predictor {
         }
         jac
     }
+}
+
+/// The prediction at one speed into reused buffers, without allocating:
+/// the inner loop of the fit ([`Predictor::predict_with`] wraps it).
+#[derive(Debug, Clone)]
+pub(crate) struct Solve {
+    nq: usize,
+    np: usize,
+    /// `H`, then its triangular factors (column-major `nq x nq`).
+    lu: Vec<Complex64>,
+    /// `H^-1` (column-major `nq x nq`).
+    pub h_inv: Vec<Complex64>,
+    /// The forcing `B a(theta)`.
+    f: Vec<Complex64>,
+    /// `a(theta)`.
+    ak: Vec<Complex64>,
+    /// The predicted `q_B`.
+    pub q: Vec<Complex64>,
+}
+
+impl Solve {
+    /// Buffers for `nq` channels and `np` planes.
+    pub(crate) fn new(nq: usize, np: usize) -> Self {
+        let zero = Complex64::new(0.0, 0.0);
+        Solve {
+            nq,
+            np,
+            lu: vec![zero; nq * nq],
+            h_inv: vec![zero; nq * nq],
+            f: vec![zero; nq],
+            ak: vec![zero; np],
+            q: vec![zero; nq],
+        }
+    }
+
+    /// `H^-1` and `q = H^-1 B a(theta)` at `omega` (see
+    /// [`Predictor::predict_with`]).
+    pub(crate) fn run(
+        &mut self,
+        omega: f64,
+        terms: &Terms,
+        entries: &[Entry],
+        theta: &[f64],
+    ) -> Result<(), PredictError> {
+        let (a, b) = terms;
+        let (nq, np) = (self.nq, self.np);
+        if a.nrows() != nq || a.ncols() != nq || b.nrows() != nq || b.ncols() != np {
+            return Err(PredictError::Dimension);
+        }
+        // Z_B and a are linear in theta: H = A + sum_i theta_i dZ_i,
+        // f = B sum_i theta_i da_i.
+        self.lu.copy_from_slice(a.as_slice());
+        self.ak.fill(Complex64::new(0.0, 0.0));
+        for (en, &t) in entries.iter().zip(theta) {
+            match *en {
+                Entry::Bearing { row, col, dz } => self.lu[col * nq + row] += dz * t,
+                Entry::Unbalance { plane, da } => self.ak[plane] += da * t,
+            }
+        }
+        self.f.fill(Complex64::new(0.0, 0.0));
+        for (bk, a_k) in b.as_slice().chunks_exact(nq).zip(&self.ak) {
+            for (fi, bik) in self.f.iter_mut().zip(bk) {
+                *fi += bik * a_k;
+            }
+        }
+        if !invert(nq, &mut self.lu, &mut self.h_inv) {
+            return Err(PredictError::Singular { omega });
+        }
+        self.q.fill(Complex64::new(0.0, 0.0));
+        for (col, fj) in self.h_inv.chunks_exact(nq).zip(&self.f) {
+            for (qi, hij) in self.q.iter_mut().zip(col) {
+                *qi += hij * fj;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `inv = m^-1` for the `n x n` column-major `m`, which is overwritten by
+/// its triangular factors: Gaussian elimination with partial pivoting (the
+/// largest `|re| + |im|` of the column), then a forward and a back
+/// substitution for each column of the identity. `false` when a pivot is
+/// zero or the inverse is not finite.
+///
+/// The sizes of one to four bearings run a copy of the same steps on
+/// fixed-size arrays (unrolled, without bounds checks); the tests check
+/// that both give the same bits.
+pub(crate) fn invert(n: usize, m: &mut [Complex64], inv: &mut [Complex64]) -> bool {
+    match n {
+        2 => invert_fixed::<2>(m, inv),
+        4 => invert_fixed::<4>(m, inv),
+        6 => invert_fixed::<6>(m, inv),
+        8 => invert_fixed::<8>(m, inv),
+        _ => invert_any(n, m, inv),
+    }
+}
+
+fn l1(z: Complex64) -> f64 {
+    z.re.abs() + z.im.abs()
+}
+
+fn invert_any(n: usize, m: &mut [Complex64], inv: &mut [Complex64]) -> bool {
+    let zero = Complex64::new(0.0, 0.0);
+    inv.fill(zero);
+    for i in 0..n {
+        inv[i * n + i] = Complex64::new(1.0, 0.0);
+    }
+    let mut d = vec![zero; n];
+    for k in 0..n {
+        let (mut p, mut best) = (k, l1(m[k * n + k]));
+        for i in k + 1..n {
+            let v = l1(m[k * n + i]);
+            if v > best {
+                (p, best) = (i, v);
+            }
+        }
+        if !(best > 0.0 && best.is_finite()) {
+            return false;
+        }
+        if p != k {
+            for j in 0..n {
+                m.swap(j * n + k, j * n + p);
+                inv.swap(j * n + k, j * n + p);
+            }
+        }
+        d[k] = m[k * n + k].inv();
+        for i in k + 1..n {
+            let l = m[k * n + i] * d[k];
+            m[k * n + i] = l;
+            for j in k + 1..n {
+                let mkj = m[j * n + k];
+                m[j * n + i] -= l * mkj;
+            }
+            for j in 0..n {
+                let ikj = inv[j * n + k];
+                inv[j * n + i] -= l * ikj;
+            }
+        }
+    }
+    // Back substitution U X = L^-1 P, column by column.
+    for j in 0..n {
+        let col = j * n;
+        for k in (0..n).rev() {
+            let mut s = inv[col + k];
+            for c in k + 1..n {
+                s -= m[c * n + k] * inv[col + c];
+            }
+            inv[col + k] = s * d[k];
+        }
+    }
+    inv.iter().all(|z| z.re.is_finite() && z.im.is_finite())
+}
+
+/// [`invert_any`] for `n = N`, step for step (the same operations in the
+/// same order) on arrays `[column][row]`. Index loops: with constant
+/// bounds they unroll; the iterator forms cost 3 % more instructions.
+#[allow(clippy::needless_range_loop)]
+fn invert_fixed<const N: usize>(m_io: &mut [Complex64], inv_io: &mut [Complex64]) -> bool {
+    let zero = Complex64::new(0.0, 0.0);
+    let mut m = [[zero; N]; N];
+    let mut inv = [[zero; N]; N];
+    for (j, col) in m.iter_mut().enumerate() {
+        col.copy_from_slice(&m_io[j * N..(j + 1) * N]);
+        inv[j][j] = Complex64::new(1.0, 0.0);
+    }
+    let mut d = [zero; N];
+    for k in 0..N {
+        let (mut p, mut best) = (k, l1(m[k][k]));
+        for i in k + 1..N {
+            let v = l1(m[k][i]);
+            if v > best {
+                (p, best) = (i, v);
+            }
+        }
+        if !(best > 0.0 && best.is_finite()) {
+            return false;
+        }
+        if p != k {
+            for j in 0..N {
+                m[j].swap(k, p);
+                inv[j].swap(k, p);
+            }
+        }
+        d[k] = m[k][k].inv();
+        for i in k + 1..N {
+            let l = m[k][i] * d[k];
+            m[k][i] = l;
+            for j in k + 1..N {
+                let mkj = m[j][k];
+                m[j][i] -= l * mkj;
+            }
+            for col in inv.iter_mut() {
+                let ikj = col[k];
+                col[i] -= l * ikj;
+            }
+        }
+    }
+    for col in inv.iter_mut() {
+        for k in (0..N).rev() {
+            let mut s = col[k];
+            for c in k + 1..N {
+                s -= m[c][k] * col[c];
+            }
+            col[k] = s * d[k];
+        }
+    }
+    for (j, col) in m.iter().enumerate() {
+        m_io[j * N..(j + 1) * N].copy_from_slice(col);
+        inv_io[j * N..(j + 1) * N].copy_from_slice(&inv[j]);
+    }
+    inv.iter()
+        .flatten()
+        .all(|z| z.re.is_finite() && z.im.is_finite())
 }
 
 /// How one fit parameter enters at a speed (see the module docs).
@@ -328,6 +524,80 @@ mod tests {
             )
         });
         (a, b)
+    }
+
+    #[test]
+    fn inverse_equals_nalgebras_and_needs_pivoting() {
+        // Dense complex matrices of several sizes, one with a zero leading
+        // diagonal (elimination without row exchanges fails on it), one
+        // with rows of very different scale, and singular ones.
+        for n in 1..=9 {
+            for case in 0..3 {
+                if n == 1 && case == 1 {
+                    continue;
+                }
+                // Pseudo-random entries in [-1, 1) (a linear congruential
+                // sequence).
+                let mut state = 0x2545_f491_4f6c_dd1d_u64 ^ (n * 3 + case) as u64;
+                let mut rand = || {
+                    state = state
+                        .wrapping_mul(6_364_136_223_846_793_005)
+                        .wrapping_add(1_442_695_040_888_963_407);
+                    (state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+                };
+                let m = DMatrix::from_fn(n, n, |i, j| {
+                    let z = Complex64::new(rand(), rand());
+                    match case {
+                        1 if i == j => Complex64::new(0.0, 0.0),
+                        2 => z * 10f64.powi(2 * i as i32),
+                        _ => z,
+                    }
+                });
+                let reference = m.clone().try_inverse().unwrap();
+                let mut lu = m.as_slice().to_vec();
+                let mut inv = vec![Complex64::new(0.0, 0.0); n * n];
+                assert!(invert(n, &mut lu, &mut inv), "{n} {case}");
+                let inv = DMatrix::from_column_slice(n, n, &inv);
+                let id = DMatrix::<Complex64>::identity(n, n);
+                // Round-off of a backward-stable inverse: the residual and
+                // the difference from nalgebra's inverse within
+                // eps * n * |m| |m^-1| (the condition number).
+                let big = |x: &DMatrix<Complex64>| x.iter().map(|z| z.norm()).fold(0.0, f64::max);
+                let kappa = big(&m) * big(&reference);
+                let res = big(&(&m * &inv - &id));
+                assert!(
+                    res < 1e-15 * (n * n) as f64 * kappa,
+                    "{n} {case}: {res} {kappa}"
+                );
+                let diff = big(&(&inv - &reference)) / big(&reference);
+                assert!(
+                    diff < 1e-15 * (n * n) as f64 * kappa,
+                    "{n} {case}: {diff} {kappa}"
+                );
+            }
+            // The fixed-size copies take the same steps: the same bits.
+            let m = DMatrix::from_fn(n, n, |i, j| {
+                Complex64::new((1 + i * j) as f64 * 0.37, (i as f64 - j as f64) * 1.9)
+            });
+            let (mut lu1, mut lu2) = (m.as_slice().to_vec(), m.as_slice().to_vec());
+            let mut inv1 = vec![Complex64::new(0.0, 0.0); n * n];
+            let mut inv2 = inv1.clone();
+            assert!(invert(n, &mut lu1, &mut inv1), "{n}");
+            assert!(invert_any(n, &mut lu2, &mut inv2), "{n}");
+            assert_eq!((lu1, inv1), (lu2, inv2), "{n}");
+            // Singular: a zero column; not finite: a NaN entry.
+            let mut s = DMatrix::from_fn(n, n, |i, j| Complex64::new((i + j) as f64, 1.0));
+            if n > 1 {
+                s.set_column(1, &DVector::zeros(n));
+                let mut lu = s.as_slice().to_vec();
+                let mut inv = lu.clone();
+                assert!(!invert(n, &mut lu, &mut inv), "{n}");
+            }
+            s[(0, 0)] = Complex64::new(f64::NAN, 0.0);
+            let mut lu = s.as_slice().to_vec();
+            let mut inv = lu.clone();
+            assert!(!invert(n, &mut lu, &mut inv), "{n} NaN");
+        }
     }
 
     #[test]
