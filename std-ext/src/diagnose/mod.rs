@@ -516,9 +516,10 @@ pub fn diagnose(
         )));
     }
     // One modal reduction for every factor of the shaft modulus (the factor
-    // only moves the speed, `terms` module docs).
+    // only moves the speed, `terms` module docs); the model's own terms by
+    // the banded reduction (see `Builder::build_banded`).
     let builder = terms::Builder::new(model, probes)?;
-    let terms = builder.build(&omegas, 1.0, false)?;
+    let terms = builder.build_banded(&omegas, 1.0, false)?;
     clock.lap("terms");
 
     // 1. Nominal: QRD/RLS start, output-error fit, polish on our objective.
