@@ -1,7 +1,7 @@
 //! The reduced terms the hypotheses need at each measured speed.
 //!
 //! Besides the identification's `A(Omega)` and `B(Omega)` (model planes),
-//! the diagnosis reduces, in the same banded solve, a unit unbalance at
+//! the diagnosis reduces, in the same reduction, a unit unbalance at
 //! every node and a unit bow at every interior node:
 //!
 //! ```text
@@ -94,9 +94,9 @@ pub struct NodeTerms {
 /// modulus factor `e` (1: the model as given); with `derivative`, also
 /// `dA/de`, `dB/de` by a forward difference (step `1e-4 e`, error `~1e-4`
 /// relative: a Jacobian for the iteration, whose optimum the residual
-/// fixes). One adjoint reduction per speed
-/// ([`Reducer::reduce_adjoint`]): the cost does not grow with the number
-/// of node columns.
+/// fixes). One modal sum per speed after one set-up ([`Builder`]; the
+/// banded adjoint reduction, [`Reducer::reduce_adjoint`], if the modal form
+/// cannot be set up).
 pub fn build(
     model: &RotorModel,
     omegas: &[f64],
