@@ -185,8 +185,8 @@ struct Eval {
     y: DVector<Complex64>,
     h_inv: DMatrix<Complex64>,
     a: DVector<Complex64>,
-    /// `B + dB de`.
-    b_eff: DMatrix<Complex64>,
+    /// `B + dB de` with the modulus extension (else `B` itself).
+    b_eff: Option<DMatrix<Complex64>>,
     ped: Option<PedEval>,
 }
 
@@ -202,6 +202,60 @@ struct PedEval {
     s: Matrix2<Complex64>,
     /// `P` on the block: `S Z_P` (relative) or `I`.
     t: Matrix2<Complex64>,
+}
+
+/// The inverse of a small complex matrix by Gauss-Jordan elimination with
+/// partial pivoting (`O(n^3)`, no temporaries beyond the result); `None`
+/// if a pivot is zero or an entry of the inverse is not finite (a
+/// singular or overflowing `H`).
+fn invert(mut a: DMatrix<Complex64>) -> Option<DMatrix<Complex64>> {
+    let n = a.nrows();
+    if a.ncols() != n {
+        return None;
+    }
+    let mut inv = DMatrix::<Complex64>::identity(n, n);
+    for k in 0..n {
+        let mut piv = k;
+        let mut best = a[(k, k)].norm_sqr();
+        for i in k + 1..n {
+            let m = a[(i, k)].norm_sqr();
+            if m > best {
+                best = m;
+                piv = i;
+            }
+        }
+        if best == 0.0 || !best.is_finite() {
+            return None;
+        }
+        if piv != k {
+            a.swap_rows(k, piv);
+            inv.swap_rows(k, piv);
+        }
+        let d = Complex64::new(1.0, 0.0) / a[(k, k)];
+        for c in k..n {
+            a[(k, c)] *= d;
+        }
+        for c in 0..n {
+            inv[(k, c)] *= d;
+        }
+        for i in 0..n {
+            let f = a[(i, k)];
+            if i == k || (f.re == 0.0 && f.im == 0.0) {
+                continue;
+            }
+            for c in k..n {
+                let v = a[(k, c)];
+                a[(i, c)] -= f * v;
+            }
+            for c in 0..n {
+                let v = inv[(k, c)];
+                inv[(i, c)] -= f * v;
+            }
+        }
+    }
+    inv.iter()
+        .all(|z| z.re.is_finite() && z.im.is_finite())
+        .then_some(inv)
 }
 
 impl ExtendedModel {
@@ -249,7 +303,7 @@ impl ExtendedModel {
             }
         }
         let mut f = &st.b * &a;
-        let mut b_eff = st.b.clone();
+        let mut b_eff: Option<DMatrix<Complex64>> = None;
         let mut runout: Option<&[f64]> = None;
         let mut ped: Option<PedEval> = None;
         for (k, ext) in self.ext.iter().enumerate() {
@@ -278,7 +332,9 @@ impl ExtendedModel {
                     };
                     h += da * de;
                     f += db * &a * de;
-                    b_eff += db * de;
+                    let mut be = b_eff.take().unwrap_or_else(|| st.b.clone());
+                    be += db * de;
+                    b_eff = Some(be);
                 }
                 Extension::Pedestal { bearing } => {
                     let i0 = 2 * bearing;
@@ -322,10 +378,7 @@ impl ExtendedModel {
                 }
             }
         }
-        let h_inv = h
-            .try_inverse()
-            .filter(|m| m.iter().all(|z| z.re.is_finite() && z.im.is_finite()))
-            .ok_or(PredictError::Singular { omega: st.omega })?;
+        let h_inv = invert(h).ok_or(PredictError::Singular { omega: st.omega })?;
         let q = &h_inv * f;
         let mut y = q.clone();
         if let Some(pe) = &ped {
@@ -410,16 +463,22 @@ impl ExtendedModel {
             let zero = Complex64::new(0.0, 0.0);
             // Columns of dq (before the probe transform P), and for a relative
             // pedestal probe the extra `dT q_m` on its block.
-            let mut extra: Vec<(usize, [Complex64; 2])> = Vec::new();
-            let block_dq = |m2: &Matrix2<Complex64>, pe: &PedEval| -> DVector<Complex64> {
-                // dq = -H^-1 [dZ_eff] q with dZ_eff = m2 on the block.
+            let mut extra: Vec<(usize, [Complex64; 2])> = Vec::with_capacity(if ev.ped.is_some() {
+                entries.len() + 5
+            } else {
+                0
+            });
+            // dq = -H^-1 [dZ_eff] q with dZ_eff = m2 on the block, into
+            // column `i`.
+            let block_dq = |jac: &mut nalgebra::DMatrixViewMut<'_, Complex64>,
+                            i: usize,
+                            m2: &Matrix2<Complex64>,
+                            pe: &PedEval| {
                 let qm = nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]);
                 let u = m2 * qm;
-                let mut v = DVector::<Complex64>::zeros(nq);
                 for r in 0..nq {
-                    v[r] = -(ev.h_inv[(r, pe.i0)] * u[0] + ev.h_inv[(r, pe.i0 + 1)] * u[1]);
+                    jac[(r, i)] = -(ev.h_inv[(r, pe.i0)] * u[0] + ev.h_inv[(r, pe.i0 + 1)] * u[1]);
                 }
-                v
             };
             let qm = ev
                 .ped
@@ -435,7 +494,7 @@ impl ExtendedModel {
                             let mut e = Matrix2::<Complex64>::zeros();
                             e[(row - pe.i0, col - pe.i0)] = dz;
                             let dzeff = pe.zp * pe.s * e * pe.s * pe.zp;
-                            jac.set_column(i, &block_dq(&dzeff, pe));
+                            block_dq(&mut jac, i, &dzeff, pe);
                             if self.relative_probes {
                                 let d = -(pe.s * e * pe.t * qm);
                                 extra.push((i, [d[0], d[1]]));
@@ -448,8 +507,15 @@ impl ExtendedModel {
                         }
                     }
                     Entry::Unbalance { plane, da } => {
-                        let v = &ev.h_inv * ev.b_eff.column(plane) * da;
-                        jac.set_column(i, &v);
+                        // H^-1 (B + dB de) e_plane da, without temporaries.
+                        let b_eff = ev.b_eff.as_ref().unwrap_or(&st.b);
+                        for r in 0..nq {
+                            let mut v = zero;
+                            for c in 0..nq {
+                                v += ev.h_inv[(r, c)] * b_eff[(c, plane)];
+                            }
+                            jac[(r, i)] = v * da;
+                        }
                     }
                 }
             }
@@ -458,17 +524,24 @@ impl ExtendedModel {
                 let o = self.offset(k);
                 match *ext {
                     Extension::Runout => runout_cols = Some(o),
-                    Extension::Plane { node } => {
-                        let v = &ev.h_inv
-                            * st.b_node.column(node)
-                            * Complex64::from(self.pr.param.scaling.unbalance);
-                        jac.set_column(o, &v);
-                        jac.set_column(o + 1, &(v * j));
-                    }
-                    Extension::Bow { node } => {
-                        let v = &ev.h_inv * st.g_node.column(node) * Complex64::from(self.scales.q);
-                        jac.set_column(o, &v);
-                        jac.set_column(o + 1, &(v * j));
+                    Extension::Plane { node } | Extension::Bow { node } => {
+                        // H^-1 (b_n or g_n) times the scale, and j times it.
+                        let (col, scale) = match *ext {
+                            Extension::Plane { .. } => {
+                                (st.b_node.column(node), self.pr.param.scaling.unbalance)
+                            }
+                            _ => (st.g_node.column(node), self.scales.q),
+                        };
+                        let scale = Complex64::from(scale);
+                        for r in 0..nq {
+                            let mut v = zero;
+                            for c in 0..nq {
+                                v += ev.h_inv[(r, c)] * col[c];
+                            }
+                            let v = v * scale;
+                            jac[(r, o)] = v;
+                            jac[(r, o + 1)] = v * j;
+                        }
                     }
                     Extension::EScale => {
                         let (da, db) = match (&st.da_de, &st.db_de) {
@@ -505,7 +578,7 @@ impl ExtendedModel {
                                 }
                             }
                             let dzeff = pe.zb * pe.s * dzp * pe.s * pe.zb;
-                            jac.set_column(o + d, &block_dq(&dzeff, pe));
+                            block_dq(&mut jac, o + d, &dzeff, pe);
                             if self.relative_probes {
                                 let dt = pe.s * dzp * pe.s * pe.zb * qm;
                                 extra.push((o + d, [dt[0], dt[1]]));
@@ -859,5 +932,47 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The Gauss-Jordan inverse equals nalgebra's cofactor inverse on
+    /// random, ill-ordered (a zero leading pivot) and near-singular
+    /// matrices, and refuses a singular one.
+    #[test]
+    fn invert_matches_nalgebra() {
+        let mut x = 0.37_f64;
+        let mut rnd = || {
+            x = (x * 997.0 + 0.123).fract();
+            x - 0.5
+        };
+        for n in 1..=6 {
+            for case in 0..3 {
+                let mut m = DMatrix::from_fn(n, n, |_, _| Complex64::new(rnd(), rnd()));
+                if case == 1 && n > 1 {
+                    m[(0, 0)] = Complex64::new(0.0, 0.0);
+                }
+                if case == 2 && n > 1 {
+                    let r0 = m.row(0).into_owned();
+                    m.row_mut(1).copy_from(&(r0 * Complex64::new(1.0, 1e-6)));
+                    m[(1, 1)] += Complex64::new(1e-5, 0.0);
+                }
+                let ours = invert(m.clone()).unwrap();
+                let check = &m * &ours - DMatrix::<Complex64>::identity(n, n);
+                let scale = m.norm() * ours.norm();
+                assert!(check.norm() <= 1e-13 * scale, "n {n} case {case}");
+                if n <= 4 {
+                    let theirs = m.clone().try_inverse().unwrap();
+                    // Two backward-stable inverses differ by up to
+                    // eps cond(m) |m^-1|, cond(m) = |m| |m^-1| = `scale`.
+                    assert!(
+                        (&ours - &theirs).norm() <= 1e-13 * scale * ours.norm(),
+                        "n {n} case {case}"
+                    );
+                }
+            }
+        }
+        let mut sing = DMatrix::from_fn(3, 3, |r, c| Complex64::new((r + c) as f64, 0.0));
+        sing[(2, 2)] = Complex64::new(4.0, 0.0);
+        assert!(invert(sing).is_none());
+        assert!(invert(DMatrix::zeros(2, 2)).is_none());
     }
 }

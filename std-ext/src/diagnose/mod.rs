@@ -515,7 +515,11 @@ pub fn diagnose(
             model.n_nodes()
         )));
     }
-    let terms = terms::build_with_probes(model, &omegas, 1.0, false, probes)?;
+    // One modal reduction for every factor of the shaft modulus (the factor
+    // only moves the speed, `terms` module docs); the model's own terms by
+    // the banded reduction (see `Builder::build_banded`).
+    let builder = terms::Builder::new(model, probes)?;
+    let terms = builder.build_banded(&omegas, 1.0, false)?;
     clock.lap("terms");
 
     // 1. Nominal: QRD/RLS start, output-error fit, polish on our objective.
@@ -803,7 +807,7 @@ pub fn diagnose(
             let mut built: Vec<(f64, Vec<SpeedTerms>)> = vec![(1.0, terms.clone())];
             let mut best = (1.0, nominal_s, start_with(&m, &[0.0]));
             for e_try in [0.95, 1.05] {
-                let te = terms::build_with_probes(model, &omegas, e_try, false, probes)?;
+                let te = builder.build(&omegas, e_try, false)?;
                 if let Ok((_, mut th)) = oe_start(model, samples, &te, structure, scaling) {
                     let d = FitData::with_probes(samples, node_q, &te);
                     let en = fit::entries(&base, &d);
@@ -863,7 +867,7 @@ pub fn diagnose(
                     break;
                 }
                 theta[m.offset(0)] = 0.0;
-                let mut next = terms::build_with_probes(model, &omegas, e_new, false, probes)?;
+                let mut next = builder.build(&omegas, e_new, false)?;
                 if (e_new - e).abs() < 1e-5 * e {
                     // Too close for a secant without cancellation: the
                     // derivative of the current factor is as good.
@@ -962,8 +966,7 @@ pub fn diagnose(
         }
         for (a, b) in &trials {
             {
-                if let Some(c) = fit_pair(model, &omegas, &data, a, b, &mut e_terms_cache, probes)?
-                {
+                if let Some(c) = fit_pair(&builder, &omegas, &data, a, b, &mut e_terms_cache)? {
                     // By BIC: a pair with a lean law beats one whose
                     // extra bearing orders merely absorb the second effect.
                     if pair_best.as_ref().is_none_or(|b| bic_of(&c) < bic_of(b)) {
@@ -1155,13 +1158,12 @@ fn rescreen(
 /// A pair of hypotheses fitted together, from their own estimates.
 #[allow(clippy::too_many_arguments)]
 fn fit_pair(
-    model: &RotorModel,
+    builder: &terms::Builder,
     omegas: &[f64],
     data: &FitData<'_>,
     a: &Candidate,
     b: &Candidate,
     e_cache: &mut Option<(f64, Vec<SpeedTerms>)>,
-    probes: &[usize],
 ) -> Result<Option<Candidate>, DiagnoseError> {
     // The richer bearing law of the two.
     let (pa, pb) = (&a.model.pr, &b.model.pr);
@@ -1193,7 +1195,7 @@ fn fit_pair(
     let fit = if uses_e {
         let te = match e_cache {
             Some((ec, t)) if *ec == e && !t.is_empty() => t.clone(),
-            _ => terms::build_with_probes(model, omegas, e, true, probes)?,
+            _ => builder.build(omegas, e, true)?,
         };
         let d = FitData::with_probes(data.samples, data.node_q, &te);
         // The e parameter of the pair starts at the single fit's offset.

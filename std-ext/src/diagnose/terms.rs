@@ -1,7 +1,7 @@
 //! The reduced terms the hypotheses need at each measured speed.
 //!
 //! Besides the identification's `A(Omega)` and `B(Omega)` (model planes),
-//! the diagnosis reduces, in the same banded solve, a unit unbalance at
+//! the diagnosis reduces, in the same reduction, a unit unbalance at
 //! every node and a unit bow at every interior node:
 //!
 //! ```text
@@ -47,7 +47,7 @@ use num_complex::Complex64;
 
 use crate::fe::assembly::{Dir, FeModel};
 use crate::model::{BowPoint, RotorModel, ShaftBow};
-use crate::reduce::{Reducer, ReductionError};
+use crate::reduce::{ModalReducer, Reducer, ReductionError};
 
 /// The terms at one speed.
 #[derive(Debug, Clone, PartialEq)]
@@ -94,9 +94,9 @@ pub struct NodeTerms {
 /// modulus factor `e` (1: the model as given); with `derivative`, also
 /// `dA/de`, `dB/de` by a forward difference (step `1e-4 e`, error `~1e-4`
 /// relative: a Jacobian for the iteration, whose optimum the residual
-/// fixes). One adjoint reduction per speed
-/// ([`Reducer::reduce_adjoint`]): the cost does not grow with the number
-/// of node columns.
+/// fixes). One modal sum per speed after one set-up ([`Builder`]; the
+/// banded adjoint reduction, [`Reducer::reduce_adjoint`], if the modal form
+/// cannot be set up).
 pub fn build(
     model: &RotorModel,
     omegas: &[f64],
@@ -108,7 +108,8 @@ pub fn build(
 
 /// [`build`] with the [`NodeTerms`] of probes at the shaft nodes
 /// `probe_nodes` (0-based; none: no [`SpeedTerms::probes`]), from the same
-/// banded LU per speed.
+/// reduction per speed. Prepares a [`Builder`] and builds once; to build
+/// at several factors, keep the [`Builder`].
 pub fn build_with_probes(
     model: &RotorModel,
     omegas: &[f64],
@@ -116,102 +117,205 @@ pub fn build_with_probes(
     derivative: bool,
     probe_nodes: &[usize],
 ) -> Result<Vec<SpeedTerms>, ReductionError> {
-    if !(e.is_finite() && e > 0.0) {
-        return Err(ReductionError::Invalid(format!(
-            "shaft modulus factor must be finite and > 0, got {e}"
-        )));
+    Builder::new(model, probe_nodes)?.build(omegas, e, derivative)
+}
+
+/// The reduction of a model's load columns (plane and node unbalances,
+/// node bows) and probe rows, prepared once: [`Builder::build`] then gives
+/// the terms at any speeds and modulus factor (the factor only moves the
+/// speed, module docs), one modal sum per speed
+/// ([`crate::reduce::modal`]; the banded adjoint reduction when the modal
+/// form cannot be set up, or with [`Builder::banded`]).
+#[derive(Debug, Clone)]
+pub struct Builder {
+    model: RotorModel,
+    fe: FeModel,
+    /// Load columns: planes, unit unbalance at every node, unit bow at
+    /// every node.
+    loads: DMatrix<Complex64>,
+    probe_dofs: Vec<usize>,
+    np: usize,
+    n_nodes: usize,
+    modal: Option<ModalReducer>,
+}
+
+impl Builder {
+    /// The modal builder (banded if the modal set-up fails) for `model` and
+    /// probes at `probe_nodes` (0-based).
+    pub fn new(model: &RotorModel, probe_nodes: &[usize]) -> Result<Self, ReductionError> {
+        let mut b = Self::banded(model, probe_nodes)?;
+        let modal = Reducer::with_loads(&b.fe, &b.model, b.loads.clone())?
+            .modal_probes(&b.probe_dofs)
+            .ok();
+        b.modal = modal;
+        Ok(b)
     }
-    let fe = FeModel::new(model)?;
-    let n_nodes = model.n_nodes();
-    let np = model.planes.len();
-    let all: Vec<usize> = (0..n_nodes).collect();
-    let t_planes = fe.unbalance_distribution(&model.planes)?;
-    let t_nodes = fe.unbalance_distribution(&all)?;
-    let ns = fe.n_shaft_dof();
-    let mut loads = DMatrix::<Complex64>::zeros(ns, np + 2 * n_nodes);
-    loads.view_mut((0, 0), (ns, np)).copy_from(&t_planes);
-    loads.view_mut((0, np), (ns, n_nodes)).copy_from(&t_nodes);
-    for n in 1..n_nodes.saturating_sub(1) {
-        let bow = ShaftBow {
-            points: vec![BowPoint {
-                node: n,
-                amplitude: 1.0,
-                phase: 0.0,
-            }],
-        };
-        let f = fe.bow_force(&bow)?;
-        for (r, v) in f.iter().enumerate() {
-            loads[(r, np + n_nodes + n)] = *v;
-        }
-    }
-    if let Some(n) = probe_nodes.iter().find(|&&n| n >= n_nodes) {
-        return Err(ReductionError::Invalid(format!(
-            "probe at node {} beyond the shaft's {n_nodes} nodes",
-            n + 1
-        )));
-    }
-    let probe_dofs: Vec<usize> = probe_nodes
-        .iter()
-        .flat_map(|&n| [fe.dof(n, Dir::Y), fe.dof(n, Dir::Z)])
-        .collect();
-    let reducer = Reducer::with_loads(&fe, model, loads)?;
-    type Reduced = (DMatrix<Complex64>, DMatrix<Complex64>, Option<NodeTerms>);
-    let at = |omega: f64, e: f64| -> Result<Reduced, ReductionError> {
-        let w = omega / e.sqrt();
-        let (t, pt) = reducer.reduce_adjoint_probes(w, &probe_dofs)?;
-        let probes = (!probe_dofs.is_empty()).then(|| {
-            let w2 = Complex64::from(w * w);
-            NodeTerms {
-                u: pt.l.columns(0, np) * w2,
-                u_node: pt.l.columns(np, n_nodes) * w2,
-                h_node: pt.l.columns(np + n_nodes, n_nodes).into_owned(),
-                p: pt.p,
-                dp_de: None,
-                du_de: None,
+
+    /// The builder with the banded adjoint reduction at every speed
+    /// ([`Reducer::reduce_adjoint_probes`]): the reference the modal form
+    /// is checked against.
+    pub fn banded(model: &RotorModel, probe_nodes: &[usize]) -> Result<Self, ReductionError> {
+        let fe = FeModel::new(model)?;
+        let n_nodes = model.n_nodes();
+        let np = model.planes.len();
+        let all: Vec<usize> = (0..n_nodes).collect();
+        let t_planes = fe.unbalance_distribution(&model.planes)?;
+        let t_nodes = fe.unbalance_distribution(&all)?;
+        let ns = fe.n_shaft_dof();
+        let mut loads = DMatrix::<Complex64>::zeros(ns, np + 2 * n_nodes);
+        loads.view_mut((0, 0), (ns, np)).copy_from(&t_planes);
+        loads.view_mut((0, np), (ns, n_nodes)).copy_from(&t_nodes);
+        for n in 1..n_nodes.saturating_sub(1) {
+            let bow = ShaftBow {
+                points: vec![BowPoint {
+                    node: n,
+                    amplitude: 1.0,
+                    phase: 0.0,
+                }],
+            };
+            let f = fe.bow_force(&bow)?;
+            for (r, v) in f.iter().enumerate() {
+                loads[(r, np + n_nodes + n)] = *v;
             }
-        });
-        Ok((t.a * Complex64::from(e), t.b * Complex64::from(e), probes))
-    };
-    let mut out = Vec::with_capacity(omegas.len());
-    for &omega in omegas {
-        if !(omega.is_finite() && omega > 0.0) {
+        }
+        if let Some(n) = probe_nodes.iter().find(|&&n| n >= n_nodes) {
             return Err(ReductionError::Invalid(format!(
-                "the diagnosis needs speeds > 0, got {omega} rad/s"
+                "probe at node {} beyond the shaft's {n_nodes} nodes",
+                n + 1
             )));
         }
-        let (a, b_all, mut probes) = at(omega, e)?;
-        let nq = a.nrows();
-        let b = b_all.columns(0, np).into_owned();
-        let b_node = b_all.columns(np, n_nodes).into_owned();
-        // `e B / Omega^2` is the bow load of the unscaled `K_s` reduced at
-        // `Omega / sqrt(e)`; the shaft's bow forcing is `e K_s q_bow`.
-        let g_node = b_all.columns(np + n_nodes, n_nodes).into_owned()
-            * Complex64::from(e / (omega * omega));
-        let (da_de, db_de) = if derivative {
-            let h = 1e-4 * e;
-            let (ap, bp, pp) = at(omega, e + h)?;
-            let s = Complex64::from(1.0 / h);
-            if let (Some(nt), Some(np_)) = (probes.as_mut(), pp) {
-                nt.dp_de = Some((np_.p - &nt.p) * s);
-                nt.du_de = Some((np_.u - &nt.u) * s);
-            }
-            (Some((ap - &a) * s), Some((bp.columns(0, np) - &b) * s))
-        } else {
-            (None, None)
-        };
-        debug_assert_eq!(b.nrows(), nq);
-        out.push(SpeedTerms {
-            omega,
-            a,
-            b,
-            b_node,
-            g_node,
-            da_de,
-            db_de,
-            probes,
-        });
+        let probe_dofs: Vec<usize> = probe_nodes
+            .iter()
+            .flat_map(|&n| [fe.dof(n, Dir::Y), fe.dof(n, Dir::Z)])
+            .collect();
+        // Fails here, once, if the bearings do not hold the shaft.
+        Reducer::with_loads(&fe, model, loads.clone())?;
+        Ok(Builder {
+            model: model.clone(),
+            fe,
+            loads,
+            probe_dofs,
+            np,
+            n_nodes,
+            modal: None,
+        })
     }
-    Ok(out)
+
+    /// Whether the terms come from the modal form.
+    pub fn is_modal(&self) -> bool {
+        self.modal.is_some()
+    }
+
+    /// The terms at every speed of `omegas` (rad/s, > 0) for the shaft
+    /// modulus factor `e`, as [`build`] describes.
+    pub fn build(
+        &self,
+        omegas: &[f64],
+        e: f64,
+        derivative: bool,
+    ) -> Result<Vec<SpeedTerms>, ReductionError> {
+        self.build_with(omegas, e, derivative, self.modal.is_some())
+    }
+
+    /// [`Builder::build`] by the banded adjoint reduction at every speed
+    /// whatever the builder holds: the diagnosis's terms of the model as
+    /// given (`e = 1`), on which the nominal fit runs. That fit can stop
+    /// at its iteration limit on data the nominal model misfits, and where
+    /// it stops moves with the `1e-10` difference of the two reductions.
+    pub fn build_banded(
+        &self,
+        omegas: &[f64],
+        e: f64,
+        derivative: bool,
+    ) -> Result<Vec<SpeedTerms>, ReductionError> {
+        self.build_with(omegas, e, derivative, false)
+    }
+
+    fn build_with(
+        &self,
+        omegas: &[f64],
+        e: f64,
+        derivative: bool,
+        modal: bool,
+    ) -> Result<Vec<SpeedTerms>, ReductionError> {
+        if !(e.is_finite() && e > 0.0) {
+            return Err(ReductionError::Invalid(format!(
+                "shaft modulus factor must be finite and > 0, got {e}"
+            )));
+        }
+        let (np, n_nodes) = (self.np, self.n_nodes);
+        let probe_dofs = &self.probe_dofs;
+        let modal = self.modal.as_ref().filter(|_| modal);
+        let banded = match modal {
+            Some(_) => None,
+            None => Some(Reducer::with_loads(
+                &self.fe,
+                &self.model,
+                self.loads.clone(),
+            )?),
+        };
+        type Reduced = (DMatrix<Complex64>, DMatrix<Complex64>, Option<NodeTerms>);
+        let at = |omega: f64, e: f64| -> Result<Reduced, ReductionError> {
+            let w = omega / e.sqrt();
+            let (t, pt) = match (modal, &banded) {
+                (Some(m), _) => m.reduce_probes(w)?,
+                (None, Some(r)) => r.reduce_adjoint_probes(w, probe_dofs)?,
+                (None, None) => unreachable!("a builder has one of the two reductions"),
+            };
+            let probes = (!probe_dofs.is_empty()).then(|| {
+                let w2 = Complex64::from(w * w);
+                NodeTerms {
+                    u: pt.l.columns(0, np) * w2,
+                    u_node: pt.l.columns(np, n_nodes) * w2,
+                    h_node: pt.l.columns(np + n_nodes, n_nodes).into_owned(),
+                    p: pt.p,
+                    dp_de: None,
+                    du_de: None,
+                }
+            });
+            Ok((t.a * Complex64::from(e), t.b * Complex64::from(e), probes))
+        };
+        let mut out = Vec::with_capacity(omegas.len());
+        for &omega in omegas {
+            if !(omega.is_finite() && omega > 0.0) {
+                return Err(ReductionError::Invalid(format!(
+                    "the diagnosis needs speeds > 0, got {omega} rad/s"
+                )));
+            }
+            let (a, b_all, mut probes) = at(omega, e)?;
+            let nq = a.nrows();
+            let b = b_all.columns(0, np).into_owned();
+            let b_node = b_all.columns(np, n_nodes).into_owned();
+            // `e B / Omega^2` is the bow load of the unscaled `K_s` reduced at
+            // `Omega / sqrt(e)`; the shaft's bow forcing is `e K_s q_bow`.
+            let g_node = b_all.columns(np + n_nodes, n_nodes).into_owned()
+                * Complex64::from(e / (omega * omega));
+            let (da_de, db_de) = if derivative {
+                let h = 1e-4 * e;
+                let (ap, bp, pp) = at(omega, e + h)?;
+                let s = Complex64::from(1.0 / h);
+                if let (Some(nt), Some(np_)) = (probes.as_mut(), pp) {
+                    nt.dp_de = Some((np_.p - &nt.p) * s);
+                    nt.du_de = Some((np_.u - &nt.u) * s);
+                }
+                (Some((ap - &a) * s), Some((bp.columns(0, np) - &b) * s))
+            } else {
+                (None, None)
+            };
+            debug_assert_eq!(b.nrows(), nq);
+            out.push(SpeedTerms {
+                omega,
+                a,
+                b,
+                b_node,
+                g_node,
+                da_de,
+                db_de,
+                probes,
+            });
+        }
+        Ok(out)
+    }
 }
 
 /// Sets `dA/de` and `dB/de` of `terms` (built for the modulus factor `e`)
@@ -253,6 +357,71 @@ pub fn set_secant_derivative(
 mod tests {
     use super::*;
     use crate::model::extension::{apply_effects, Effects};
+
+    /// The modal terms equal the banded adjoint ones on the diagnosis'
+    /// grid (300 speeds, 50..15000 rpm) at two modulus factors, every
+    /// column: `A`, `B`, node unbalances and bows, probes at two interior
+    /// nodes and at a bearing node, and the difference quotients in `e`.
+    #[test]
+    fn modal_terms_equal_banded_terms() {
+        let m = RotorModel::paper();
+        let omegas: Vec<f64> = (1..=300)
+            .map(|i| crate::units::rpm_to_rad_s(50.0 * i as f64))
+            .collect();
+        let nodes = [9, 26, m.bearings[0].node];
+        let modal = Builder::new(&m, &nodes).unwrap();
+        assert!(modal.is_modal());
+        let banded = Builder::banded(&m, &nodes).unwrap();
+        assert!(!banded.is_modal());
+        // The same numbers from the modal builder's banded path.
+        let own = modal.build_banded(&omegas[..3], 1.02, true).unwrap();
+        assert_eq!(own, banded.build(&omegas[..3], 1.02, true).unwrap());
+        let rel = |x: &DMatrix<Complex64>, y: &DMatrix<Complex64>| {
+            let n = y.norm();
+            if n == 0.0 {
+                x.norm()
+            } else {
+                (x - y).norm() / n
+            }
+        };
+        for e in [1.0, 1.03] {
+            let tm = modal.build(&omegas, e, true).unwrap();
+            let tb = banded.build(&omegas, e, true).unwrap();
+            let (mut worst, mut worst_d) = (0.0_f64, 0.0_f64);
+            for (x, y) in tm.iter().zip(&tb) {
+                assert_eq!(x.omega, y.omega);
+                let (px, py) = (x.probes.as_ref().unwrap(), y.probes.as_ref().unwrap());
+                for (a, b) in [
+                    (&x.a, &y.a),
+                    (&x.b, &y.b),
+                    (&x.b_node, &y.b_node),
+                    (&x.g_node, &y.g_node),
+                    (&px.p, &py.p),
+                    (&px.u, &py.u),
+                    (&px.u_node, &py.u_node),
+                    (&px.h_node, &py.h_node),
+                ] {
+                    worst = worst.max(rel(a, b));
+                }
+                for (a, b) in [
+                    (&x.da_de, &y.da_de),
+                    (&x.db_de, &y.db_de),
+                    (&px.dp_de, &py.dp_de),
+                    (&px.du_de, &py.du_de),
+                ] {
+                    worst_d = worst_d.max(rel(a.as_ref().unwrap(), b.as_ref().unwrap()));
+                }
+            }
+            assert!(worst <= 2e-9, "e {e}: terms differ by {worst:.2e}");
+            // The forward difference (step 1e-4 e) divides the difference
+            // of two terms by 1e-4.
+            assert!(
+                worst_d <= 1e-5,
+                "e {e}: derivatives differ by {worst_d:.2e}"
+            );
+            println!("e {e}: terms {worst:.2e}, derivatives {worst_d:.2e}");
+        }
+    }
 
     /// `A(e, Omega) = e A(Omega / sqrt(e))` equals the terms of the model
     /// rebuilt with E and G scaled; the node column of a plane equals

@@ -63,7 +63,7 @@
 use nalgebra::{Cholesky, DMatrix, SymmetricEigen};
 use num_complex::Complex64;
 
-use super::{dense_k_h, ReducedTerms, Reducer, ReductionError, Statics};
+use super::{dense_k_h, ProbeTerms, ReducedTerms, Reducer, ReductionError, Statics};
 
 /// Iteration limit of the Hermitian eigensolver (nalgebra's implicit QR):
 /// far above what a well-posed `C` needs (a few per eigenvalue).
@@ -79,8 +79,16 @@ pub struct ModalReducer {
     mu: Vec<f64>,
     /// Residues, one column per mode: the entries of `R_k` in column-major
     /// order, real and imaginary parts interleaved
-    /// (`2 (2 N_b) (2 N_b + N_p)` rows).
+    /// (`2 n_left (2 N_b + N_p)` rows).
     residues: DMatrix<f64>,
+    /// Rows of the left factor: the `2 N_b` rows of `V_L`, then one row
+    /// `e_i^T` per probe DOF ([`Reducer::modal_probes`]).
+    n_left: usize,
+    /// Per probe DOF: `Ok(interior index)` or `Err(bearing channel)`.
+    probes: Vec<Result<usize, usize>>,
+    /// Per probe DOF, its row of `X_0` (zero for a bearing DOF)
+    /// (`n_probe x 2 N_b`).
+    x0_rows: DMatrix<Complex64>,
     /// Whether the interior was split into its whirl halves.
     split: bool,
 }
@@ -241,18 +249,20 @@ fn band_profile(l: &DMatrix<Complex64>) -> Vec<usize> {
         .collect()
 }
 
-/// One part's eigenvalues and the factors `P` (`2 N_b x dim`) and `Q`
+/// One part's eigenvalues and the factors `P` (`n_left x dim`) and `Q`
 /// (`dim x ncols`) of its residues `R_k = P[:, k] Q[k, :]`.
 type PartModes = (Vec<f64>, DMatrix<Complex64>, DMatrix<Complex64>);
 
 /// Eigenvalues and residue factors of one part (module docs, in the
 /// part's basis `B`): `B^H K B = L L^H`, `L^-1 B^H H B L^-H = U mu U^H`,
-/// `P = V_L B L^-H U`, `Q = U^H L^-1 B^H [V, T_i]`.
+/// `P = W B L^-H U`, `Q = U^H L^-1 B^H [V, T_i]`, with the left rows
+/// `W = [V_L; E^T]` (`E^T`: the probe rows, none for `A` and `B` alone).
 fn part_modes(
     part: Part<'_>,
     k: &DMatrix<f64>,
     h: &DMatrix<Complex64>,
     st: &Statics,
+    left: &DMatrix<Complex64>,
 ) -> Result<PartModes, ReductionError> {
     let kp = part.project(k);
     let kp = (&kp + kp.adjoint()) * Complex64::from(0.5);
@@ -277,7 +287,7 @@ fn part_modes(
         ReductionError::Invalid("the eigensolver for the modal reduction did not converge".into())
     })?;
     let u = &eig.eigenvectors;
-    let p = solve(&part.right(&st.v_l).adjoint())?.adjoint() * u;
+    let p = solve(&part.right(left).adjoint())?.adjoint() * u;
     let q = u.adjoint() * solve(&part.left(&st.rhs))?;
     Ok((eig.eigenvalues.iter().copied().collect(), p, q))
 }
@@ -291,20 +301,64 @@ impl Reducer<'_> {
     /// quarter of that (module docs). Fails if `K_ii` is not positive
     /// definite or the eigensolver does not converge.
     pub fn modal(&self) -> Result<ModalReducer, ReductionError> {
-        self.modal_with(true)
+        self.modal_with(true, &[])
+    }
+
+    /// [`Reducer::modal`] that also gives the [`ProbeTerms`] of the shaft
+    /// DOFs `probe_dofs` ([`ModalReducer::reduce_probes`]), the modal form
+    /// of [`Reducer::reduce_adjoint_probes`]: the probe rows `R = E^T
+    /// Z_ii^-1` of the interior probes are more rows of the left factor,
+    /// `R [V, T_i] = sum_k d_k (E^T L^-T u_k) (u_k^H L^-1 [V, T_i])`, so
+    /// their residues come from the same eigendecomposition.
+    pub fn modal_probes(&self, probe_dofs: &[usize]) -> Result<ModalReducer, ReductionError> {
+        self.modal_with(true, probe_dofs)
     }
 
     /// [`Reducer::modal`] without the whirl split even where it applies
     /// (one eigenproblem of the whole interior): the same numbers, for
     /// checking the split.
     pub fn modal_unsplit(&self) -> Result<ModalReducer, ReductionError> {
-        self.modal_with(false)
+        self.modal_with(false, &[])
     }
 
-    fn modal_with(&self, split: bool) -> Result<ModalReducer, ReductionError> {
+    fn modal_with(
+        &self,
+        split: bool,
+        probe_dofs: &[usize],
+    ) -> Result<ModalReducer, ReductionError> {
         let (kd, hd) = dense_k_h(self.fe);
         let ii = &self.interior;
         let n = ii.len();
+        let n_shaft = self.fe.n_shaft_dof();
+        let nq = self.statics.v_l.nrows();
+        let npr = probe_dofs.len();
+        // Left rows: V_L, then e_i^T of each interior probe (a zero row for
+        // a probe at a bearing DOF, which reads q_B itself).
+        let mut left = DMatrix::<Complex64>::zeros(nq + npr, n);
+        left.view_mut((0, 0), (nq, n)).copy_from(&self.statics.v_l);
+        let mut probes = Vec::with_capacity(npr);
+        let mut x0_rows = DMatrix::<Complex64>::zeros(npr, nq);
+        for (k, &d) in probe_dofs.iter().enumerate() {
+            if d >= n_shaft {
+                return Err(ReductionError::Invalid(format!(
+                    "probe DOF {d} beyond the shaft's {n_shaft} DOFs"
+                )));
+            }
+            match ii.binary_search(&d) {
+                Ok(i) => {
+                    left[(nq + k, i)] = Complex64::new(1.0, 0.0);
+                    x0_rows.row_mut(k).copy_from(&self.x0.row(i));
+                    probes.push(Ok(i));
+                }
+                Err(_) => {
+                    let ch = self.bearing.iter().position(|b| *b == d).ok_or_else(|| {
+                        ReductionError::Invalid(format!("probe DOF {d} is not a shaft DOF"))
+                    })?;
+                    probes.push(Err(ch));
+                }
+            }
+        }
+        let n_left = nq + npr;
         let k =
             DMatrix::<f64>::from_fn(n, n, |r, c| 0.5 * (kd[(ii[r], ii[c])] + kd[(ii[c], ii[r])]));
         let h = DMatrix::<Complex64>::from_fn(n, n, |r, c| hd[(ii[r], ii[c])]);
@@ -313,20 +367,19 @@ impl Reducer<'_> {
             Some(p) => vec![Part::Whirl(p, 1.0), Part::Whirl(p, -1.0)],
             None => vec![Part::Whole(n)],
         };
-        let nq = self.statics.v_l.nrows();
         let ncol = self.statics.rhs.ncols();
         let mut mu = Vec::with_capacity(n);
-        let mut residues = DMatrix::<f64>::zeros(2 * nq * ncol, n);
+        let mut residues = DMatrix::<f64>::zeros(2 * n_left * ncol, n);
         let mut kk = 0;
         for part in parts {
-            let (m, p, q) = part_modes(part, &k, &h, &self.statics)?;
+            let (m, p, q) = part_modes(part, &k, &h, &self.statics, &left)?;
             debug_assert_eq!(m.len(), part.dim());
             for (j, mj) in m.into_iter().enumerate() {
                 let mut col = residues.column_mut(kk);
                 for c in 0..ncol {
-                    for r in 0..nq {
+                    for r in 0..n_left {
                         let v = p[(r, j)] * q[(j, c)];
-                        let at = 2 * (c * nq + r);
+                        let at = 2 * (c * n_left + r);
                         col[at] = v.re;
                         col[at + 1] = v.im;
                     }
@@ -339,6 +392,9 @@ impl Reducer<'_> {
             statics: self.statics.clone(),
             mu,
             residues,
+            n_left,
+            probes,
+            x0_rows,
             split: pairs.is_some(),
         })
     }
@@ -359,15 +415,64 @@ impl ModalReducer {
     /// `A(omega)` and `B(omega)` by the modal sum (module docs). An error if
     /// `omega` is not finite or lies on a pole (`1 - omega^2 mu_k = 0`).
     pub fn reduce(&self, omega: f64) -> Result<ReducedTerms, ReductionError> {
+        let flat = self.sum(omega)?;
+        self.assemble(&flat, omega)
+    }
+
+    /// [`ModalReducer::reduce`] and the [`ProbeTerms`] of the probe DOFs
+    /// given to [`Reducer::modal_probes`] (the same numbers as
+    /// [`Reducer::reduce_adjoint_probes`] to the round-off of the modal
+    /// form): `P = X_0 rows + Omega^2 R V`, `L = R T_i`.
+    pub fn reduce_probes(&self, omega: f64) -> Result<(ReducedTerms, ProbeTerms), ReductionError> {
+        let flat = self.sum(omega)?;
+        let terms = self.assemble(&flat, omega)?;
+        let nq = self.statics.v_l.nrows();
+        let ncol = self.statics.rhs.ncols();
+        let n_loads = ncol - nq;
+        let np = self.probes.len();
+        let w2 = omega * omega;
+        let at = |r: usize, c: usize| {
+            let i = 2 * (c * self.n_left + r);
+            Complex64::new(flat[i], flat[i + 1])
+        };
+        let mut p = DMatrix::<Complex64>::zeros(np, nq);
+        let mut l = DMatrix::<Complex64>::zeros(np, n_loads);
+        for (k, pl) in self.probes.iter().enumerate() {
+            match *pl {
+                Ok(_) => {
+                    for c in 0..nq {
+                        p[(k, c)] = self.x0_rows[(k, c)] + at(nq + k, c) * w2;
+                    }
+                    for c in 0..n_loads {
+                        l[(k, c)] = at(nq + k, nq + c);
+                    }
+                }
+                Err(ch) => p[(k, ch)] = Complex64::new(1.0, 0.0),
+            }
+        }
+        if p.iter()
+            .chain(l.iter())
+            .all(|z| z.re.is_finite() && z.im.is_finite())
+        {
+            Ok((terms, ProbeTerms { p, l }))
+        } else {
+            Err(ReductionError::Invalid(format!(
+                "Z_ii numerically singular at {omega} rad/s (speed on a pinned-shaft resonance)"
+            )))
+        }
+    }
+
+    /// `sum_k d_k(omega) R_k` of every left row and load column (layout of
+    /// [`ModalReducer::residues`]).
+    fn sum(&self, omega: f64) -> Result<Vec<f64>, ReductionError> {
         if !omega.is_finite() {
             return Err(ReductionError::Invalid(format!(
                 "speed must be finite, got {omega}"
             )));
         }
         let w2 = omega * omega;
-        let nq = self.statics.v_l.nrows();
         let ncol = self.statics.rhs.ncols();
-        let rows = 2 * nq * ncol;
+        let rows = 2 * self.n_left * ncol;
         // flat = sum_k d_k R_k over the modes, four at a time (one pass
         // over `flat` per four residue columns; the columns are contiguous).
         let mut d = Vec::with_capacity(self.mu.len());
@@ -400,10 +505,18 @@ impl ModalReducer {
                 *y += r * dk;
             }
         }
+        Ok(flat)
+    }
+
+    /// `A`, `B` from the modal sum of [`ModalReducer::sum`].
+    fn assemble(&self, flat: &[f64], omega: f64) -> Result<ReducedTerms, ReductionError> {
+        let w2 = omega * omega;
+        let nq = self.statics.v_l.nrows();
+        let ncol = self.statics.rhs.ncols();
         // assemble_vy without temporaries: A = S_K - w2 M_red - w2^2 VY_A,
         // B = (T_red + w2 VY_B) w2.
         let vy = |r: usize, c: usize| {
-            let at = 2 * (c * nq + r);
+            let at = 2 * (c * self.n_left + r);
             Complex64::new(flat[at], flat[at + 1])
         };
         let (w2c, w4c) = (Complex64::from(w2), Complex64::from(w2 * w2));
