@@ -238,14 +238,16 @@ fn block_of<F: ComplexField<RealField = T> + Copy, T: Real>(
 }
 
 /// Applies `rot` to the row pair `(r, y)` entry by entry:
-/// `(r_k, y_k) <- (c r_k + s y_k, -s^* r_k + c y_k)` for every `k < K`.
+/// `(r_k, y_k) <- (c r_k + s y_k, -s^* r_k + c y_k)` for every
+/// `from <= k < K` (`from = 0`, a constant after inlining, gives the
+/// fixed-length loop over the whole rows).
 #[inline(always)]
-fn rotate_full<F, T, const K: usize>(rot: &Rotation<F>, r: &mut [F; K], y: &mut [F; K])
+fn rotate_from<F, T, const K: usize>(rot: &Rotation<F>, r: &mut [F; K], y: &mut [F; K], from: usize)
 where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
-    for (rk, yk) in r.iter_mut().zip(y.iter_mut()) {
+    for (rk, yk) in r.iter_mut().zip(y.iter_mut()).skip(from) {
         let (nr, ny) = rot.apply(*rk, *yk);
         *rk = nr;
         *yk = ny;
@@ -253,11 +255,11 @@ where
 }
 
 /// The rotation of a factor row `r` with pivot `i` and the working row
-/// `y`: for a real field on the whole rows ([`rotate_full`], fixed-length
-/// loops without branches, which the compiler unrolls and, on x86-64,
-/// vectorises); for a complex field on the entries right of the pivot only
-/// (its products cost more than the branch-free form saves). Left of the
-/// pivot both rows hold exact zeros, which a rotation keeps zero (see
+/// `y`: for a real field on the whole rows (fixed-length loops without
+/// branches, which the compiler unrolls and, on x86-64, vectorises); for a
+/// complex field on the entries right of the pivot only (its products cost
+/// more than the branch-free form saves). Left of the pivot both rows hold
+/// exact zeros, which a rotation keeps zero (see
 /// [`BlockFactor::update_rows`]); the caller overwrites the pivot pair.
 /// Whole rows are cheaper on the scalar FPU of the Cortex-M4F as well:
 /// 44 400 against 47 400 instructions per identification step of the
@@ -268,15 +270,8 @@ where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
-    if core::mem::size_of::<F>() == core::mem::size_of::<T>() {
-        rotate_full(rot, r, y);
-    } else {
-        for (rk, yk) in r.iter_mut().zip(y.iter_mut()).skip(i + 1) {
-            let (nr, ny) = rot.apply(*rk, *yk);
-            *rk = nr;
-            *yk = ny;
-        }
-    }
+    let real = core::mem::size_of::<F>() == core::mem::size_of::<T>();
+    rotate_from(rot, r, y, if real { 0 } else { i + 1 });
 }
 
 /// The checks of an update, all before anything is written: lengths
@@ -860,7 +855,7 @@ where
             drow[i] = F::from_real(rho);
             ub[i] = F::zero();
             g *= rot.c;
-            rotate_full(&rot, &mut coup[i], &mut us);
+            rotate_from(&rot, &mut coup[i], &mut us, 0);
             let (np, ne) = rot.apply(pb[i], e);
             pb[i] = np;
             e = ne;

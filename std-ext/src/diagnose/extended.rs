@@ -204,58 +204,17 @@ struct PedEval {
     t: Matrix2<Complex64>,
 }
 
-/// The inverse of a small complex matrix by Gauss-Jordan elimination with
-/// partial pivoting (`O(n^3)`, no temporaries beyond the result); `None`
-/// if a pivot is zero or an entry of the inverse is not finite (a
-/// singular or overflowing `H`).
+/// The inverse of a small complex matrix: the output-error predictor's
+/// elimination with partial pivoting ([`crate::estimate::predictor`], on
+/// the column-major storage of `a`); `None` if a pivot is zero or an entry
+/// of the inverse is not finite (a singular or overflowing `H`).
 fn invert(mut a: DMatrix<Complex64>) -> Option<DMatrix<Complex64>> {
     let n = a.nrows();
     if a.ncols() != n {
         return None;
     }
-    let mut inv = DMatrix::<Complex64>::identity(n, n);
-    for k in 0..n {
-        let mut piv = k;
-        let mut best = a[(k, k)].norm_sqr();
-        for i in k + 1..n {
-            let m = a[(i, k)].norm_sqr();
-            if m > best {
-                best = m;
-                piv = i;
-            }
-        }
-        if best == 0.0 || !best.is_finite() {
-            return None;
-        }
-        if piv != k {
-            a.swap_rows(k, piv);
-            inv.swap_rows(k, piv);
-        }
-        let d = Complex64::new(1.0, 0.0) / a[(k, k)];
-        for c in k..n {
-            a[(k, c)] *= d;
-        }
-        for c in 0..n {
-            inv[(k, c)] *= d;
-        }
-        for i in 0..n {
-            let f = a[(i, k)];
-            if i == k || (f.re == 0.0 && f.im == 0.0) {
-                continue;
-            }
-            for c in k..n {
-                let v = a[(k, c)];
-                a[(i, c)] -= f * v;
-            }
-            for c in 0..n {
-                let v = inv[(k, c)];
-                inv[(i, c)] -= f * v;
-            }
-        }
-    }
-    inv.iter()
-        .all(|z| z.re.is_finite() && z.im.is_finite())
-        .then_some(inv)
+    let mut inv = DMatrix::<Complex64>::zeros(n, n);
+    crate::estimate::predictor::invert(n, a.as_mut_slice(), inv.as_mut_slice()).then_some(inv)
 }
 
 impl ExtendedModel {

@@ -1156,7 +1156,6 @@ fn rescreen(
 }
 
 /// A pair of hypotheses fitted together, from their own estimates.
-#[allow(clippy::too_many_arguments)]
 fn fit_pair(
     builder: &terms::Builder,
     omegas: &[f64],
