@@ -27,6 +27,21 @@
 //! `1e-9 N` in chi-square, far below any decision threshold) or the
 //! scaled step is below `1e-7`.
 //!
+//! A fit may also stop *stalled*: when the data carry a noise level `s`
+//! ([`FitData::with_noise_level`]), `S` is still above [`STALL_MISFIT`]
+//! times its noise floor `S_0 = (2N - P) s^2 / 2` (an RMS misfit ten times
+//! the noise), and the last [`STALL_WINDOW`] iterations lowered `S` by
+//! less than [`STALL_DROP`] of it in all. Such a model misfits the data
+//! whatever its exact minimum: its parameters wander off along a valley
+//! towards values no machine has (a stiffness a thousand times the
+//! bearing's) while `S` creeps down by a tenth of a percent per step.
+//! Every decision taken on it (significant against the nominal model,
+//! misfit above the noise, best by BIC) is the same at its minimum, since
+//! at most a further `~2 STALL_DROP` of `S` (about ten more windows at
+//! the same rate) stands against a factor [`STALL_MISFIT`] /
+//! [`crate::diagnose::MISFIT_CHI2`] = 50 to the misfit threshold; a fit
+//! that converges to the noise is never stopped this way.
+//!
 //! # Covariance
 //!
 //! `cov(theta) = sigma^2 (J^T J)^-1`, `sigma^2 = S / (2N - P)` (the
@@ -43,6 +58,18 @@ use crate::io::measurement::Sample;
 /// Weight floor relative to a channel's RMS reading.
 pub const FLOOR: f64 = 1e-3;
 
+/// `S` over its noise floor above which a fit may stop stalled (module
+/// documentation): an RMS misfit ten times the noise.
+pub const STALL_MISFIT: f64 = 100.0;
+
+/// Iterations over which a stalled fit lowered `S` by less than
+/// [`STALL_DROP`].
+pub const STALL_WINDOW: usize = 5;
+
+/// Relative fall of `S` over [`STALL_WINDOW`] iterations below which a
+/// fit far above its noise floor stops.
+pub const STALL_DROP: f64 = 1e-2;
+
 /// Data of the fits: readings, terms and the fixed weights.
 #[derive(Debug, Clone)]
 pub struct FitData<'a> {
@@ -58,6 +85,9 @@ pub struct FitData<'a> {
     pub readings: Vec<Vec<Complex64>>,
     /// `1 / w_(n,c)`.
     pub inv_w: Vec<Vec<f64>>,
+    /// The relative noise level `s` of the readings, when known: lets a
+    /// fit far above it stop stalled (module documentation).
+    pub noise_level: Option<f64>,
 }
 
 impl<'a> FitData<'a> {
@@ -119,7 +149,16 @@ impl<'a> FitData<'a> {
             terms,
             readings,
             inv_w,
+            noise_level: None,
         }
+    }
+
+    /// The same data with the relative noise level `s` of its readings
+    /// (a model-free estimate, [`crate::estimate::noise`]): fits far above
+    /// it may stop stalled. Ignored unless finite and positive.
+    pub fn with_noise_level(mut self, s: Option<f64>) -> Self {
+        self.noise_level = s.filter(|x| x.is_finite() && *x > 0.0);
+        self
     }
 
     /// Number of real equations `2 N`.
@@ -143,6 +182,9 @@ pub struct Fit {
     pub iterations: usize,
     /// Whether the stopping test was met.
     pub converged: bool,
+    /// Whether it stopped stalled far above the noise (module
+    /// documentation): `S` is then an upper bound of its minimum.
+    pub stalled: bool,
 }
 
 impl Fit {
@@ -259,6 +301,11 @@ pub fn fit_with(
     let mut s = r.norm_squared();
     let mut mu = 1e-3;
     let mut converged = false;
+    let mut stalled = false;
+    let stall_s = data
+        .noise_level
+        .map(|sn| STALL_MISFIT * 0.5 * n.saturating_sub(p) as f64 * sn * sn);
+    let mut history: Vec<f64> = vec![s];
     let mut iterations = 0;
     while iterations < max_iter {
         iterations += 1;
@@ -304,11 +351,18 @@ pub fn fit_with(
             converged = true;
             break;
         }
-        let last = converged || iterations == max_iter;
+        history.push(s);
+        if !converged && history.len() > STALL_WINDOW {
+            let before = history[history.len() - 1 - STALL_WINDOW];
+            if stall_s.is_some_and(|f| s > f) && before - s < STALL_DROP * s {
+                stalled = true;
+            }
+        }
+        let last = converged || stalled || iterations == max_iter;
         let (r2, j2) = evaluate(model, data, &en, &theta, !last || covariance)?;
         r = r2;
         jac = j2;
-        if converged {
+        if converged || stalled {
             break;
         }
     }
@@ -324,6 +378,7 @@ pub fn fit_with(
         covariance,
         iterations,
         converged,
+        stalled,
     })
 }
 

@@ -63,7 +63,7 @@ use crate::estimate::results::{
     BearingResult, BearingStd, Coefficients, UnbalanceResult, UnbalanceStd,
 };
 use crate::estimate::{identify_with, IdentifyError, Options, Parametrization};
-use crate::io::measurement::Measurements;
+use crate::io::measurement::{Measurements, Sample};
 use crate::model::RotorModel;
 use crate::reduce::ReductionError;
 use crate::tables::auto_scaling;
@@ -76,6 +76,15 @@ use terms::SpeedTerms;
 /// Chi-square per degree of freedom of the residual noise against the
 /// model-free noise level above which a model does not fit.
 pub const MISFIT_CHI2: f64 = 2.0;
+
+/// Chi-square per degree of freedom of the residual noise against the
+/// model-free noise level below which a fit explains the data to the noise:
+/// the searches stop trying further starts of its hypothesis.
+pub const NOISE_CHI2: f64 = 1.2;
+
+/// Speeds at most on which the starts of the pedestal search are ranked
+/// (every `k`-th speed of the measurement).
+pub const SCREEN_SPEEDS: usize = 150;
 
 /// What the data show beyond the nominal model (SPEC section 5 names).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -540,7 +549,10 @@ pub fn diagnose(
         mass: rotor_mass / nb as f64,
         omega: omega_max,
     };
-    let data = FitData::with_probes(samples, node_q, &terms);
+    // The model-free noise level: lets fits far above it stop stalled
+    // (`fit` module docs) and judges the misfit below.
+    let noise_level = crate::estimate::noise::relative_noise_level(samples);
+    let data = FitData::with_probes(samples, node_q, &terms).with_noise_level(noise_level);
     let base = ExtendedModel {
         pr: pr.clone(),
         ext: Vec::new(),
@@ -598,6 +610,13 @@ pub fn diagnose(
         t
     };
     let n_room = |p: usize| n_real > p + 4;
+    // A fit whose residual noise is within NOISE_CHI2 of the model-free
+    // noise level: further starts or richer variants of its hypothesis are
+    // not tried (they could only move `S` by noise).
+    let at_noise = |f: &Fit| match noise_level {
+        Some(s) if s > 0.0 => 2.0 * f.sigma2() / (s * s) <= NOISE_CHI2,
+        _ => false,
+    };
 
     // speed_dependent_bearing
     {
@@ -649,6 +668,16 @@ pub fn diagnose(
             .map(|(r, _)| r)
             .ok();
         let n_out = data.inv_w.first().map_or(0, Vec::len);
+        // The starts are ranked on a thinned copy of the data, at most
+        // SCREEN_SPEEDS speeds: a pedestal's resonance at damping ratio
+        // 0.05 spans 10 % of its speed, still several thinned speeds on
+        // the paper's grid; the full fits below use every speed.
+        let step = samples.len().div_ceil(SCREEN_SPEEDS).max(1);
+        let thin_samples: Vec<Sample> = samples.iter().step_by(step).cloned().collect();
+        let thin_terms: Vec<SpeedTerms> = terms.iter().step_by(step).cloned().collect();
+        let thin_node_q: Vec<Vec<Complex64>> = node_q.iter().step_by(step).cloned().collect();
+        let screen_data = FitData::with_probes(&thin_samples, &thin_node_q, &thin_terms);
+        let mut queue: Vec<(Fit, usize)> = Vec::new();
         for bearing in 0..nb {
             let m = with_ext(vec![Extension::Pedestal { bearing }]);
             if !n_room(m.n_params()) {
@@ -674,7 +703,8 @@ pub fn diagnose(
             // iterations each (fewer rank the starts wrongly: the basin of
             // a resonance is narrow), then fit from the two best starts.
             // The bearings start from the nominal fit and from the model's
-            // own values (a large pedestal distorts the nominal fit).
+            // own values (a large pedestal distorts the nominal fit). The
+            // screening runs on every `step`-th speed only (`screen_data`).
             let mut starts: Vec<Fit> = Vec::new();
             for nominal_start in [&theta0, &theta_model] {
                 for &ratio in &ratios {
@@ -686,18 +716,27 @@ pub fn diagnose(
                         };
                         let mut t = nominal_start.clone();
                         t.extend_from_slice(&ped.to_scaled(&scales));
-                        if let Ok(f) = fit::fit_with(&m, &data, &t, 3, false) {
+                        if let Ok(f) = fit::fit_with(&m, &screen_data, &t, 3, false) {
                             starts.push(f);
                         }
                     }
                 }
             }
             starts.sort_by(|a, b| a.s.total_cmp(&b.s));
-            for s in starts.iter().take(2) {
-                if let Ok(f) = fit::fit(&m, &data, &s.theta, 60) {
-                    if best.as_ref().is_none_or(|b| f.s < b.0.s) {
-                        best = Some((f, m.clone(), bearing));
-                    }
+            queue.extend(starts.into_iter().take(2).map(|f| (f, bearing)));
+        }
+        // The full fits, best screened start first (the thinned `S` of all
+        // bearings are comparable), until one fits to the noise: another
+        // start could then only move `S` by noise.
+        queue.sort_by(|a, b| a.0.s.total_cmp(&b.0.s));
+        for (start, bearing) in queue {
+            if best.as_ref().is_some_and(|b| at_noise(&b.0)) {
+                break;
+            }
+            let m = with_ext(vec![Extension::Pedestal { bearing }]);
+            if let Ok(f) = fit::fit(&m, &data, &start.theta, 60) {
+                if best.as_ref().is_none_or(|b| f.s < b.0.s) {
+                    best = Some((f, m, bearing));
                 }
             }
         }
@@ -854,7 +893,7 @@ pub fn diagnose(
                 if cur.first().is_none_or(|t| t.da_de.is_none()) {
                     terms::set_secant_derivative(&mut cur, e, &prev, e_prev)?;
                 }
-                let d = FitData::with_probes(samples, node_q, &cur);
+                let d = FitData::with_probes(samples, node_q, &cur).with_noise_level(noise_level);
                 let Ok(f) = fit::fit(&m, &d, &theta, 50) else {
                     break;
                 };
@@ -913,7 +952,6 @@ pub fn diagnose(
     for c in &mut hyps {
         c.judge(&nominal.fit, sigma2, alpha);
     }
-    let noise_level = crate::estimate::noise::relative_noise_level(samples);
     let misfit = |c: &Candidate| -> bool {
         match noise_level {
             Some(s) if s > 0.0 => {
@@ -1196,7 +1234,8 @@ fn fit_pair(
             Some((ec, t)) if *ec == e && !t.is_empty() => t.clone(),
             _ => builder.build(omegas, e, true)?,
         };
-        let d = FitData::with_probes(data.samples, data.node_q, &te);
+        let d =
+            FitData::with_probes(data.samples, data.node_q, &te).with_noise_level(data.noise_level);
         // The e parameter of the pair starts at the single fit's offset.
         let k = m
             .ext
