@@ -63,7 +63,7 @@ use crate::estimate::results::{
     BearingResult, BearingStd, Coefficients, UnbalanceResult, UnbalanceStd,
 };
 use crate::estimate::{identify_with, IdentifyError, Options, Parametrization};
-use crate::io::measurement::{Measurements, Sample};
+use crate::io::measurement::Measurements;
 use crate::model::RotorModel;
 use crate::reduce::ReductionError;
 use crate::tables::auto_scaling;
@@ -81,10 +81,6 @@ pub const MISFIT_CHI2: f64 = 2.0;
 /// model-free noise level below which a fit explains the data to the noise:
 /// the searches stop trying further starts of its hypothesis.
 pub const NOISE_CHI2: f64 = 1.2;
-
-/// Speeds at most on which the starts of the pedestal search are ranked
-/// (every `k`-th speed of the measurement).
-pub const SCREEN_SPEEDS: usize = 150;
 
 /// What the data show beyond the nominal model (SPEC section 5 names).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -438,7 +434,12 @@ pub fn map_theta(from: &Predictor, theta: &[f64], to: &Predictor) -> Vec<f64> {
 /// The nominal parameters with the bearings set to the model's own
 /// coefficients at `omega` (constant; higher orders zero) and the
 /// unbalance of `theta0`.
-fn theta_from_model(pr: &Predictor, model: &RotorModel, theta0: &[f64], omega: f64) -> Vec<f64> {
+pub(crate) fn theta_from_model(
+    pr: &Predictor,
+    model: &RotorModel,
+    theta0: &[f64],
+    omega: f64,
+) -> Vec<f64> {
     use rotorid_core::parametrization::{BearingTerm, Unknown};
     let p = &pr.param;
     let mut w = pr.weights(theta0);
@@ -668,15 +669,6 @@ pub fn diagnose(
             .map(|(r, _)| r)
             .ok();
         let n_out = data.inv_w.first().map_or(0, Vec::len);
-        // The starts are ranked on a thinned copy of the data, at most
-        // SCREEN_SPEEDS speeds: a pedestal's resonance at damping ratio
-        // 0.05 spans 10 % of its speed, still several thinned speeds on
-        // the paper's grid; the full fits below use every speed.
-        let step = samples.len().div_ceil(SCREEN_SPEEDS).max(1);
-        let thin_samples: Vec<Sample> = samples.iter().step_by(step).cloned().collect();
-        let thin_terms: Vec<SpeedTerms> = terms.iter().step_by(step).cloned().collect();
-        let thin_node_q: Vec<Vec<Complex64>> = node_q.iter().step_by(step).cloned().collect();
-        let screen_data = FitData::with_probes(&thin_samples, &thin_node_q, &thin_terms);
         let mut queue: Vec<(Fit, usize)> = Vec::new();
         for bearing in 0..nb {
             let m = with_ext(vec![Extension::Pedestal { bearing }]);
@@ -703,8 +695,9 @@ pub fn diagnose(
             // iterations each (fewer rank the starts wrongly: the basin of
             // a resonance is narrow), then fit from the two best starts.
             // The bearings start from the nominal fit and from the model's
-            // own values (a large pedestal distorts the nominal fit). The
-            // screening runs on every `step`-th speed only (`screen_data`).
+            // own values (a large pedestal distorts the nominal fit).
+            // (Ranking on every second speed only halves this and loses
+            // pedestals whose y and z frequencies lie apart.)
             let mut starts: Vec<Fit> = Vec::new();
             for nominal_start in [&theta0, &theta_model] {
                 for &ratio in &ratios {
@@ -716,7 +709,7 @@ pub fn diagnose(
                         };
                         let mut t = nominal_start.clone();
                         t.extend_from_slice(&ped.to_scaled(&scales));
-                        if let Ok(f) = fit::fit_with(&m, &screen_data, &t, 3, false) {
+                        if let Ok(f) = fit::fit_with(&m, &data, &t, 3, false) {
                             starts.push(f);
                         }
                     }

@@ -22,6 +22,25 @@
 //! factor (one parameter, its threshold the chi-square quantile of one
 //! degree of freedom; `dA/de` from the terms at `e = 0.95` and `1.05`).
 //!
+//! The speed law and the pedestal are linearised the same way
+//! ([`speed_law_min_detectable`], [`pedestal_min_detectable`]), one
+//! parameter at a time:
+//!
+//! - **speed law**: each coefficient of a bearing law one order higher
+//!   (`K_P Omega^P`, `C_P Omega^P`, zero at the nominal estimate), its
+//!   threshold that of the whole hypothesis (`8 N_b` parameters); the size
+//!   is the change it makes to its coefficient at the top speed, relative
+//!   to the direct coefficient of the same row;
+//! - **pedestal**: a pedestal under each bearing with its natural
+//!   frequency on a grid ([`PEDESTAL_GRID`] x the top speed) and damping
+//!   ratio [`PEDESTAL_ZETA`], its size the compliance `1 / k_p` (a rigid
+//!   support is compliance 0, where the effect vanishes linearly),
+//!   reported as `k_B / k_p`; threshold of 5 parameters.
+//!
+//! Both are checked against a refit: the effect of the computed size put
+//! into noise-free data leaves the refitted nominal model `S = t sigma^2`
+//! within 5 % (module tests).
+//!
 //! # Effects the data cannot tell apart
 //!
 //! Two significant hypotheses whose misfits differ by less than the
@@ -34,6 +53,8 @@ use serde::Serialize;
 use crate::diagnose::extended::{ExtendedModel, Extension};
 use crate::diagnose::fit::{self, FitData};
 use crate::diagnose::{chi2_quantile_upper, Diagnosis, Effect};
+use crate::units::rad_s_to_rpm;
+use nalgebra::DMatrix;
 
 /// What the data can show of one effect.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -222,7 +243,17 @@ pub fn analyse(
                 ),
                 _ => (Vec::new(), Vec::new(), 1.0, ""),
             };
+        let special = match effect {
+            Effect::SpeedDependentBearing => speed_law_sizes(d, data),
+            Effect::FoundationFlexibility => pedestal_sizes(d, data),
+            _ => None,
+        };
+        let (names, unit) = match &special {
+            Some((_, n, u)) => (n.clone(), *u),
+            None => (names, unit),
+        };
         let sizes = match (effect, data_de) {
+            _ if special.is_some() => special.map(|(v, ..)| v),
             _ if exts.is_empty() => None,
             (Effect::ShaftStiffnessError, Some(dd)) => {
                 let t1 = detection_threshold(d, 1.0);
@@ -265,6 +296,26 @@ pub fn analyse(
                     "{}: detectable from a {:.1e} relative change of the shaft's modulus (through the shift of the critical speeds and mode shapes in the range)",
                     effect.name(),
                     a
+                )
+            }
+            (Some(a), Some(wa), Some(b), Some(wb))
+                if a.is_finite() && effect == Effect::SpeedDependentBearing =>
+            {
+                format!(
+                    "{}: a bearing law one order higher in speed is detectable once it changes a coefficient at {:.0} rpm by {a:.1e} of its value ({wa}); {} ({wb})",
+                    effect.name(),
+                    rad_s_to_rpm(d.omega_report),
+                    if b.is_finite() { format!("{b:.1e} is needed") } else { "not at all".into() }
+                )
+            }
+            (Some(a), Some(wa), Some(b), Some(wb))
+                if a.is_finite() && effect == Effect::FoundationFlexibility =>
+            {
+                format!(
+                    "{}: a pedestal (damping ratio {PEDESTAL_ZETA}) is detectable up to a stiffness of {:.1e} times the bearing's ({wa}); {} ({wb})",
+                    effect.name(),
+                    1.0 / a,
+                    if b.is_finite() { format!("up to {:.1e} times", 1.0 / b) } else { "not at all".into() }
                 )
             }
             (Some(a), Some(wa), Some(b), Some(wb)) if a.is_finite() => {
@@ -335,4 +386,438 @@ pub fn min_detectable_single(d: &Diagnosis, data: &FitData<'_>, ext: Extension) 
         scale,
     )?;
     v.into_iter().reduce(f64::min)
+}
+
+/// The speed law's sizes for [`analyse`]: per new coefficient, its change
+/// at the report speed relative to the nominal coefficient of its row
+/// (`k_yy` for `k_yy`, `k_yz`; `k_zz` for `k_zy`, `k_zz`; the same for
+/// damping).
+fn speed_law_sizes(
+    d: &Diagnosis,
+    data: &FitData<'_>,
+) -> Option<(Vec<f64>, Vec<String>, &'static str)> {
+    let base = &d.nominal.model;
+    let n_extra = 8 * base.pr.param.n_bearings();
+    let t = detection_threshold(d, n_extra as f64);
+    let v = speed_law_min_detectable(
+        base,
+        data,
+        &d.nominal.fit.theta,
+        d.sigma2,
+        t,
+        d.omega_report,
+    )?;
+    let (bearings, _) = crate::diagnose::estimates(&d.nominal, d.omega_report);
+    let dir = |i: usize| if i == 0 { "y" } else { "z" };
+    let mut sizes = Vec::new();
+    let mut names = Vec::new();
+    for l in v {
+        let Some(b) = bearings.get(l.bearing) else {
+            continue;
+        };
+        let co = if l.stiffness { &b.k } else { &b.c };
+        let reference = if l.entry < 2 { co.yy } else { co.zz }.abs();
+        sizes.push(if reference > 0.0 {
+            l.change / reference
+        } else {
+            f64::INFINITY
+        });
+        names.push(format!(
+            "{} of bearing {}",
+            format_args!(
+                "{}_{}{}",
+                if l.stiffness { "k" } else { "c" },
+                dir(l.entry / 2),
+                dir(l.entry % 2)
+            ),
+            l.bearing + 1
+        ));
+    }
+    Some((
+        sizes,
+        names,
+        "(relative change of a bearing coefficient at the top speed)",
+    ))
+}
+
+/// Natural frequencies of the pedestals of [`pedestal_sizes`], as
+/// fractions of the top measured speed.
+pub const PEDESTAL_GRID: [f64; 10] = [0.25, 0.35, 0.5, 0.7, 0.85, 1.0, 1.2, 1.5, 2.0, 3.0];
+
+/// The pedestal's sizes for [`analyse`]: `k_B / k_p` (the bearing's direct
+/// stiffness, mean of `k_yy` and `k_zz` at the report speed, over the
+/// pedestal's) at its smallest detectable compliance, per bearing and
+/// natural frequency on [`PEDESTAL_GRID`].
+fn pedestal_sizes(
+    d: &Diagnosis,
+    data: &FitData<'_>,
+) -> Option<(Vec<f64>, Vec<String>, &'static str)> {
+    let base = &d.nominal.model;
+    let t = detection_threshold(d, 5.0);
+    let (bearings, _) = crate::diagnose::estimates(&d.nominal, d.omega_report);
+    let k_ref: Vec<f64> = bearings
+        .iter()
+        .map(|b| 0.5 * (b.k.yy.abs() + b.k.zz.abs()))
+        .collect();
+    let top = data.terms.iter().map(|t| t.omega).fold(0.0, f64::max);
+    let omegas: Vec<f64> = PEDESTAL_GRID.iter().map(|r| r * top).collect();
+    let v = pedestal_min_detectable(
+        base,
+        data,
+        &d.nominal.fit.theta,
+        d.sigma2,
+        t,
+        &omegas,
+        &k_ref,
+    )?;
+    let sizes = v.iter().map(|p| p.compliance * k_ref[p.bearing]).collect();
+    let names = v
+        .iter()
+        .map(|p| {
+            format!(
+                "bearing {}, resonance at {:.0} rpm",
+                p.bearing + 1,
+                rad_s_to_rpm(p.omega)
+            )
+        })
+        .collect();
+    Some((sizes, names, "(bearing stiffness over pedestal stiffness)"))
+}
+
+/// The smallest detectable size of one speed-law coefficient (see
+/// [`speed_law_min_detectable`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LawSize {
+    /// Parameter index in the predictor one order higher.
+    pub param: usize,
+    /// Its smallest detectable (scaled) value.
+    pub scaled: f64,
+    /// The change it makes at the evaluation speed to its bearing
+    /// coefficient (N/m or N s/m).
+    pub change: f64,
+    /// Bearing (0-based).
+    pub bearing: usize,
+    /// Entry `2 row + col` (`yy, yz, zy, zz`).
+    pub entry: usize,
+    /// Stiffness (`true`) or damping.
+    pub stiffness: bool,
+}
+
+/// `d_k = (S)_kk` for every column `k` of `je`: the information on each
+/// extra parameter alone left once the nominal parameters (columns of
+/// `jn`) are refitted, `S = J_e^T J_e - J_e^T J_n (J_n^T J_n)^-1 J_n^T J_e`.
+fn schur_diagonal(jn: &DMatrix<f64>, je: &DMatrix<f64>) -> Option<Vec<f64>> {
+    let ch = fit::gram(jn).cholesky()?;
+    let x = ch.solve(&jn.tr_mul(je));
+    let cross = jn.tr_mul(je);
+    Some(
+        (0..je.ncols())
+            .map(|k| je.column(k).norm_squared() - cross.column(k).dot(&x.column(k)))
+            .collect(),
+    )
+}
+
+/// A speed-dependent bearing, linearised: the predictor of physical order
+/// `P + 1` at the nominal estimate (its new coefficients `K_P`, `C_P` of
+/// every entry at zero). For each new coefficient alone, with `s_kk` its
+/// information left after the nominal parameters are refitted
+/// ([`schur_diagonal`]), the smallest value that reaches the threshold
+/// `t` is `x_k = sqrt(t sigma^2 / s_kk)` (scaled), and it changes its
+/// bearing coefficient at `omega` (rad/s) by `x_k g_k(omega)`, `g_k` the
+/// coefficient's functional (`K_P Omega^P` or `C_P Omega^P` in SI units).
+/// `None` when the nominal order is already the highest or the Fisher
+/// information is singular.
+pub fn speed_law_min_detectable(
+    base: &ExtendedModel,
+    data: &FitData<'_>,
+    theta0: &[f64],
+    sigma2: f64,
+    t: f64,
+    omega: f64,
+) -> Option<Vec<LawSize>> {
+    use crate::estimate::predictor::Predictor;
+    use crate::estimate::Parametrization;
+    use rotorid_core::parametrization::{BearingTerm, Structure, Unknown, MAX_ORDER};
+    let param = &base.pr.param;
+    let order = param.structure.order;
+    if !base.ext.is_empty()
+        || order + 1 > MAX_ORDER
+        || param.structure != Structure::physical(order)
+    {
+        return None;
+    }
+    let prn = Predictor::new(Parametrization {
+        structure: Structure::physical(order + 1),
+        ..param.clone()
+    });
+    let higher = ExtendedModel {
+        pr: prn.clone(),
+        ..base.clone()
+    };
+    let theta_h = crate::diagnose::map_theta(&base.pr, theta0, &prn);
+    let (_, jn) = fit::evaluate(base, data, &fit::entries(base, data), theta0, true).ok()?;
+    let (_, jh) =
+        fit::evaluate(&higher, data, &fit::entries(&higher, data), &theta_h, true).ok()?;
+    let jh = jh?;
+    let extra: Vec<usize> = (0..prn.param.n_unknowns())
+        .filter(|&j| {
+            let u = prn.param.unknown(j);
+            (0..param.n_unknowns()).all(|i| param.unknown(i) != u)
+        })
+        .collect();
+    let je = DMatrix::from_fn(jh.nrows(), extra.len(), |r, c| jh[(r, extra[c])]);
+    let s = schur_diagonal(&jn?, &je)?;
+    let mut out = Vec::new();
+    for (k, &j) in extra.iter().enumerate() {
+        let Some(Unknown::Bearing {
+            bearing,
+            row,
+            col,
+            term,
+        }) = prn.param.unknown(j)
+        else {
+            continue;
+        };
+        let entry = 2 * row + col;
+        let stiffness = matches!(term, BearingTerm::K { .. });
+        let functional = if stiffness {
+            prn.param.stiffness_functional(bearing, entry, omega)
+        } else {
+            prn.param.damping_functional(bearing, entry, omega)
+        };
+        let g = functional
+            .iter()
+            .find(|(i, _)| *i == j)
+            .map_or(0.0, |(_, g)| *g);
+        let scaled = if s[k] > 0.0 {
+            (t * sigma2 / s[k]).sqrt()
+        } else {
+            f64::INFINITY
+        };
+        out.push(LawSize {
+            param: j,
+            scaled,
+            change: scaled * g.abs(),
+            bearing,
+            entry,
+            stiffness,
+        });
+    }
+    Some(out)
+}
+
+/// The smallest detectable pedestal (see [`pedestal_min_detectable`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PedestalSize {
+    /// Bearing (0-based).
+    pub bearing: usize,
+    /// The pedestal's natural frequency (rad/s), y and z alike.
+    pub omega: f64,
+    /// Its smallest detectable compliance `1 / k_p` (m/N).
+    pub compliance: f64,
+}
+
+/// Damping ratio of the pedestals of [`pedestal_min_detectable`].
+pub const PEDESTAL_ZETA: f64 = 0.05;
+
+/// A pedestal under `bearing`, linearised about a rigid support: with
+/// natural frequency `w_p` (y and z alike, damping ratio
+/// [`PEDESTAL_ZETA`]) and compliance `eps = 1 / k_p` (mass
+/// `1 / (eps w_p^2)`), the weighted residual moves by `eps g` to first
+/// order, `g` the difference quotient of the prediction at a compliance of
+/// `1e-9 / |K_B|`. The part the refitted nominal model cannot absorb,
+/// `|(I - P_n) g|^2` (`P_n` the projection on the nominal Jacobian's
+/// columns), gives the smallest detectable compliance
+/// `eps = sqrt(t sigma^2 / |(I - P_n) g|^2)`. `k_ref[b]`: the bearing's
+/// direct stiffness (N/m), which sets the difference step.
+#[allow(clippy::too_many_arguments)]
+pub fn pedestal_min_detectable(
+    base: &ExtendedModel,
+    data: &FitData<'_>,
+    theta0: &[f64],
+    sigma2: f64,
+    t: f64,
+    omegas: &[f64],
+    k_ref: &[f64],
+) -> Option<Vec<PedestalSize>> {
+    use crate::diagnose::extended::PedestalParams;
+    if !base.ext.is_empty() {
+        return None;
+    }
+    let (r0, jn) = fit::evaluate(base, data, &fit::entries(base, data), theta0, true).ok()?;
+    let jn = jn?;
+    let ch = fit::gram(&jn).cholesky()?;
+    let mut out = Vec::new();
+    for (bearing, &kb) in k_ref.iter().enumerate() {
+        if !(kb.is_finite() && kb > 0.0) {
+            continue;
+        }
+        let m = ExtendedModel {
+            ext: vec![Extension::Pedestal { bearing }],
+            ..base.clone()
+        };
+        let en = fit::entries(&m, data);
+        let eps_step = 1e-9 / kb;
+        for &w in omegas {
+            let ped = PedestalParams {
+                mass: 1.0 / (eps_step * w * w),
+                omega: [w; 2],
+                zeta: [PEDESTAL_ZETA; 2],
+            };
+            let mut theta = theta0.to_vec();
+            theta.extend_from_slice(&ped.to_scaled(&base.scales));
+            let Ok((r1, _)) = fit::evaluate(&m, data, &en, &theta, false) else {
+                continue;
+            };
+            // r = y_meas - y: the effect moves y by -(r1 - r0).
+            let g = (&r0 - &r1) / eps_step;
+            let jg = jn.tr_mul(&g);
+            let left = g.norm_squared() - jg.dot(&ch.solve(&jg));
+            let compliance = if left > 0.0 {
+                (t * sigma2 / left).sqrt()
+            } else {
+                f64::INFINITY
+            };
+            out.push(PedestalSize {
+                bearing,
+                omega: w,
+                compliance,
+            });
+        }
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::extended::{PedestalParams, Scales};
+    use crate::diagnose::terms::{build, SpeedTerms};
+    use crate::estimate::predictor::Predictor;
+    use crate::estimate::Parametrization;
+    use crate::io::measurement::Sample;
+    use crate::model::RotorModel;
+    use crate::tables::auto_scaling;
+    use rotorid_core::parametrization::Structure;
+
+    /// Variance of one real reading at 0.1 % noise, and the threshold.
+    const SIGMA2: f64 = 0.5e-6;
+    const T: f64 = 20.0;
+
+    /// The paper rotor's own bearings and unit (scaled) unbalances, order
+    /// 1, at 120 speeds up to 1500 rad/s.
+    fn setup() -> (Vec<SpeedTerms>, ExtendedModel, Vec<f64>) {
+        let m = RotorModel::paper();
+        let omegas: Vec<f64> = (1..=120).map(|i| 12.5 * i as f64).collect();
+        let terms = build(&m, &omegas, 1.0, false).unwrap();
+        let param = Parametrization {
+            structure: Structure::physical(1),
+            scaling: auto_scaling(&m, 1500.0),
+            bearing_nodes: m.bearing_nodes(),
+            plane_nodes: m.planes.clone(),
+        };
+        let pr = Predictor::new(param);
+        let theta = crate::diagnose::theta_from_model(&pr, &m, &vec![1.0; pr.n_params()], 750.0);
+        let base = ExtendedModel {
+            pr,
+            ext: Vec::new(),
+            scales: Scales {
+                q: 1e-5,
+                mass: crate::diagnose::rotor_mass(&m) / 2.0,
+                omega: 1500.0,
+            },
+            relative_probes: true,
+        };
+        (terms, base, theta)
+    }
+
+    /// Noise-free readings of `model` at `theta`.
+    fn readings(model: &ExtendedModel, terms: &[SpeedTerms], theta: &[f64]) -> Vec<Sample> {
+        terms
+            .iter()
+            .map(|st| Sample {
+                omega: st.omega,
+                q: model
+                    .predict(st, &model.pr.entries(st.omega), theta, None)
+                    .unwrap()
+                    .iter()
+                    .copied()
+                    .collect(),
+            })
+            .collect()
+    }
+
+    /// `S / sigma^2` of the nominal model refitted to `samples`.
+    fn refit(base: &ExtendedModel, terms: &[SpeedTerms], samples: &[Sample], theta: &[f64]) -> f64 {
+        let data = FitData::new(samples, terms);
+        let f = fit::fit(base, &data, theta, 200).unwrap();
+        assert!(f.converged);
+        f.s / SIGMA2
+    }
+
+    /// A speed-law coefficient of the computed smallest detectable size,
+    /// put into the data, leaves the refitted nominal model a misfit of
+    /// `t sigma^2` (the linearisation is exact to first order): checked for
+    /// the most and the least visible coefficient and one between.
+    #[test]
+    fn speed_law_size_matches_a_refit() {
+        let (terms, base, theta) = setup();
+        let clean = readings(&base, &terms, &theta);
+        let data = FitData::new(&clean, &terms);
+        let v = speed_law_min_detectable(&base, &data, &theta, SIGMA2, T, 1500.0).unwrap();
+        assert_eq!(v.len(), 16);
+        let mut order: Vec<usize> = (0..v.len()).collect();
+        order.sort_by(|&a, &b| v[a].scaled.total_cmp(&v[b].scaled));
+        let prn = Predictor::new(Parametrization {
+            structure: Structure::physical(2),
+            ..base.pr.param.clone()
+        });
+        let higher = ExtendedModel {
+            pr: prn.clone(),
+            ..base.clone()
+        };
+        for &k in [order[0], order[8], order[15]].iter() {
+            let mut th = crate::diagnose::map_theta(&base.pr, &theta, &prn);
+            th[v[k].param] = v[k].scaled;
+            let lambda = refit(&base, &terms, &readings(&higher, &terms, &th), &theta);
+            assert!(
+                (lambda - T).abs() < 0.05 * T,
+                "coefficient {k}: S / sigma^2 {lambda} against {T}"
+            );
+            assert!(v[k].change > 0.0 && v[k].change.is_finite());
+        }
+    }
+
+    /// A pedestal of the computed smallest detectable compliance, put into
+    /// the data, leaves the refitted nominal model a misfit of
+    /// `t sigma^2`, under either bearing, its resonance inside and above
+    /// the speed range.
+    #[test]
+    fn pedestal_size_matches_a_refit() {
+        let (terms, base, theta) = setup();
+        let clean = readings(&base, &terms, &theta);
+        let data = FitData::new(&clean, &terms);
+        let k_ref = [1e8, 1e8];
+        let omegas = [600.0, 1400.0, 3000.0];
+        let v = pedestal_min_detectable(&base, &data, &theta, SIGMA2, T, &omegas, &k_ref).unwrap();
+        assert_eq!(v.len(), 6);
+        for p in &v {
+            let m = ExtendedModel {
+                ext: vec![Extension::Pedestal { bearing: p.bearing }],
+                ..base.clone()
+            };
+            let ped = PedestalParams {
+                mass: 1.0 / (p.compliance * p.omega * p.omega),
+                omega: [p.omega; 2],
+                zeta: [PEDESTAL_ZETA; 2],
+            };
+            let mut th = theta.clone();
+            th.extend_from_slice(&ped.to_scaled(&base.scales));
+            let lambda = refit(&base, &terms, &readings(&m, &terms, &th), &theta);
+            assert!(
+                (lambda - T).abs() < 0.05 * T,
+                "{p:?}: S / sigma^2 {lambda} against {T}"
+            );
+        }
+    }
 }
