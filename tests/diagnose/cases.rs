@@ -506,3 +506,62 @@ fn a_mid_span_probe_reveals_a_bow() {
         assert!(d1.residual_extended() < 1.2 * s);
     }
 }
+
+/// Pedestals under both bearings (the generator's pedestal under one, a
+/// second one added under the other): no single effect fits, the pair of
+/// pedestals does; named `foundation_flexibility` with a pedestal under
+/// each bearing, each natural frequency within 5 %.
+#[test]
+fn pedestals_under_both_bearings() {
+    let m = RotorModel::paper();
+    let case = generate(&m, Effect::FoundationFlexibility, 2, &speeds(), Some(0.001)).unwrap();
+    let mut truth = case.truth.clone();
+    let b = case.hidden.bearing.unwrap();
+    let other = 1 - b;
+    let mass = 0.8 * rotorid::diagnose::rotor_mass(&m) / 2.0;
+    let (wy, wz) = (0.55 * rpm_to_rad_s(15000.0), 0.6 * rpm_to_rad_s(15000.0));
+    truth.bearings[other].pedestal = Some(rotorid::model::Pedestal {
+        mass: [mass, mass],
+        k: [mass * wy * wy, mass * wz * wz],
+        c: [2.0 * 0.04 * mass * wy, 2.0 * 0.05 * mass * wz],
+    });
+    let meas = rotorid::simulate::simulate(
+        &truth,
+        &rotorid::simulate::SimOptions {
+            speeds_rpm: speeds(),
+            noise: 0.001,
+            seed: 78,
+            effects: case.effects.clone(),
+        },
+    )
+    .unwrap();
+    let d = diagnose(&m, &meas, &DiagnoseOptions::default()).unwrap();
+    for h in &d.hypotheses {
+        println!("  {} {:.3e} {:.1}", h.label, h.residual(), h.statistic);
+    }
+    assert_eq!(d.effect, Effect::FoundationFlexibility, "{:?}", d.effects);
+    assert!(d.residual_extended() < 1.2 * d.noise_level.unwrap());
+    let found: Vec<(usize, f64)> = d
+        .findings()
+        .iter()
+        .filter_map(|f| match f {
+            Finding::FoundationFlexibility {
+                node,
+                natural_frequency_hz,
+                ..
+            } => Some((*node, natural_frequency_hz[0])),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(found.len(), 2, "{found:?}");
+    let hidden = [(b, case.hidden.size), (other, wy)];
+    for (bearing, w) in hidden {
+        let node = m.bearings[bearing].node + 1;
+        let (_, hz) = found.iter().find(|f| f.0 == node).unwrap();
+        let want = w / std::f64::consts::TAU;
+        assert!(
+            (hz - want).abs() < 0.05 * want,
+            "bearing {bearing}: {hz} Hz against {want}"
+        );
+    }
+}

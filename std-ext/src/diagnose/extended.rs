@@ -187,7 +187,8 @@ struct Eval {
     a: DVector<Complex64>,
     /// `B + dB de` with the modulus extension (else `B` itself).
     b_eff: Option<DMatrix<Complex64>>,
-    ped: Option<PedEval>,
+    /// One per pedestal, in extension order (different bearings).
+    ped: Vec<PedEval>,
 }
 
 /// The pedestal's matrices at one speed (bearing block from channel `i0`).
@@ -264,7 +265,7 @@ impl ExtendedModel {
         let mut f = &st.b * &a;
         let mut b_eff: Option<DMatrix<Complex64>> = None;
         let mut runout: Option<&[f64]> = None;
-        let mut ped: Option<PedEval> = None;
+        let mut ped: Vec<PedEval> = Vec::new();
         for (k, ext) in self.ext.iter().enumerate() {
             let o = self.offset(k);
             let p = &theta[o..o + ext.n_params(nq)];
@@ -297,7 +298,7 @@ impl ExtendedModel {
                 }
                 Extension::Pedestal { bearing } => {
                     let i0 = 2 * bearing;
-                    if i0 + 2 > nq {
+                    if i0 + 2 > nq || ped.iter().any(|pe| pe.i0 == i0) {
                         return Err(PredictError::Dimension);
                     }
                     // Z_B block of this bearing from the nominal entries.
@@ -325,7 +326,7 @@ impl ExtendedModel {
                     } else {
                         Matrix2::identity()
                     };
-                    ped = Some(PedEval {
+                    ped.push(PedEval {
                         i0,
                         o,
                         params,
@@ -340,7 +341,7 @@ impl ExtendedModel {
         let h_inv = invert(h).ok_or(PredictError::Singular { omega: st.omega })?;
         let q = &h_inv * f;
         let mut y = q.clone();
-        if let Some(pe) = &ped {
+        for pe in &ped {
             let i0 = pe.i0;
             for r in 0..2 {
                 y[i0 + r] = pe.t[(r, 0)] * q[i0] + pe.t[(r, 1)] * q[i0 + 1];
@@ -422,11 +423,13 @@ impl ExtendedModel {
             let zero = Complex64::new(0.0, 0.0);
             // Columns of dq (before the probe transform P), and for a relative
             // pedestal probe the extra `dT q_m` on its block.
-            let mut extra: Vec<(usize, [Complex64; 2])> = Vec::with_capacity(if ev.ped.is_some() {
-                entries.len() + 5
-            } else {
-                0
-            });
+            // (pedestal, column, term) of the relative probes' `dT q_m`.
+            let mut extra: Vec<(usize, usize, [Complex64; 2])> =
+                Vec::with_capacity(if ev.ped.is_empty() {
+                    0
+                } else {
+                    entries.len() + 5 * ev.ped.len()
+                });
             // dq = -H^-1 [dZ_eff] q with dZ_eff = m2 on the block, into
             // column `i`.
             let block_dq = |jac: &mut nalgebra::DMatrixViewMut<'_, Complex64>,
@@ -439,24 +442,22 @@ impl ExtendedModel {
                     jac[(r, i)] = -(ev.h_inv[(r, pe.i0)] * u[0] + ev.h_inv[(r, pe.i0 + 1)] * u[1]);
                 }
             };
-            let qm = ev
-                .ped
-                .as_ref()
-                .map(|pe| nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]));
+            let qm = |pe: &PedEval| nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]);
             for (i, en) in entries.iter().enumerate() {
                 match *en {
                     Entry::Bearing { row, col, dz } => {
-                        let in_block = ev.ped.as_ref().filter(|pe| {
+                        let in_block = ev.ped.iter().position(|pe| {
                             (pe.i0..pe.i0 + 2).contains(&row) && (pe.i0..pe.i0 + 2).contains(&col)
                         });
-                        if let (Some(pe), Some(qm)) = (in_block, qm) {
+                        if let Some(ip) = in_block {
+                            let pe = &ev.ped[ip];
                             let mut e = Matrix2::<Complex64>::zeros();
                             e[(row - pe.i0, col - pe.i0)] = dz;
                             let dzeff = pe.zp * pe.s * e * pe.s * pe.zp;
                             block_dq(&mut jac, i, &dzeff, pe);
                             if self.relative_probes {
-                                let d = -(pe.s * e * pe.t * qm);
-                                extra.push((i, [d[0], d[1]]));
+                                let d = -(pe.s * e * pe.t * qm(pe));
+                                extra.push((ip, i, [d[0], d[1]]));
                             }
                         } else {
                             let s = dz * ev.q[col];
@@ -511,10 +512,11 @@ impl ExtendedModel {
                         jac.set_column(o, &v);
                     }
                     Extension::Pedestal { .. } => {
-                        let (Some(pe), Some(qm)) = (ev.ped.as_ref(), qm) else {
+                        let Some(ip) = ev.ped.iter().position(|pe| pe.o == o) else {
                             return Err(PredictError::Dimension);
                         };
-                        debug_assert_eq!(pe.o, o);
+                        let pe = &ev.ped[ip];
+                        let qm = qm(pe);
                         let w = st.omega;
                         let pp = &pe.params;
                         for d in 0..5 {
@@ -540,7 +542,7 @@ impl ExtendedModel {
                             block_dq(&mut jac, o + d, &dzeff, pe);
                             if self.relative_probes {
                                 let dt = pe.s * dzp * pe.s * pe.zb * qm;
-                                extra.push((o + d, [dt[0], dt[1]]));
+                                extra.push((ip, o + d, [dt[0], dt[1]]));
                             }
                         }
                     }
@@ -608,14 +610,16 @@ impl ExtendedModel {
                 }
             };
             // The probe transform on the pedestal's block, then its own terms.
-            if let Some(pe) = ev.ped.as_ref().filter(|_| self.relative_probes) {
+            // (The pedestals' blocks are disjoint: each transform acts on
+            // its own two rows.)
+            for (ip, pe) in ev.ped.iter().enumerate().filter(|_| self.relative_probes) {
                 for i in 0..np {
                     let a0 = jac[(pe.i0, i)];
                     let a1 = jac[(pe.i0 + 1, i)];
                     jac[(pe.i0, i)] = pe.t[(0, 0)] * a0 + pe.t[(0, 1)] * a1;
                     jac[(pe.i0 + 1, i)] = pe.t[(1, 0)] * a0 + pe.t[(1, 1)] * a1;
                 }
-                for (i, d) in &extra {
+                for (_, i, d) in extra.iter().filter(|x| x.0 == ip) {
                     jac[(pe.i0, *i)] += d[0];
                     jac[(pe.i0 + 1, *i)] += d[1];
                 }
@@ -791,23 +795,39 @@ mod tests {
     #[test]
     fn pedestal_matches_the_fe_response() {
         let m = RotorModel::paper();
-        let mut x = model_for(&m, vec![Extension::Pedestal { bearing: 1 }]);
-        let ped = PedestalParams {
-            mass: 80.0,
-            omega: [900.0, 1100.0],
-            zeta: [0.05, 0.03],
-        };
-        let (k, c) = ped.k_c();
+        pedestals_match_the_fe_response(&m, &[1]);
+        pedestals_match_the_fe_response(&m, &[1, 0]);
+    }
+
+    /// The extended prediction with pedestals under `bearings` against the
+    /// FE response of the model with those pedestals (the second one
+    /// lighter and stiffer).
+    fn pedestals_match_the_fe_response(m: &RotorModel, bearings: &[usize]) {
+        let mut x = model_for(
+            m,
+            bearings
+                .iter()
+                .map(|&bearing| Extension::Pedestal { bearing })
+                .collect(),
+        );
         let mut mp = m.clone();
-        mp.bearings[1].pedestal = Some(crate::model::Pedestal {
-            mass: [ped.mass, ped.mass],
-            k,
-            c,
-        });
+        let mut theta = nominal_theta(m, &x);
+        for (i, &b) in bearings.iter().enumerate() {
+            let ped = PedestalParams {
+                mass: 80.0 / (1 + i) as f64,
+                omega: [900.0 + 400.0 * i as f64, 1100.0],
+                zeta: [0.05, 0.03],
+            };
+            let (k, c) = ped.k_c();
+            mp.bearings[b].pedestal = Some(crate::model::Pedestal {
+                mass: [ped.mass, ped.mass],
+                k,
+                c,
+            });
+            theta.extend(ped.to_scaled(&x.scales));
+        }
         let omegas = [300.0, 950.0, 1400.0];
-        let terms = build(&m, &omegas, 1.0, false).unwrap();
-        let mut theta = nominal_theta(&m, &x);
-        theta.extend(ped.to_scaled(&x.scales));
+        let terms = build(m, &omegas, 1.0, false).unwrap();
         let fe = FeModel::new(&mp).unwrap();
         let resp = crate::fe::response::unbalance_response(&fe, &Forcing::from_model(&mp), &omegas)
             .unwrap();
@@ -853,7 +873,18 @@ mod tests {
             Extension::Plane { node: 16 },
             Extension::EScale,
         ];
-        for (ext, relative) in [(plain, true), (ped.clone(), true), (ped, false)] {
+        let two = vec![
+            Extension::Pedestal { bearing: 1 },
+            Extension::Plane { node: 16 },
+            Extension::Pedestal { bearing: 0 },
+        ];
+        for (ext, relative) in [
+            (plain, true),
+            (ped.clone(), true),
+            (ped, false),
+            (two.clone(), true),
+            (two, false),
+        ] {
             let mut x = model_for(&m, ext);
             x.relative_probes = relative;
             jacobian_case(&m, &x);

@@ -77,6 +77,10 @@ use terms::SpeedTerms;
 /// model-free noise level above which a model does not fit.
 pub const MISFIT_CHI2: f64 = 2.0;
 
+/// Natural frequencies of the starts of the pedestal search, as fractions
+/// of the top measured speed (besides two at the largest nominal misfit).
+pub const PEDESTAL_RATIOS: [f64; 7] = [0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4];
+
 /// Chi-square per degree of freedom of the residual noise against the
 /// model-free noise level below which a fit explains the data to the noise:
 /// the searches stop trying further starts of its hypothesis.
@@ -687,7 +691,7 @@ pub fn diagnose(
                 })?;
                 Some(samples[k].omega / scales.omega)
             });
-            let mut ratios = vec![0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4];
+            let mut ratios = PEDESTAL_RATIOS.to_vec();
             if let Some(p) = peak_ratio {
                 ratios.extend([0.97 * p, 1.03 * p]);
             }
@@ -1002,6 +1006,74 @@ pub fn diagnose(
                     // extra bearing orders merely absorb the second effect.
                     if pair_best.as_ref().is_none_or(|b| bic_of(&c) < bic_of(b)) {
                         pair_best = Some(c);
+                    }
+                }
+            }
+        }
+        // Pedestals under two bearings: the single pedestal's bearing with
+        // each other one, both started on the grid of the single search
+        // (every pair of its frequencies, from the nominal fit and from the
+        // model's bearings; three iterations each), the two best fitted in
+        // full. (The single pedestal's own fit is no start: fitted alone it
+        // takes on the other pedestal's resonance.)
+        for c in hyps.iter().filter(|c| c.significant) {
+            let [Extension::Pedestal { bearing }] = c.model.ext[..] else {
+                continue;
+            };
+            for other in (0..nb).filter(|&o| o != bearing) {
+                let m2 = ExtendedModel {
+                    ext: vec![
+                        Extension::Pedestal { bearing },
+                        Extension::Pedestal { bearing: other },
+                    ],
+                    ..c.model.clone()
+                };
+                if !n_room(m2.n_params()) {
+                    continue;
+                }
+                let mut starts: Vec<Fit> = Vec::new();
+                for nominal_start in [&theta0, &theta_model] {
+                    for &r1 in &PEDESTAL_RATIOS {
+                        for &r2 in &PEDESTAL_RATIOS {
+                            let mut t = nominal_start.clone();
+                            for r in [r1, r2] {
+                                let ped = PedestalParams {
+                                    mass: scales.mass,
+                                    omega: [r * scales.omega; 2],
+                                    zeta: [0.05; 2],
+                                };
+                                t.extend_from_slice(&ped.to_scaled(&scales));
+                            }
+                            if let Ok(f) = fit::fit_with(&m2, &data, &t, 3, false) {
+                                starts.push(f);
+                            }
+                        }
+                    }
+                }
+                starts.sort_by(|a, b| a.s.total_cmp(&b.s));
+                for st in starts.iter().take(2) {
+                    let Ok(f) = fit::fit(&m2, &data, &st.theta, 60) else {
+                        continue;
+                    };
+                    let pair = Candidate {
+                        effects: vec![Effect::FoundationFlexibility; 2],
+                        label: format!(
+                            "pedestals under bearings {} and {} (nodes {} and {})",
+                            bearing + 1,
+                            other + 1,
+                            model.bearings[bearing].node + 1,
+                            model.bearings[other].node + 1
+                        ),
+                        model: m2.clone(),
+                        fit: f,
+                        e_terms: 1.0,
+                        alternatives: 1,
+                        statistic: 0.0,
+                        threshold: 0.0,
+                        significant: false,
+                    };
+                    if pair_best.as_ref().is_none_or(|b| bic_of(&pair) < bic_of(b)) {
+                        pair_best = Some(pair);
                     }
                 }
             }
