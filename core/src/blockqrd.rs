@@ -109,7 +109,7 @@
 //! # Ok::<(), rotorid_core::qrdrls::FilterError>(())
 //! ```
 
-use crate::givens::{min_normal, rotation_real_pivot, Rotation};
+use crate::givens::{min_normal, rotation_nonneg_pivot, rotation_real_pivot, Rotation};
 use crate::parametrization::Structure;
 use crate::qrdrls::{self, FilterError};
 use crate::Real;
@@ -763,16 +763,7 @@ where
         // The blocks of the first `BLOCKS_KEPT` rows, found once by the
         // validation and reused by the update (`u16::MAX`: not kept).
         let mut blocks = [u16::MAX; BLOCKS_KEPT];
-        let mut j = 0usize;
-        let block = |row: &[F]| {
-            let b = block_of_fixed::<F, T, NB, W>(row);
-            if let (Some(slot), Some(b)) = (blocks.get_mut(j), b) {
-                *slot = u16::try_from(b).unwrap_or(u16::MAX);
-            }
-            j += 1;
-            b
-        };
-        validate_rows(&shape, u, d, lambda, xi, gamma, block)?;
+        Self::validate(u, d, lambda, xi, gamma, &mut blocks)?;
         if lambda != T::one() {
             self.forget(lambda.sqrt());
         }
@@ -785,6 +776,58 @@ where
             let (x, g) = self.fold_row(b, row, dj);
             *xj = x;
             *gj = g;
+        }
+        Ok(())
+    }
+
+    /// The checks of [`validate_rows`] (same errors, same precedence:
+    /// lengths, `lambda`, non-finite or out-of-range entries, then rows
+    /// with non-zeros in two blocks) in one pass over each row, which finds
+    /// the row's block at the same time (into `blocks`, for the first
+    /// `BLOCKS_KEPT` rows). All of it before anything is written.
+    #[inline(always)]
+    fn validate(
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &[F],
+        gamma: &[T],
+        blocks: &mut [u16; BLOCKS_KEPT],
+    ) -> Result<(), FilterError> {
+        let m = Self::SHAPE.unknowns();
+        let n = d.len();
+        if n.checked_mul(m) != Some(u.len()) || xi.len() != n || gamma.len() != n {
+            return Err(FilterError::Dimension);
+        }
+        qrdrls::validate_lambda(lambda)?;
+        let limit = qrdrls::input_limit::<T>();
+        // `|x| <= limit` is false for NaN and the infinities as well as for
+        // out-of-range entries (as in `qrdrls::check_finite`).
+        let within = |x: &F| (x.real().abs() <= limit) & (x.imaginary().abs() <= limit);
+        let mut ok = d.iter().fold(true, |ok, x| ok & within(x));
+        let mut two = false;
+        for (j, row) in u.chunks_exact(m).enumerate() {
+            let (mut count, mut found) = (0usize, 0usize);
+            for (b, cols) in row.chunks_exact(W).take(NB).enumerate() {
+                let (nz, okb) = cols.iter().fold((false, true), |(nz, okb), x| {
+                    (nz | !is_zero(*x), okb & within(x))
+                });
+                ok &= okb;
+                count += usize::from(nz);
+                found = if nz { b } else { found };
+            }
+            ok &= row.iter().skip(NB * W).fold(true, |ok, x| ok & within(x));
+            two |= count > 1;
+            if let Some(slot) = blocks.get_mut(j) {
+                *slot = u16::try_from(found).unwrap_or(u16::MAX);
+            }
+        }
+        if !ok {
+            // Which error: the general check tells them apart.
+            qrdrls::check_finite(u, d)?;
+        }
+        if two {
+            return Err(FilterError::Dimension);
         }
         Ok(())
     }
@@ -890,7 +933,7 @@ fn block_step<F, T, const W: usize, const S: usize>(
         return;
     }
     let drow = &mut diag[i];
-    let (rot, rho) = rotation_real_pivot(drow[i].real(), ub[i]);
+    let (rot, rho) = rotation_nonneg_pivot(drow[i].real(), ub[i]);
     for k in i + 1..W {
         let (nr, ny) = rot.apply(drow[k], ub[k]);
         drow[k] = nr;
@@ -926,7 +969,7 @@ fn shared_step<F, T, const S: usize>(
         return;
     }
     let srow = &mut shared[i];
-    let (rot, rho) = rotation_real_pivot(srow[i].real(), us[i]);
+    let (rot, rho) = rotation_nonneg_pivot(srow[i].real(), us[i]);
     for k in i + 1..S {
         let (nr, ny) = rot.apply(srow[k], us[k]);
         srow[k] = nr;

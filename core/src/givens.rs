@@ -193,6 +193,33 @@ where
     }
 }
 
+/// [`rotation_real_pivot`] for a pivot known to be `a >= +0`, the diagonal
+/// of a QRD/RLS factor (`sqrt(delta) > 0` at the start, then
+/// `rho = sqrt(a^2 + |b|^2) >= +0` and scalings by `sqrt(lambda) > 0`):
+/// `|a| = a` bit for bit, so the same rotation and `rho`, without taking
+/// the magnitude on the common path.
+#[inline(always)]
+pub(crate) fn rotation_nonneg_pivot<F, T>(a: T, b: F) -> (Rotation<F>, T)
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let rho2 = a * a + b.modulus_squared();
+    let (lo2, hi2) = safe_range_sq::<T>();
+    if rho2 > lo2 && rho2 < hi2 {
+        let rho = rho2.sqrt();
+        let inv = T::one() / rho;
+        return (
+            Rotation {
+                c: a * inv,
+                s: b.conjugate().scale(inv),
+            },
+            rho,
+        );
+    }
+    rotation_real_pivot(a, b)
+}
+
 /// General rotation against a complex pivot `a`: returns the rotation and
 /// `r = (a/|a|) sqrt(|a|^2 + |b|^2)` such that `G [a; b] = [r; 0]`.
 ///
