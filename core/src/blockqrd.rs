@@ -1165,6 +1165,10 @@ mod tests {
         compare::<Complex<f64>, f64, 8, 4, 5>(8, 20, 0.99, &c64);
         compare::<f64, f64, 3, 2, 0>(6, 10, 0.9, &r64);
         compare::<Complex<f32>, f32, 1, 5, 2>(3, 10, 0.9, &c32);
+        // Blocks and shared part wider than the pivots written out one by
+        // one (`UNROLL`): the remaining pivots take the loop.
+        compare::<f64, f64, 2, 18, 17>(4, 10, 0.99, &r64);
+        compare::<Complex<f32>, f32, 2, 17, 18>(2, 10, 0.99, &c32);
     }
 
     /// Batch least squares of the stacked, weighted rows with the prior:
