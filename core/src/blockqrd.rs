@@ -66,7 +66,9 @@
 //! # Same numbers as the dense filter
 //!
 //! Every stored entry meets the same rotations, computed by the same
-//! [`rotation_real_pivot`] from the same values, in the same order as in
+//! [`rotation_real_pivot`] from the same values (in the fixed-size kernel
+//! its form for a pivot known to be non-negative, which gives the same
+//! bits), in the same order as in
 //! [`crate::qrdrls::update_rows`]; the entries the dense filter adds besides
 //! are products with exact zeros. The factor, `p`, `xi_j` and `gamma_j`
 //! equal the dense filter's (tests check equality to the last bit on the
@@ -265,7 +267,7 @@ fn validate_rows<F, T>(
     lambda: T,
     xi: &[F],
     gamma: &[T],
-    mut block: impl FnMut(&[F]) -> Option<usize>,
+    block: impl Fn(&[F]) -> Option<usize>,
 ) -> Result<(), FilterError>
 where
     F: ComplexField<RealField = T> + Copy,
