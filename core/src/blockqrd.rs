@@ -1173,6 +1173,17 @@ mod tests {
         compare::<Complex<f32>, f32, 2, 17, 18>(2, 10, 0.99, &c32);
     }
 
+    #[test]
+    fn many_updates_equal_the_dense_filter() {
+        // The identification layouts over a long run (every update, every
+        // `xi_j`, `gamma_j` and the final factor compared exactly): N_b 4,
+        // N_p 5 physical order 1 in f64, N_b 2, N_p 3 in f32 and the paper
+        // structure in complex f64.
+        compare::<f64, f64, 8, 4, 10>(16, 300, 0.99, &r64);
+        compare::<f32, f32, 4, 4, 6>(8, 300, 0.99, &r32);
+        compare::<Complex<f64>, f64, 4, 4, 3>(4, 300, 0.97, &c64);
+    }
+
     /// Batch least squares of the stacked, weighted rows with the prior:
     /// `min delta lambda^n |w|^2 + sum lambda^(n-k) |d_k - U_k w|^2`.
     fn batch_c64(
