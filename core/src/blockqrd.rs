@@ -57,16 +57,18 @@
 //! Two kernels compute it: [`BlockMut::update_rows`] on slices, for a
 //! layout known at run time, and [`BlockFactor::update_rows`] with `NB`,
 //! `W`, `S` known at compile time (the update of [`BlockQrdRls`] and of the
-//! block-structured identifiers), whose working row lives in registers and
-//! which, for a real field, rotates whole rows in branch-free loops the
-//! compiler unrolls and vectorises (the entries left of the pivot are
-//! pairs of exact zeros, which stay zeros). The benchmark report of the
-//! README compares both with the dense filter and the baselines.
+//! block-structured identifiers), whose pivots are written out one by one
+//! so that every index and loop bound is a constant: the working row lives
+//! in registers and each rotation runs over the fixed range right of its
+//! pivot, unrolled and vectorised by the compiler. The benchmark report of
+//! the README compares both with the dense filter and the baselines.
 //!
 //! # Same numbers as the dense filter
 //!
 //! Every stored entry meets the same rotations, computed by the same
-//! [`rotation_real_pivot`] from the same values, in the same order as in
+//! [`rotation_real_pivot`] from the same values (in the fixed-size kernel
+//! its form for a pivot known to be non-negative, which gives the same
+//! bits), in the same order as in
 //! [`crate::qrdrls::update_rows`]; the entries the dense filter adds besides
 //! are products with exact zeros. The factor, `p`, `xi_j` and `gamma_j`
 //! equal the dense filter's (tests check equality to the last bit on the
@@ -109,7 +111,7 @@
 //! # Ok::<(), rotorid_core::qrdrls::FilterError>(())
 //! ```
 
-use crate::givens::{min_normal, rotation_real_pivot, Rotation};
+use crate::givens::{min_normal, rotation_nonneg_pivot, rotation_real_pivot, Rotation};
 use crate::parametrization::Structure;
 use crate::qrdrls::{self, FilterError};
 use crate::Real;
@@ -254,26 +256,6 @@ where
     }
 }
 
-/// The rotation of a factor row `r` with pivot `i` and the working row
-/// `y`: for a real field on the whole rows (fixed-length loops without
-/// branches, which the compiler unrolls and, on x86-64, vectorises); for a
-/// complex field on the entries right of the pivot only (its products cost
-/// more than the branch-free form saves). Left of the pivot both rows hold
-/// exact zeros, which a rotation keeps zero (see
-/// [`BlockFactor::update_rows`]); the caller overwrites the pivot pair.
-/// Whole rows are cheaper on the scalar FPU of the Cortex-M4F as well:
-/// 44 400 against 47 400 instructions per identification step of the
-/// firmware (QEMU count, `.ci/firmware.sh`).
-#[inline(always)]
-fn rotate_row<F, T, const K: usize>(rot: &Rotation<F>, r: &mut [F; K], y: &mut [F; K], i: usize)
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    let real = core::mem::size_of::<F>() == core::mem::size_of::<T>();
-    rotate_from(rot, r, y, if real { 0 } else { i + 1 });
-}
-
 /// The checks of an update, all before anything is written: lengths
 /// (`u` is `N x M`, `xi` and `gamma` have `N = d.len()` entries), `lambda`
 /// in `(0, 1]`, finite entries within [`qrdrls::input_limit`], and every
@@ -305,23 +287,21 @@ where
 }
 
 /// [`block_of`] with the layout known at compile time (`row` has at least
-/// `NB W` entries).
+/// `NB W` entries), without branches on the data: the number of blocks
+/// with non-zeros and the last of them are counted over all blocks.
 #[inline]
 fn block_of_fixed<F, T, const NB: usize, const W: usize>(row: &[F]) -> Option<usize>
 where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
-    let mut found = None;
+    let (mut count, mut found) = (0usize, 0usize);
     for (b, cols) in row.chunks_exact(W).take(NB).enumerate() {
-        if cols.iter().fold(false, |nz, x| nz | !is_zero(*x)) {
-            if found.is_some() {
-                return None;
-            }
-            found = Some(b);
-        }
+        let nz = cols.iter().fold(false, |nz, x| nz | !is_zero(*x));
+        count += usize::from(nz);
+        found = if nz { b } else { found };
     }
-    Some(found.unwrap_or(0))
+    (count <= 1).then_some(found)
 }
 
 impl<F, T> BlockMut<'_, F>
@@ -782,23 +762,74 @@ where
     ) -> Result<(), FilterError> {
         let shape = Self::SHAPE;
         let m = shape.unknowns();
-        validate_rows(
-            &shape,
-            u,
-            d,
-            lambda,
-            xi,
-            gamma,
-            block_of_fixed::<F, T, NB, W>,
-        )?;
+        // The blocks of the first `BLOCKS_KEPT` rows, found once by the
+        // validation and reused by the update (`u16::MAX`: not kept).
+        let mut blocks = [u16::MAX; BLOCKS_KEPT];
+        Self::validate(u, d, lambda, xi, gamma, &mut blocks)?;
         if lambda != T::one() {
             self.forget(lambda.sqrt());
         }
-        for (((row, &dj), xj), gj) in u.chunks_exact(m).zip(d).zip(xi).zip(gamma) {
-            let b = block_of_fixed::<F, T, NB, W>(row).unwrap_or(0);
+        let rows = u.chunks_exact(m).zip(d).zip(xi).zip(gamma);
+        for (j, (((row, &dj), xj), gj)) in rows.enumerate() {
+            let b = match blocks.get(j) {
+                Some(&b) if b != u16::MAX => usize::from(b),
+                _ => block_of_fixed::<F, T, NB, W>(row).unwrap_or(0),
+            };
             let (x, g) = self.fold_row(b, row, dj);
             *xj = x;
             *gj = g;
+        }
+        Ok(())
+    }
+
+    /// The checks of [`validate_rows`] (same errors, same precedence:
+    /// lengths, `lambda`, non-finite or out-of-range entries, then rows
+    /// with non-zeros in two blocks) in one pass over each row, which finds
+    /// the row's block at the same time (into `blocks`, for the first
+    /// `BLOCKS_KEPT` rows). All of it before anything is written.
+    #[inline(always)]
+    fn validate(
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &[F],
+        gamma: &[T],
+        blocks: &mut [u16; BLOCKS_KEPT],
+    ) -> Result<(), FilterError> {
+        let m = Self::SHAPE.unknowns();
+        let n = d.len();
+        if n.checked_mul(m) != Some(u.len()) || xi.len() != n || gamma.len() != n {
+            return Err(FilterError::Dimension);
+        }
+        qrdrls::validate_lambda(lambda)?;
+        let limit = qrdrls::input_limit::<T>();
+        // `|x| <= limit` is false for NaN and the infinities as well as for
+        // out-of-range entries (as in `qrdrls::check_finite`).
+        let within = |x: &F| (x.real().abs() <= limit) & (x.imaginary().abs() <= limit);
+        let mut ok = d.iter().fold(true, |ok, x| ok & within(x));
+        let mut two = false;
+        for (j, row) in u.chunks_exact(m).enumerate() {
+            let (mut count, mut found) = (0usize, 0usize);
+            for (b, cols) in row.chunks_exact(W).take(NB).enumerate() {
+                let (nz, okb) = cols.iter().fold((false, true), |(nz, okb), x| {
+                    (nz | !is_zero(*x), okb & within(x))
+                });
+                ok &= okb;
+                count += usize::from(nz);
+                found = if nz { b } else { found };
+            }
+            ok &= row.iter().skip(NB * W).fold(true, |ok, x| ok & within(x));
+            two |= count > 1;
+            if let Some(slot) = blocks.get_mut(j) {
+                *slot = u16::try_from(found).unwrap_or(u16::MAX);
+            }
+        }
+        if !ok {
+            // Which error: the general check tells them apart.
+            qrdrls::check_finite(u, d)?;
+        }
+        if two {
+            return Err(FilterError::Dimension);
         }
         Ok(())
     }
@@ -820,17 +851,16 @@ where
     /// columns only) with right-hand side `d`; returns `(xi, gamma)`.
     ///
     /// The arithmetic of [`BlockMut::update_rows`] on every stored entry,
-    /// with each rotation applied to the whole rows (`W` or `S` entries,
-    /// fixed-length loops the compiler vectorises) instead of the entries
-    /// right of the pivot only. Left of the pivot both rows hold exact
-    /// zeros (the strictly lower part of `D_b`, `R_s`, kept `+0`, and
-    /// working entries already annihilated or zero from the start), and a
-    /// rotation maps a pair of zeros to zeros: with `c >= 0`,
-    /// `c 0 + s 0 = +0` and `c (+-0) - s^* 0` is a zero. The pivot pair is
-    /// then overwritten with `(rho, 0)` as in the one-sided form.
+    /// one-sided (each rotation touches the entries right of its pivot
+    /// only, as the dense filter), with the loops over the pivots written
+    /// out for the first [`UNROLL`] pivots of the block and of the shared
+    /// part ([`block_step`], [`shared_step`] with a literal pivot): every
+    /// index is then a constant, the rotations run over fixed-length
+    /// ranges the compiler unrolls and vectorises, and the working row
+    /// `(ub, us)` stays in registers. Pivots beyond [`UNROLL`] (layouts
+    /// with `W` or `S` above it) take the same steps in a plain loop.
     // index proven: `b < NB` (from `block_of`, checked by the caller for
-    // every row), `row.len() = M = NB W + S` (checked by the caller), and
-    // `i, k < W` (`< S`) index arrays of `W` (`S`) entries.
+    // every row) and `row.len() = M = NB W + S` (checked by the caller).
     #[allow(clippy::indexing_slicing)]
     #[inline]
     fn fold_row(&mut self, b: usize, row: &[F], d: F) -> (F, T) {
@@ -844,40 +874,115 @@ where
         let coup = &mut self.coupling[b];
         let pb = &mut self.pb[b];
         // Block part: rotations against D_b, applied to [D_b C_b p_b].
-        for i in 0..W {
-            let x = ub[i];
-            if is_zero(x) {
-                continue;
-            }
-            let drow = &mut diag[i];
-            let (rot, rho) = rotation_real_pivot(drow[i].real(), x);
-            rotate_row(&rot, drow, &mut ub, i);
-            drow[i] = F::from_real(rho);
-            ub[i] = F::zero();
-            g *= rot.c;
-            rotate_from(&rot, &mut coup[i], &mut us, 0);
-            let (np, ne) = rot.apply(pb[i], e);
-            pb[i] = np;
-            e = ne;
+        macro_rules! block_steps {
+            ($($i:literal)*) => {
+                $(block_step($i, diag, coup, pb, &mut ub, &mut us, &mut e, &mut g);)*
+            };
+        }
+        block_steps!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
+        for i in UNROLL..W {
+            block_step(i, diag, coup, pb, &mut ub, &mut us, &mut e, &mut g);
         }
         // Shared part: rotations against R_s, applied to [R_s p_s].
-        for i in 0..S {
-            let x = us[i];
-            if is_zero(x) {
-                continue;
-            }
-            let srow = &mut self.shared[i];
-            let (rot, rho) = rotation_real_pivot(srow[i].real(), x);
-            rotate_row(&rot, srow, &mut us, i);
-            srow[i] = F::from_real(rho);
-            us[i] = F::zero();
-            g *= rot.c;
-            let (np, ne) = rot.apply(self.ps[i], e);
-            self.ps[i] = np;
-            e = ne;
+        let (shared, ps) = (&mut self.shared, &mut self.ps);
+        macro_rules! shared_steps {
+            ($($i:literal)*) => {
+                $(shared_step($i, shared, ps, &mut us, &mut e, &mut g);)*
+            };
+        }
+        shared_steps!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
+        for i in UNROLL..S {
+            shared_step(i, shared, ps, &mut us, &mut e, &mut g);
         }
         (e.scale(g), g * g)
     }
+}
+
+/// Number of rows per update whose blocks [`BlockFactor::update_rows`]
+/// keeps from the validation (further rows find theirs again).
+const BLOCKS_KEPT: usize = 64;
+
+/// Number of pivots [`BlockFactor::update_rows`] writes out one by one
+/// (the `0 .. 15` of its step lists).
+const UNROLL: usize = 16;
+
+/// Pivot `i` of the block part (nothing for `i >= W`): the rotation of row
+/// `i` of `[D_b C_b p_b]` with the working row `(ub, us, e)` that zeroes
+/// `ub[i]`, computed by [`rotation_real_pivot`] from `(D_b[i][i], ub[i])`
+/// and applied to the entries right of the pivot,
+/// `(r_k, y_k) <- (c r_k + s y_k, -s^* r_k + c y_k)`; the pivot pair
+/// becomes `(rho, 0)`, and `g <- c g`. A zero `ub[i]` is the identity
+/// rotation, skipped (as in the dense filter). Inlined with a literal `i`,
+/// every index and loop bound is a constant.
+// index proven: `i < W` is checked first, and every array indexed by `i`
+// or `k` has `W` entries.
+#[allow(clippy::too_many_arguments, clippy::indexing_slicing)]
+#[inline(always)]
+fn block_step<F, T, const W: usize, const S: usize>(
+    i: usize,
+    diag: &mut [[F; W]; W],
+    coup: &mut [[F; S]; W],
+    pb: &mut [F; W],
+    ub: &mut [F; W],
+    us: &mut [F; S],
+    e: &mut F,
+    g: &mut T,
+) where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    if i >= W || is_zero(ub[i]) {
+        return;
+    }
+    let drow = &mut diag[i];
+    let (rot, rho) = rotation_nonneg_pivot(drow[i].real(), ub[i]);
+    for k in i + 1..W {
+        let (nr, ny) = rot.apply(drow[k], ub[k]);
+        drow[k] = nr;
+        ub[k] = ny;
+    }
+    drow[i] = F::from_real(rho);
+    ub[i] = F::zero();
+    *g *= rot.c;
+    rotate_from(&rot, &mut coup[i], us, 0);
+    let (np, ne) = rot.apply(pb[i], *e);
+    pb[i] = np;
+    *e = ne;
+}
+
+/// Pivot `i` of the shared part (nothing for `i >= S`): as [`block_step`]
+/// with row `i` of `[R_s p_s]` and the working row `(us, e)`.
+// index proven: `i < S` is checked first, and every array indexed by `i`
+// or `k` has `S` entries.
+#[allow(clippy::indexing_slicing)]
+#[inline(always)]
+fn shared_step<F, T, const S: usize>(
+    i: usize,
+    shared: &mut [[F; S]; S],
+    ps: &mut [F; S],
+    us: &mut [F; S],
+    e: &mut F,
+    g: &mut T,
+) where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    if i >= S || is_zero(us[i]) {
+        return;
+    }
+    let srow = &mut shared[i];
+    let (rot, rho) = rotation_nonneg_pivot(srow[i].real(), us[i]);
+    for k in i + 1..S {
+        let (nr, ny) = rot.apply(srow[k], us[k]);
+        srow[k] = nr;
+        us[k] = ny;
+    }
+    srow[i] = F::from_real(rho);
+    us[i] = F::zero();
+    *g *= rot.c;
+    let (np, ne) = rot.apply(ps[i], *e);
+    ps[i] = np;
+    *e = ne;
 }
 
 /// Owning, fixed-size block-structured QRD/RLS (the counterpart of
@@ -1062,6 +1167,21 @@ mod tests {
         compare::<Complex<f64>, f64, 8, 4, 5>(8, 20, 0.99, &c64);
         compare::<f64, f64, 3, 2, 0>(6, 10, 0.9, &r64);
         compare::<Complex<f32>, f32, 1, 5, 2>(3, 10, 0.9, &c32);
+        // Blocks and shared part wider than the pivots written out one by
+        // one (`UNROLL`): the remaining pivots take the loop.
+        compare::<f64, f64, 2, 18, 17>(4, 10, 0.99, &r64);
+        compare::<Complex<f32>, f32, 2, 17, 18>(2, 10, 0.99, &c32);
+    }
+
+    #[test]
+    fn many_updates_equal_the_dense_filter() {
+        // The identification layouts over a long run (every update, every
+        // `xi_j`, `gamma_j` and the final factor compared exactly): N_b 4,
+        // N_p 5 physical order 1 in f64, N_b 2, N_p 3 in f32 and the paper
+        // structure in complex f64.
+        compare::<f64, f64, 8, 4, 10>(16, 300, 0.99, &r64);
+        compare::<f32, f32, 4, 4, 6>(8, 300, 0.99, &r32);
+        compare::<Complex<f64>, f64, 4, 4, 3>(4, 300, 0.97, &c64);
     }
 
     /// Batch least squares of the stacked, weighted rows with the prior:

@@ -92,6 +92,25 @@ pub(crate) fn safe_range<T: Real>() -> (T, T) {
     }
 }
 
+/// The squared range `(4 lo^2, hi^2)` of [`safe_range`] (`2^-118 .. 2^120`
+/// in `f32`, `2^-978 .. 2^980` in `f64`, all exact powers of two) for the
+/// computed sum of squares `rho2 = fl(a^2 + |b|^2)`.
+///
+/// `rho2 < hi^2` gives `m < hi`: every computed square is at most `rho2`
+/// (rounding is monotone and the terms are non-negative), and `m >= hi`
+/// would give a computed square `fl(m^2) >= hi^2`. `rho2 > 4 lo^2` gives
+/// `m > lo`: with `m <= lo` the (at most three) computed squares are each at
+/// most `lo^2`, and their rounded sum stays below `3 lo^2 (1 + eps)^2 <
+/// 4 lo^2`.
+#[inline(always)]
+pub(crate) fn safe_range_sq<T: Real>() -> (T, T) {
+    if T::EPS.to_f64() > 1e-10 {
+        (T::lit(pow2(-118)), T::lit(pow2(120)))
+    } else {
+        (T::lit(pow2(-978)), T::lit(pow2(980)))
+    }
+}
+
 /// Smallest positive normal number of the precision (`2^-126` in `f32`,
 /// `2^-1022` in `f64`).
 #[inline(always)]
@@ -122,6 +141,24 @@ where
     T: Real,
 {
     let a = a.abs();
+    // The common case first: the sum of squares formed directly and tested
+    // against the squared range (`4 lo^2 < rho2 < hi^2`), which implies
+    // `lo < m < hi` for `m = max(|a|, |Re b|, |Im b|)` (see
+    // [`safe_range_sq`]): the same expression, so the same bits, as the
+    // direct branch below, for two comparisons instead of the magnitudes.
+    let rho2 = a * a + b.modulus_squared();
+    let (lo2, hi2) = safe_range_sq::<T>();
+    if rho2 > lo2 && rho2 < hi2 {
+        let rho = rho2.sqrt();
+        let inv = T::one() / rho;
+        return (
+            Rotation {
+                c: a * inv,
+                s: b.conjugate().scale(inv),
+            },
+            rho,
+        );
+    }
     // Plain comparisons (not the NaN-aware `max`): the inputs are finite.
     let (br, bi) = (b.real().abs(), b.imaginary().abs());
     let bm = if br > bi { br } else { bi };
@@ -154,6 +191,33 @@ where
             rho_s * m,
         )
     }
+}
+
+/// [`rotation_real_pivot`] for a pivot known to be `a >= +0`, the diagonal
+/// of a QRD/RLS factor (`sqrt(delta) > 0` at the start, then
+/// `rho = sqrt(a^2 + |b|^2) >= +0` and scalings by `sqrt(lambda) > 0`):
+/// `|a| = a` bit for bit, so the same rotation and `rho`, without taking
+/// the magnitude on the common path.
+#[inline(always)]
+pub(crate) fn rotation_nonneg_pivot<F, T>(a: T, b: F) -> (Rotation<F>, T)
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let rho2 = a * a + b.modulus_squared();
+    let (lo2, hi2) = safe_range_sq::<T>();
+    if rho2 > lo2 && rho2 < hi2 {
+        let rho = rho2.sqrt();
+        let inv = T::one() / rho;
+        return (
+            Rotation {
+                c: a * inv,
+                s: b.conjugate().scale(inv),
+            },
+            rho,
+        );
+    }
+    rotation_real_pivot(a, b)
 }
 
 /// General rotation against a complex pivot `a`: returns the rotation and
