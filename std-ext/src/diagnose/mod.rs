@@ -1016,7 +1016,10 @@ pub fn diagnose(
         // model's bearings; three iterations each), the two best fitted in
         // full. (The single pedestal's own fit is no start: fitted alone it
         // takes on the other pedestal's resonance.)
-        for c in hyps.iter().filter(|c| c.significant) {
+        // Tried last, and only when no other pair fits: it costs a hundred
+        // screening fits.
+        let pair_fits = pair_best.as_ref().is_some_and(|c| !misfit(c));
+        for c in hyps.iter().filter(|c| c.significant && !pair_fits) {
             let [Extension::Pedestal { bearing }] = c.model.ext[..] else {
                 continue;
             };
