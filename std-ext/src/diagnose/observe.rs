@@ -440,7 +440,7 @@ fn speed_law_sizes(
     ))
 }
 
-/// Natural frequencies of the pedestals of [`pedestal_sizes`], as
+/// Natural frequencies of the pedestals of the observability analysis, as
 /// fractions of the top measured speed.
 pub const PEDESTAL_GRID: [f64; 10] = [0.25, 0.35, 0.5, 0.7, 0.85, 1.0, 1.2, 1.5, 2.0, 3.0];
 
@@ -521,7 +521,7 @@ fn schur_diagonal(jn: &DMatrix<f64>, je: &DMatrix<f64>) -> Option<Vec<f64>> {
 /// `P + 1` at the nominal estimate (its new coefficients `K_P`, `C_P` of
 /// every entry at zero). For each new coefficient alone, with `s_kk` its
 /// information left after the nominal parameters are refitted
-/// ([`schur_diagonal`]), the smallest value that reaches the threshold
+/// (a Schur complement of `J^T J`), the smallest value that reaches the threshold
 /// `t` is `x_k = sqrt(t sigma^2 / s_kk)` (scaled), and it changes its
 /// bearing coefficient at `omega` (rad/s) by `x_k g_k(omega)`, `g_k` the
 /// coefficient's functional (`K_P Omega^P` or `C_P Omega^P` in SI units).
