@@ -3,7 +3,8 @@
 //!
 //! # Smallest detectable size
 //!
-//! At the nominal estimate, with `J = [J_n, J_e]` the weighted Jacobian of
+//! At the reference estimate ([`reference`]: the nominal parameters of the
+//! chosen model), with `J = [J_n, J_e]` the weighted Jacobian of
 //! the nominal and the effect's parameters (effect at zero) and `sigma^2`
 //! the noise variance of one real reading, an effect `phi` (scaled) raises
 //! the expected likelihood-ratio statistic of its hypothesis by the
@@ -52,7 +53,7 @@ use serde::Serialize;
 
 use crate::diagnose::extended::{ExtendedModel, Extension};
 use crate::diagnose::fit::{self, FitData};
-use crate::diagnose::{chi2_quantile_upper, Diagnosis, Effect};
+use crate::diagnose::{chi2_quantile_upper, Candidate, Diagnosis, Effect};
 use crate::units::rad_s_to_rpm;
 use nalgebra::DMatrix;
 
@@ -196,7 +197,7 @@ pub fn analyse(
     data: &FitData<'_>,
     data_de: Option<&FitData<'_>>,
 ) -> Vec<Observability> {
-    let nominal = &d.nominal;
+    let nominal = reference(d);
     let base = &nominal.model;
     let theta0 = &nominal.fit.theta;
     let n_nodes = data.terms.first().map_or(0, |t| t.b_node.ncols());
@@ -366,25 +367,35 @@ pub fn analyse(
     out
 }
 
-/// The smallest detectable size of `ext` alone at the nominal estimate of
-/// `d` (physical units: m for bow and runout, kg m for a plane).
+/// The nominal model at the best estimate of the machine: the nominal
+/// parameters of the chosen hypothesis when it keeps the nominal bearing
+/// law (its bearings and unbalance are those the data support), else the
+/// nominal fit's. On data the nominal model misfits, its own fit wanders
+/// to bearings no machine has, and the information there says nothing.
+pub fn reference(d: &Diagnosis) -> Candidate {
+    let mut c = d.nominal.clone();
+    if let Some(h) = d.chosen.and_then(|i| d.hypotheses.get(i)) {
+        let p = c.model.pr.n_params();
+        if h.model.pr.param == c.model.pr.param && h.fit.theta.len() >= p {
+            c.fit.theta = h.fit.theta[..p].to_vec();
+        }
+    }
+    c
+}
+
+/// The smallest detectable size of `ext` alone at the reference estimate
+/// of `d` ([`reference`]; physical units: m for bow and runout, kg m for a
+/// plane).
 pub fn min_detectable_single(d: &Diagnosis, data: &FitData<'_>, ext: Extension) -> Option<f64> {
-    let base = &d.nominal.model;
+    let nominal = reference(d);
+    let base = &nominal.model;
     let scale = match ext {
         Extension::Plane { .. } => base.pr.param.scaling.unbalance,
         Extension::Bow { .. } | Extension::Runout => base.scales.q,
         _ => return None,
     };
     let t2 = detection_threshold(d, 2.0);
-    let v = min_detectable(
-        base,
-        data,
-        &d.nominal.fit.theta,
-        d.sigma2,
-        t2,
-        &[ext],
-        scale,
-    )?;
+    let v = min_detectable(base, data, &nominal.fit.theta, d.sigma2, t2, &[ext], scale)?;
     v.into_iter().reduce(f64::min)
 }
 
@@ -396,18 +407,12 @@ fn speed_law_sizes(
     d: &Diagnosis,
     data: &FitData<'_>,
 ) -> Option<(Vec<f64>, Vec<String>, &'static str)> {
-    let base = &d.nominal.model;
+    let nominal = reference(d);
+    let base = &nominal.model;
     let n_extra = 8 * base.pr.param.n_bearings();
     let t = detection_threshold(d, n_extra as f64);
-    let v = speed_law_min_detectable(
-        base,
-        data,
-        &d.nominal.fit.theta,
-        d.sigma2,
-        t,
-        d.omega_report,
-    )?;
-    let (bearings, _) = crate::diagnose::estimates(&d.nominal, d.omega_report);
+    let v = speed_law_min_detectable(base, data, &nominal.fit.theta, d.sigma2, t, d.omega_report)?;
+    let (bearings, _) = crate::diagnose::estimates(&nominal, d.omega_report);
     let dir = |i: usize| if i == 0 { "y" } else { "z" };
     let mut sizes = Vec::new();
     let mut names = Vec::new();
@@ -452,24 +457,17 @@ fn pedestal_sizes(
     d: &Diagnosis,
     data: &FitData<'_>,
 ) -> Option<(Vec<f64>, Vec<String>, &'static str)> {
-    let base = &d.nominal.model;
+    let nominal = reference(d);
+    let base = &nominal.model;
     let t = detection_threshold(d, 5.0);
-    let (bearings, _) = crate::diagnose::estimates(&d.nominal, d.omega_report);
+    let (bearings, _) = crate::diagnose::estimates(&nominal, d.omega_report);
     let k_ref: Vec<f64> = bearings
         .iter()
         .map(|b| 0.5 * (b.k.yy.abs() + b.k.zz.abs()))
         .collect();
     let top = data.terms.iter().map(|t| t.omega).fold(0.0, f64::max);
     let omegas: Vec<f64> = PEDESTAL_GRID.iter().map(|r| r * top).collect();
-    let v = pedestal_min_detectable(
-        base,
-        data,
-        &d.nominal.fit.theta,
-        d.sigma2,
-        t,
-        &omegas,
-        &k_ref,
-    )?;
+    let v = pedestal_min_detectable(base, data, &nominal.fit.theta, d.sigma2, t, &omegas, &k_ref)?;
     let sizes = v.iter().map(|p| p.compliance * k_ref[p.bearing]).collect();
     let names = v
         .iter()

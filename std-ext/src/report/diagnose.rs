@@ -207,6 +207,12 @@ pub fn text(
         j.gain,
         noise.map_or("unknown".to_string(), |n| format!("{n:.3e}"))
     );
+    if d.nominal.fit.stalled {
+        let _ = writeln!(
+            s,
+            "  (the nominal fit stopped stalled: its parameters wander off while its misfit, over ten times the noise, no longer falls; the nominal residual is an upper bound)"
+        );
+    }
     if let Some(n) = noise {
         let res = residual_by_speed(samples, nominal_pred);
         let bands = misfit_bands(samples, &res, n);
