@@ -1058,6 +1058,41 @@ pub fn diagnose(
                     let Ok(f) = fit::fit(&m2, &data, &st.theta, 60) else {
                         continue;
                     };
+                    // Each pedestal of the pair alone, from the pair's
+                    // values: the joint search often finds a single
+                    // pedestal the single search missed, beside a second
+                    // one gone rigid (no trace in the data); by BIC the
+                    // single one then wins.
+                    let p0 = m2.pr.n_params();
+                    for (k, b) in [bearing, other].into_iter().enumerate() {
+                        let m1 = with_ext(vec![Extension::Pedestal { bearing: b }]);
+                        let mut t = f.theta[..p0].to_vec();
+                        t.extend_from_slice(&f.theta[m2.offset(k)..m2.offset(k) + 5]);
+                        let Ok(f1) = fit::fit(&m1, &data, &t, 60) else {
+                            continue;
+                        };
+                        let single = Candidate {
+                            effects: vec![Effect::FoundationFlexibility],
+                            label: format!(
+                                "pedestal under bearing {} (node {}), from the search for two",
+                                b + 1,
+                                model.bearings[b].node + 1
+                            ),
+                            model: m1,
+                            fit: f1,
+                            e_terms: 1.0,
+                            alternatives: 1,
+                            statistic: 0.0,
+                            threshold: 0.0,
+                            significant: false,
+                        };
+                        if pair_best
+                            .as_ref()
+                            .is_none_or(|c| bic_of(&single) < bic_of(c))
+                        {
+                            pair_best = Some(single);
+                        }
+                    }
                     let pair = Candidate {
                         effects: vec![Effect::FoundationFlexibility; 2],
                         label: format!(
