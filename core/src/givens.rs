@@ -141,23 +141,8 @@ where
     T: Real,
 {
     let a = a.abs();
-    // The common case first: the sum of squares formed directly and tested
-    // against the squared range (`4 lo^2 < rho2 < hi^2`), which implies
-    // `lo < m < hi` for `m = max(|a|, |Re b|, |Im b|)` (see
-    // [`safe_range_sq`]): the same expression, so the same bits, as the
-    // direct branch below, for two comparisons instead of the magnitudes.
-    let rho2 = a * a + b.modulus_squared();
-    let (lo2, hi2) = safe_range_sq::<T>();
-    if rho2 > lo2 && rho2 < hi2 {
-        let rho = rho2.sqrt();
-        let inv = T::one() / rho;
-        return (
-            Rotation {
-                c: a * inv,
-                s: b.conjugate().scale(inv),
-            },
-            rho,
-        );
+    if let Some(r) = rotation_direct(a, b) {
+        return r;
     }
     // Plain comparisons (not the NaN-aware `max`): the inputs are finite.
     let (br, bi) = (b.real().abs(), b.imaginary().abs());
@@ -193,6 +178,36 @@ where
     }
 }
 
+/// The common case of [`rotation_real_pivot`] for `a >= 0`: the sum of
+/// squares formed directly and tested against the squared range
+/// (`4 lo^2 < rho2 < hi^2`), which implies `lo < m < hi` for
+/// `m = max(|a|, |Re b|, |Im b|)` (see [`safe_range_sq`]): the same
+/// expression, so the same bits, as the direct branch of
+/// [`rotation_real_pivot`], for two comparisons instead of the magnitudes;
+/// `None` outside the range.
+#[inline(always)]
+fn rotation_direct<F, T>(a: T, b: F) -> Option<(Rotation<F>, T)>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let rho2 = a * a + b.modulus_squared();
+    let (lo2, hi2) = safe_range_sq::<T>();
+    if rho2 > lo2 && rho2 < hi2 {
+        let rho = rho2.sqrt();
+        let inv = T::one() / rho;
+        Some((
+            Rotation {
+                c: a * inv,
+                s: b.conjugate().scale(inv),
+            },
+            rho,
+        ))
+    } else {
+        None
+    }
+}
+
 /// [`rotation_real_pivot`] for a pivot known to be `a >= +0`, the diagonal
 /// of a QRD/RLS factor (`sqrt(delta) > 0` at the start, then
 /// `rho = sqrt(a^2 + |b|^2) >= +0` and scalings by `sqrt(lambda) > 0`):
@@ -204,20 +219,7 @@ where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
-    let rho2 = a * a + b.modulus_squared();
-    let (lo2, hi2) = safe_range_sq::<T>();
-    if rho2 > lo2 && rho2 < hi2 {
-        let rho = rho2.sqrt();
-        let inv = T::one() / rho;
-        return (
-            Rotation {
-                c: a * inv,
-                s: b.conjugate().scale(inv),
-            },
-            rho,
-        );
-    }
-    rotation_real_pivot(a, b)
+    rotation_direct(a, b).unwrap_or_else(|| rotation_real_pivot(a, b))
 }
 
 /// General rotation against a complex pivot `a`: returns the rotation and
