@@ -934,44 +934,20 @@ fn block_step<F, T, const W: usize, const S: usize>(
     if i >= W || is_zero(ub[i]) {
         return;
     }
-    let rot = triangle_step(i, &mut diag[i], ub, &mut pb[i], e, g);
-    rotate_from(&rot, &mut coup[i], us, 0);
-}
-
-/// The rotation of one row `row` of a triangular part (pivot `i`, its
-/// right-hand side `p`) with the working row `(work, e)` that zeroes
-/// `work[i]` (non-zero: the callers check), applied right of the pivot,
-/// to `(p, e)` and to `g <- c g`; the pivot pair becomes `(rho, 0)`.
-/// Returns the rotation for the caller's further columns. Shared by
-/// [`block_step`] and [`shared_step`].
-// index proven: the callers check `i < K`, and both rows have `K` entries.
-#[allow(clippy::indexing_slicing)]
-#[inline(always)]
-fn triangle_step<F, T, const K: usize>(
-    i: usize,
-    row: &mut [F; K],
-    work: &mut [F; K],
-    p: &mut F,
-    e: &mut F,
-    g: &mut T,
-) -> Rotation<F>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    let (rot, rho) = rotation_nonneg_pivot(row[i].real(), work[i]);
-    for k in i + 1..K {
-        let (nr, ny) = rot.apply(row[k], work[k]);
-        row[k] = nr;
-        work[k] = ny;
+    let drow = &mut diag[i];
+    let (rot, rho) = rotation_nonneg_pivot(drow[i].real(), ub[i]);
+    for k in i + 1..W {
+        let (nr, ny) = rot.apply(drow[k], ub[k]);
+        drow[k] = nr;
+        ub[k] = ny;
     }
-    row[i] = F::from_real(rho);
-    work[i] = F::zero();
+    drow[i] = F::from_real(rho);
+    ub[i] = F::zero();
     *g *= rot.c;
-    let (np, ne) = rot.apply(*p, *e);
-    *p = np;
+    rotate_from(&rot, &mut coup[i], us, 0);
+    let (np, ne) = rot.apply(pb[i], *e);
+    pb[i] = np;
     *e = ne;
-    rot
 }
 
 /// Pivot `i` of the shared part (nothing for `i >= S`): as [`block_step`]
@@ -994,7 +970,19 @@ fn shared_step<F, T, const S: usize>(
     if i >= S || is_zero(us[i]) {
         return;
     }
-    triangle_step(i, &mut shared[i], us, &mut ps[i], e, g);
+    let srow = &mut shared[i];
+    let (rot, rho) = rotation_nonneg_pivot(srow[i].real(), us[i]);
+    for k in i + 1..S {
+        let (nr, ny) = rot.apply(srow[k], us[k]);
+        srow[k] = nr;
+        us[k] = ny;
+    }
+    srow[i] = F::from_real(rho);
+    us[i] = F::zero();
+    *g *= rot.c;
+    let (np, ne) = rot.apply(ps[i], *e);
+    ps[i] = np;
+    *e = ne;
 }
 
 /// Owning, fixed-size block-structured QRD/RLS (the counterpart of
