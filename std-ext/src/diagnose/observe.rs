@@ -3,7 +3,7 @@
 //!
 //! # Smallest detectable size
 //!
-//! At the reference estimate ([`reference`]: the nominal parameters of the
+//! At the reference estimate ([`reference()`]: the nominal parameters of the
 //! chosen model), with `J = [J_n, J_e]` the weighted Jacobian of
 //! the nominal and the effect's parameters (effect at zero) and `sigma^2`
 //! the noise variance of one real reading, an effect `phi` (scaled) raises
@@ -384,7 +384,7 @@ pub fn reference(d: &Diagnosis) -> Candidate {
 }
 
 /// The smallest detectable size of `ext` alone at the reference estimate
-/// of `d` ([`reference`]; physical units: m for bow and runout, kg m for a
+/// of `d` ([`reference()`]; physical units: m for bow and runout, kg m for a
 /// plane).
 pub fn min_detectable_single(d: &Diagnosis, data: &FitData<'_>, ext: Extension) -> Option<f64> {
     let nominal = reference(d);
