@@ -21,6 +21,7 @@ use rotorid_core::baseline::{ConventionalRls, StackQrRls};
 use rotorid_core::blockqrd::{BlockQrdRls, BlockShape};
 use rotorid_core::parametrization::Structure;
 use rotorid_core::qrdrls::VectorQrdRls;
+use rotorid_core::sqrtfree::SqrtFreeQrdRls;
 use rotorid_core::Real;
 use std::hint::black_box;
 
@@ -130,6 +131,60 @@ fn structured<
             i += 1;
             blk.update_rows(
                 black_box(u.as_flattened()),
+                black_box(d),
+                &mut xi,
+                &mut gamma,
+            )
+            .expect("finite data");
+            black_box(&xi);
+        })
+    });
+
+    // The square-root-free filter on the same rows, given as rows of `M`
+    // entries and in the compact form (block index, block and shared
+    // entries).
+    let mut sf = SqrtFreeQrdRls::<F, NB, W, S>::new(lambda, delta).expect("valid parameters");
+    let mut i = 0usize;
+    g.bench_function(BenchmarkId::new("sqrt_free", param), |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            sf.update_rows(
+                black_box(u.as_flattened()),
+                black_box(d),
+                &mut xi,
+                &mut gamma,
+            )
+            .expect("finite data");
+            black_box(&xi);
+        })
+    });
+    let per_block = N / NB;
+    #[allow(clippy::type_complexity)]
+    let compact: Vec<([usize; N], [[F; W]; N], [[F; S]; N])> = data
+        .iter()
+        .map(|(u, _)| {
+            (
+                core::array::from_fn(|j| j / per_block),
+                core::array::from_fn(|j| {
+                    let b = j / per_block;
+                    core::array::from_fn(|k| u[j][b * W + k])
+                }),
+                core::array::from_fn(|j| core::array::from_fn(|k| u[j][NB * W + k])),
+            )
+        })
+        .collect();
+    let mut sf = SqrtFreeQrdRls::<F, NB, W, S>::new(lambda, delta).expect("valid parameters");
+    let mut i = 0usize;
+    g.bench_function(BenchmarkId::new("sqrt_free_compact", param), |b| {
+        b.iter(|| {
+            let (blocks, a, c) = &compact[i % STEPS];
+            let d = &data[i % STEPS].1;
+            i += 1;
+            sf.update_block_rows(
+                black_box(blocks),
+                black_box(a.as_flattened()),
+                black_box(c.as_flattened()),
                 black_box(d),
                 &mut xi,
                 &mut gamma,

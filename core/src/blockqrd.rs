@@ -217,7 +217,7 @@ pub struct BlockRef<'a, F> {
 }
 
 #[inline(always)]
-fn is_zero<F: ComplexField<RealField = T> + Copy, T: Real>(x: F) -> bool {
+pub(crate) fn is_zero<F: ComplexField<RealField = T> + Copy, T: Real>(x: F) -> bool {
     x.real() == T::zero() && x.imaginary() == T::zero()
 }
 
@@ -290,7 +290,7 @@ where
 /// `NB W` entries), without branches on the data: the number of blocks
 /// with non-zeros and the last of them are counted over all blocks.
 #[inline]
-fn block_of_fixed<F, T, const NB: usize, const W: usize>(row: &[F]) -> Option<usize>
+pub(crate) fn block_of_fixed<F, T, const NB: usize, const W: usize>(row: &[F]) -> Option<usize>
 where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
@@ -765,7 +765,7 @@ where
         // The blocks of the first `BLOCKS_KEPT` rows, found once by the
         // validation and reused by the update (`u16::MAX`: not kept).
         let mut blocks = [u16::MAX; BLOCKS_KEPT];
-        Self::validate(u, d, lambda, xi, gamma, &mut blocks)?;
+        Self::validate(u, d, lambda, xi, gamma, &mut blocks, qrdrls::input_limit())?;
         if lambda != T::one() {
             self.forget(lambda.sqrt());
         }
@@ -788,13 +788,14 @@ where
     /// the row's block at the same time (into `blocks`, for the first
     /// `BLOCKS_KEPT` rows). All of it before anything is written.
     #[inline(always)]
-    fn validate(
+    pub(crate) fn validate(
         u: &[F],
         d: &[F],
         lambda: T,
         xi: &[F],
         gamma: &[T],
         blocks: &mut [u16; BLOCKS_KEPT],
+        limit: T,
     ) -> Result<(), FilterError> {
         let m = Self::SHAPE.unknowns();
         let n = d.len();
@@ -802,7 +803,6 @@ where
             return Err(FilterError::Dimension);
         }
         qrdrls::validate_lambda(lambda)?;
-        let limit = qrdrls::input_limit::<T>();
         // `|x| <= limit` is false for NaN and the infinities as well as for
         // out-of-range entries (as in `qrdrls::check_finite`).
         let within = |x: &F| (x.real().abs() <= limit) & (x.imaginary().abs() <= limit);
@@ -825,8 +825,10 @@ where
             }
         }
         if !ok {
-            // Which error: the general check tells them apart.
+            // Which error: the general check tells them apart (entries
+            // within its limit but beyond a tighter `limit` are out of range).
             qrdrls::check_finite(u, d)?;
+            return Err(FilterError::OutOfRange);
         }
         if two {
             return Err(FilterError::Dimension);
@@ -900,7 +902,7 @@ where
 
 /// Number of rows per update whose blocks [`BlockFactor::update_rows`]
 /// keeps from the validation (further rows find theirs again).
-const BLOCKS_KEPT: usize = 64;
+pub(crate) const BLOCKS_KEPT: usize = 64;
 
 /// Number of pivots [`BlockFactor::update_rows`] writes out one by one
 /// (the `0 .. 15` of its step lists).

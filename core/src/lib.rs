@@ -53,6 +53,7 @@ pub mod qrdrls;
 pub mod regressor;
 pub mod scalar;
 pub mod scaling;
+pub mod sqrtfree;
 pub mod table;
 
 /// The tests' generator (also included by path into `tests/` and `benches/`).

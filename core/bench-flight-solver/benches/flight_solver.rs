@@ -13,6 +13,7 @@ use nalgebra::SVector;
 use rotorid_bench_flight_solver::{stream, stream_structured, Step, DELTA, LAMBDA, M, N, NB, S, W};
 use rotorid_core::blockqrd::BlockQrdRls;
 use rotorid_core::qrdrls::VectorQrdRls;
+use rotorid_core::sqrtfree::SqrtFreeQrdRls;
 use std::hint::black_box;
 
 const STEPS: usize = 256;
@@ -105,6 +106,67 @@ fn benches(c: &mut Criterion) {
             black_box(&w);
         })
     });
+    // The square-root-free block filter, on rows of `M` entries and on the
+    // compact rows (block index, block entries, shared entries) the
+    // identification can hand it.
+    let mut f = SqrtFreeQrdRls::<f32, NB, W, S>::new(LAMBDA, DELTA).expect("valid parameters");
+    let mut i = 0usize;
+    group.bench_function("rotorid_sqrt_free", |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            f.update_rows(
+                black_box(u.as_flattened()),
+                black_box(d),
+                &mut xi,
+                &mut gamma,
+            )
+            .expect("finite data");
+            black_box(&xi);
+        })
+    });
+    #[allow(clippy::type_complexity)]
+    let compact: Vec<([usize; N], [[f32; W]; N], [[f32; S]; N])> = data
+        .iter()
+        .map(|(u, _)| {
+            (
+                core::array::from_fn(|j| j / 2),
+                core::array::from_fn(|j| core::array::from_fn(|k| u[j][(j / 2) * W + k])),
+                core::array::from_fn(|j| core::array::from_fn(|k| u[j][NB * W + k])),
+            )
+        })
+        .collect();
+    for weights in [false, true] {
+        let name = if weights {
+            "rotorid_sqrt_free_compact_plus_weights"
+        } else {
+            "rotorid_sqrt_free_compact"
+        };
+        let mut f = SqrtFreeQrdRls::<f32, NB, W, S>::new(LAMBDA, DELTA).expect("valid parameters");
+        let mut w = [0.0f32; M];
+        let mut i = 0usize;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let (blocks, a, c) = &compact[i % STEPS];
+                let d = &data[i % STEPS].1;
+                i += 1;
+                f.update_block_rows(
+                    black_box(blocks),
+                    black_box(a.as_flattened()),
+                    black_box(c.as_flattened()),
+                    black_box(d),
+                    &mut xi,
+                    &mut gamma,
+                )
+                .expect("finite data");
+                if weights {
+                    f.weights(&mut w).expect("regular");
+                }
+                black_box(&xi);
+                black_box(&w);
+            })
+        });
+    }
     flight_solver(&mut group, &data);
     group.finish();
 }
