@@ -210,6 +210,122 @@ where
         (e.scale(delta), delta)
     }
 
+    /// Resets to `R = sqrt(delta) I`, `p = 0`.
+    pub fn init(&mut self, delta: T) {
+        *self = Self::new(delta);
+    }
+
+    /// One update with `N = d.len()` rows of `M = NB W + S` entries in `u`
+    /// (row-major), each non-zero in one block and the shared columns, as
+    /// [`crate::blockqrd::BlockFactor::update_rows`], with forgetting
+    /// factor `lambda` for this step; writes the a-posteriori errors `xi`
+    /// and conversion factors `gamma`.
+    ///
+    /// Errors (state untouched): `Dimension` (lengths, or a row with
+    /// non-zeros in two blocks), `InvalidLambda`, `NonFinite`, `OutOfRange`
+    /// (an entry beyond [`input_limit`]).
+    pub fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        let m = Self::SHAPE.unknowns();
+        let mut blocks = [u16::MAX; BLOCKS_KEPT];
+        BlockFactor::<F, NB, W, S>::validate(u, d, lambda, xi, gamma, &mut blocks, input_limit())?;
+        if lambda != T::one() {
+            self.forget(lambda);
+        }
+        let rows = u.chunks_exact(m).zip(d).zip(xi).zip(gamma);
+        for (j, (((row, &dj), xj), gj)) in rows.enumerate() {
+            let b = match blocks.get(j) {
+                Some(&b) if b != u16::MAX => usize::from(b),
+                _ => block_of_fixed::<F, T, NB, W>(row).unwrap_or(0),
+            };
+            let (mut xb, mut xs) = ([F::zero(); W], [F::zero(); S]);
+            if let (Some(a), Some(c)) = (row.get(b * W..(b + 1) * W), row.get(NB * W..m)) {
+                xb.copy_from_slice(a);
+                xs.copy_from_slice(c);
+            }
+            let (x, g) = self.fold_row(b.min(NB - 1), &xb, &xs, dj);
+            *xj = x;
+            *gj = g;
+        }
+        Ok(())
+    }
+
+    /// One update with `N = d.len()` rows given by their structure: row `j`
+    /// lies in block `blocks[j] < NB`, with block entries
+    /// `a[j W .. (j + 1) W]` and shared entries `c[j S .. (j + 1) S]`
+    /// (the row of `M` entries is zero elsewhere), forgetting factor
+    /// `lambda` for this step. Nothing scans the zeros.
+    ///
+    /// Errors (state untouched): `Dimension` (lengths, or a block index
+    /// `>= NB`), `InvalidLambda`, `NonFinite`, `OutOfRange` (an entry
+    /// beyond [`input_limit`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn update_block_rows(
+        &mut self,
+        blocks: &[usize],
+        a: &[F],
+        c: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        let n = d.len();
+        if blocks.len() != n
+            || n.checked_mul(W) != Some(a.len())
+            || n.checked_mul(S) != Some(c.len())
+            || xi.len() != n
+            || gamma.len() != n
+            || blocks.iter().any(|&b| b >= NB)
+        {
+            return Err(FilterError::Dimension);
+        }
+        qrdrls::validate_lambda(lambda)?;
+        let limit = input_limit::<T>();
+        let within =
+            |ok: bool, x: &F| ok & (x.real().abs() <= limit) & (x.imaginary().abs() <= limit);
+        if !(a.iter().fold(true, within)
+            & c.iter().fold(true, within)
+            & d.iter().fold(true, within))
+        {
+            let finite = a.iter().chain(c).chain(d).all(|x| x.is_finite());
+            return Err(if finite {
+                FilterError::OutOfRange
+            } else {
+                FilterError::NonFinite
+            });
+        }
+        if lambda != T::one() {
+            self.forget(lambda);
+        }
+        for (j, ((&b, &dj), (xj, gj))) in blocks
+            .iter()
+            .zip(d)
+            .zip(xi.iter_mut().zip(gamma))
+            .enumerate()
+        {
+            let aj = a
+                .get(j * W..(j + 1) * W)
+                .and_then(|x| <&[F; W]>::try_from(x).ok());
+            let cj = c
+                .get(j * S..(j + 1) * S)
+                .and_then(|x| <&[F; S]>::try_from(x).ok());
+            let (Some(aj), Some(cj)) = (aj, cj) else {
+                continue;
+            };
+            let (x, g) = self.fold_row(b.min(NB - 1), aj, cj, dj);
+            *xj = x;
+            *gj = g;
+        }
+        Ok(())
+    }
+
     /// Back-substitution `U w = q` (`w` has `M` entries, block-then-shared
     /// order): `w_s` from the shared part, then each block,
     /// `w_b = q_b - U_b^strict w_b - (D_b^(-1/2) C_b) w_s`.
@@ -461,13 +577,10 @@ where
     }
 
     /// One update with `N = d.len()` rows of `M = NB W + S` entries in `u`
-    /// (row-major), each non-zero in one block and the shared columns, as
-    /// [`crate::blockqrd::BlockQrdRls::update_rows`]; writes the
-    /// a-posteriori errors `xi` and conversion factors `gamma`.
+    /// (row-major), each non-zero in one block and the shared columns:
+    /// [`SqrtFreeFactor::update_rows`] with the filter's `lambda`.
     ///
-    /// Errors (state untouched): `Dimension` (lengths, or a row with
-    /// non-zeros in two blocks), `NonFinite`, `OutOfRange` (an entry beyond
-    /// [`input_limit`]).
+    /// Errors (state untouched): as [`SqrtFreeFactor::update_rows`].
     pub fn update_rows(
         &mut self,
         u: &[F],
@@ -475,46 +588,14 @@ where
         xi: &mut [F],
         gamma: &mut [T],
     ) -> Result<(), FilterError> {
-        let m = SqrtFreeFactor::<F, NB, W, S>::SHAPE.unknowns();
-        let mut blocks = [u16::MAX; BLOCKS_KEPT];
-        BlockFactor::<F, NB, W, S>::validate(
-            u,
-            d,
-            self.lambda,
-            xi,
-            gamma,
-            &mut blocks,
-            input_limit(),
-        )?;
-        if self.lambda != T::one() {
-            self.factor.forget(self.lambda);
-        }
-        let rows = u.chunks_exact(m).zip(d).zip(xi).zip(gamma);
-        for (j, (((row, &dj), xj), gj)) in rows.enumerate() {
-            let b = match blocks.get(j) {
-                Some(&b) if b != u16::MAX => usize::from(b),
-                _ => block_of_fixed::<F, T, NB, W>(row).unwrap_or(0),
-            };
-            let (mut xb, mut xs) = ([F::zero(); W], [F::zero(); S]);
-            if let (Some(a), Some(c)) = (row.get(b * W..(b + 1) * W), row.get(NB * W..m)) {
-                xb.copy_from_slice(a);
-                xs.copy_from_slice(c);
-            }
-            let (x, g) = self.factor.fold_row(b.min(NB - 1), &xb, &xs, dj);
-            *xj = x;
-            *gj = g;
-        }
-        Ok(())
+        self.factor.update_rows(u, d, self.lambda, xi, gamma)
     }
 
-    /// One update with `N = d.len()` rows given by their structure: row `j`
-    /// lies in block `blocks[j] < NB`, with block entries
-    /// `a[j W .. (j + 1) W]` and shared entries `c[j S .. (j + 1) S]`
-    /// (the row of `M` entries is zero elsewhere). Nothing scans the zeros.
+    /// One update with `N = d.len()` rows given by their structure
+    /// (block index, block entries, shared entries):
+    /// [`SqrtFreeFactor::update_block_rows`] with the filter's `lambda`.
     ///
-    /// Errors (state untouched): `Dimension` (lengths, or a block index
-    /// `>= NB`), `InvalidLambda`, `NonFinite`, `OutOfRange` (an entry
-    /// beyond [`input_limit`]).
+    /// Errors (state untouched): as [`SqrtFreeFactor::update_block_rows`].
     pub fn update_block_rows(
         &mut self,
         blocks: &[usize],
@@ -524,54 +605,8 @@ where
         xi: &mut [F],
         gamma: &mut [T],
     ) -> Result<(), FilterError> {
-        let n = d.len();
-        if blocks.len() != n
-            || n.checked_mul(W) != Some(a.len())
-            || n.checked_mul(S) != Some(c.len())
-            || xi.len() != n
-            || gamma.len() != n
-            || blocks.iter().any(|&b| b >= NB)
-        {
-            return Err(FilterError::Dimension);
-        }
-        qrdrls::validate_lambda(self.lambda)?;
-        let limit = input_limit::<T>();
-        let within =
-            |ok: bool, x: &F| ok & (x.real().abs() <= limit) & (x.imaginary().abs() <= limit);
-        if !(a.iter().fold(true, within)
-            & c.iter().fold(true, within)
-            & d.iter().fold(true, within))
-        {
-            let finite = a.iter().chain(c).chain(d).all(|x| x.is_finite());
-            return Err(if finite {
-                FilterError::OutOfRange
-            } else {
-                FilterError::NonFinite
-            });
-        }
-        if self.lambda != T::one() {
-            self.factor.forget(self.lambda);
-        }
-        for (j, ((&b, &dj), (xj, gj))) in blocks
-            .iter()
-            .zip(d)
-            .zip(xi.iter_mut().zip(gamma))
-            .enumerate()
-        {
-            let aj = a
-                .get(j * W..(j + 1) * W)
-                .and_then(|x| <&[F; W]>::try_from(x).ok());
-            let cj = c
-                .get(j * S..(j + 1) * S)
-                .and_then(|x| <&[F; S]>::try_from(x).ok());
-            let (Some(aj), Some(cj)) = (aj, cj) else {
-                continue;
-            };
-            let (x, g) = self.factor.fold_row(b.min(NB - 1), aj, cj, dj);
-            *xj = x;
-            *gj = g;
-        }
-        Ok(())
+        self.factor
+            .update_block_rows(blocks, a, c, d, self.lambda, xi, gamma)
     }
 
     /// The weights `w` (`M` entries): `U w = q`.
