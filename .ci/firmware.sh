@@ -2,7 +2,8 @@
 # The Cortex-M4F firmware (examples/firmware): build it for
 # thumbv7em-none-eabihf, print its footprint, run it under QEMU's MPS2-AN386
 # board model (Cortex-M4 with FPU) and check that its estimates equal those
-# of the host f32 run of the same code (examples/firmware_host.rs).
+# of the host f32 run of the same code (examples/firmware_host.rs); the same
+# for the build with the square-root-free block filter (--features sqrt-free).
 #
 #   .ci/firmware.sh            build, footprint, QEMU run, comparison
 #   FIRMWARE_ICOUNT=1 .ci/firmware.sh
@@ -29,25 +30,37 @@ echo "-- firmware build (thumbv7em-none-eabihf, release)"
 rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 || true
 (cd "$FW" && cargo build --release)
 
-echo "-- footprint"
 # Section sizes (bytes) and the two data arrays (table, measured sweep).
 sec() {
   local hex
-  hex=$(readelf -SW "$ELF" | sed 's/^ *\[ *[0-9]*\]//' | awk -v n="$1" '$1 == n { print $5 }')
+  hex=$(readelf -SW "$2" | sed 's/^ *\[ *[0-9]*\]//' | awk -v n="$1" '$1 == n { print $5 }')
   echo $((16#${hex:-0}))
 }
-sym() { readelf -sW "$ELF" | awk -v n="$1" '$8 ~ n { s += $3 } END { print s + 0 }'; }
-vt=$(sec .vector_table); text=$(sec .text); rodata=$(sec .rodata)
-data=$(sec .data); bss=$(sec .bss); uninit=$(sec .uninit)
-table=$(sym '5table5TABLE'); sweep=$(sym '5sweep5SWEEP')
-code_flash=$((vt + text + rodata + data - table - sweep))
-echo "flash: .vector_table $vt + .text $text + .rodata $rodata + .data $data = $((vt + text + rodata + data)) bytes"
-echo "       of which the model table $table and the measured sweep $sweep: program $code_flash bytes"
-echo "static RAM: .data $data + .bss $bss + .uninit $uninit = $((data + bss + uninit)) bytes"
-if [ "$code_flash" -ge 32768 ] || [ $((data + bss + uninit)) -ge 8192 ]; then
-  echo "error: firmware over budget (32 KiB flash without tables, 8 KiB static RAM)" >&2
-  exit 1
-fi
+sym() { readelf -sW "$2" | awk -v n="$1" '$8 ~ n { s += $3 } END { print s + 0 }'; }
+footprint() {
+  local elf=$1 vt text rodata data bss uninit table sweep code_flash
+  vt=$(sec .vector_table "$elf"); text=$(sec .text "$elf"); rodata=$(sec .rodata "$elf")
+  data=$(sec .data "$elf"); bss=$(sec .bss "$elf"); uninit=$(sec .uninit "$elf")
+  table=$(sym '5table5TABLE' "$elf"); sweep=$(sym '5sweep5SWEEP' "$elf")
+  code_flash=$((vt + text + rodata + data - table - sweep))
+  echo "flash: .vector_table $vt + .text $text + .rodata $rodata + .data $data = $((vt + text + rodata + data)) bytes"
+  echo "       of which the model table $table and the measured sweep $sweep: program $code_flash bytes"
+  echo "static RAM: .data $data + .bss $bss + .uninit $uninit = $((data + bss + uninit)) bytes"
+  if [ "$code_flash" -ge 32768 ] || [ $((data + bss + uninit)) -ge 8192 ]; then
+    echo "error: firmware over budget (32 KiB flash without tables, 8 KiB static RAM)" >&2
+    exit 1
+  fi
+}
+
+echo "-- footprint"
+footprint "$ELF"
+
+# The same program with the square-root-free block filter.
+SF_ELF=$FW/target/sqrt-free/thumbv7em-none-eabihf/release/rotorid-firmware
+echo "-- firmware build with the square-root-free block filter (--features sqrt-free)"
+(cd "$FW" && cargo build --release --features sqrt-free --target-dir target/sqrt-free)
+echo "-- footprint (square-root-free)"
+footprint "$SF_ELF"
 
 if ! command -v qemu-system-arm >/dev/null 2>&1; then
   echo "-- qemu-system-arm missing: trying to install it"
@@ -79,6 +92,19 @@ if [ ! -s "$OUT/target.est" ] || ! diff -u "$OUT/host.est" "$OUT/target.est"; th
 fi
 echo "firmware (QEMU Cortex-M4F) and host f32 estimates identical: $(wc -l <"$OUT/target.est") lines"
 
+echo "-- firmware run, square-root-free block filter"
+timeout 300 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -semihosting -nographic \
+  -kernel "$SF_ELF" >"$OUT/target_sf.txt"
+cat "$OUT/target_sf.txt"
+cargo run --quiet --example firmware_host -- --sqrt-free >"$OUT/host_sf.txt"
+grep '^est ' "$OUT/target_sf.txt" >"$OUT/target_sf.est"
+grep '^est ' "$OUT/host_sf.txt" >"$OUT/host_sf.est"
+if [ ! -s "$OUT/target_sf.est" ] || ! diff -u "$OUT/host_sf.est" "$OUT/target_sf.est"; then
+  echo "error: the square-root-free firmware's estimates differ from the host f32 run (diff above)" >&2
+  exit 1
+fi
+echo "square-root-free firmware (QEMU) and host f32 estimates identical: $(wc -l <"$OUT/target_sf.est") lines"
+
 icount() {
   local ELF=$1
   addr=$(readelf -sW "$ELF" | awk '$8 == "rotorid_update_marker" { print $2 }')
@@ -106,4 +132,6 @@ if [ "${FIRMWARE_ICOUNT:-0}" = 1 ]; then
   echo "dense filter (--features dense, same program otherwise):"
   (cd "$FW" && cargo build --release --features dense --target-dir target/dense)
   icount "$FW/target/dense/thumbv7em-none-eabihf/release/rotorid-firmware"
+  echo "square-root-free block filter (--features sqrt-free):"
+  icount "$SF_ELF"
 fi

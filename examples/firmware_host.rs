@@ -6,6 +6,7 @@
 //!
 //! ```sh
 //! cargo run --release --example firmware_host
+//! cargo run --release --example firmware_host -- --sqrt-free
 //! cargo run --release --example firmware_host -- --write-sweep examples/firmware/src/sweep.rs
 //! ```
 //!
@@ -31,12 +32,18 @@ mod run;
 /// The firmware's identifier type (the generated `type Id`).
 type FwId = table::Id;
 
+/// The same run with the square-root-free block filter (the firmware's
+/// `sqrt-free` feature).
+#[path = "firmware_host/sqrt_free.rs"]
+mod sqrt_free;
+
 use std::fmt::Write as _;
 
 /// No hooks on the host.
 struct NoProbe;
 
 impl run::Probe for NoProbe {}
+impl sqrt_free::run::Probe for NoProbe {}
 
 /// Writes the sweep source (speeds in rad/s, phasors in m, f32).
 fn write_sweep(path: &str) -> Result<(), Box<dyn std::error::Error>> {
@@ -92,7 +99,15 @@ fn main() {
         }
     }
     let mut out = String::new();
-    match run::run(&mut out, &mut NoProbe) {
+    let result = match args.as_slice() {
+        [] => run::run(&mut out, &mut NoProbe),
+        [flag] if flag == "--sqrt-free" => sqrt_free::run::run(&mut out, &mut NoProbe),
+        _ => {
+            eprintln!("usage: firmware_host [--sqrt-free | --write-sweep PATH]");
+            std::process::exit(2);
+        }
+    };
+    match result {
         Ok(_) => print!("{out}"),
         Err(e) => {
             eprintln!("error: {e}");

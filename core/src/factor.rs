@@ -6,9 +6,12 @@
 //! the same identification step ([`crate::identify::Kernel`]) runs on the
 //! firmware's inline arrays and on the desktop's vectors. [`Factor`] is the
 //! inline storage a const-generic [`crate::identify::Identifier`] owns:
-//! [`DenseFactor`] (`M^2 + M` entries) or [`BlockFactor`] (`NB W^2 + NB W S
-//! + S^2 + 2 M` entries). Both give the same numbers (see
-//! [`crate::blockqrd`]); the dense one serves any row structure.
+//! [`DenseFactor`] (`M^2 + M` entries) or [`BlockFactor`]
+//! (`NB W^2 + NB W S + S^2 + 2 M` entries). Both give the same numbers (see
+//! [`crate::blockqrd`]); the dense one serves any row structure. The
+//! square-root-free [`crate::sqrtfree::SqrtFreeFactor`] (the block layout,
+//! Gentleman's rotations) is a third storage: fewer instructions, the same
+//! numbers to round-off, a narrower input range.
 
 use crate::blockqrd::{BlockFactor, BlockMut, BlockRef, BlockShape};
 use crate::qrdrls::{self, FilterError};
@@ -261,8 +264,10 @@ pub trait Factor<F: ComplexField>: Clone + Debug + PartialEq {
     fn zeroed() -> Self;
     /// Mutable view (static dispatch).
     fn view_mut(&mut self) -> Self::View<'_>;
-    /// Read-only view.
-    fn view(&self) -> FactorRef<'_, F>;
+    /// Back-substitution for the weights `w` (`M` entries).
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError>;
+    /// `min|R_ii| / max|R_ii|`.
+    fn diag_ratio(&self) -> Result<F::RealField, FilterError>;
 }
 
 /// Dense `M x M` factor and `p`: `M^2 + M` entries of `F`.
@@ -276,6 +281,14 @@ impl<F, const M: usize> DenseFactor<F, M> {
     /// The triangular factor `R` and the rotated right-hand side `p`.
     pub fn parts(&self) -> (&[[F; M]; M], &[F; M]) {
         (&self.r, &self.p)
+    }
+
+    /// Read-only view.
+    pub fn view(&self) -> FactorRef<'_, F> {
+        FactorRef::Dense {
+            r: self.r.as_flattened(),
+            p: &self.p,
+        }
     }
 }
 
@@ -303,11 +316,12 @@ where
         }
     }
 
-    fn view(&self) -> FactorRef<'_, F> {
-        FactorRef::Dense {
-            r: self.r.as_flattened(),
-            p: &self.p,
-        }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        DenseFactor::view(self).solve_weights(w)
+    }
+
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        DenseFactor::view(self).diag_ratio()
     }
 }
 
@@ -371,7 +385,11 @@ where
         BlockFixedMut(self)
     }
 
-    fn view(&self) -> FactorRef<'_, F> {
-        FactorRef::Block(BlockFactor::view(self))
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        BlockFactor::view(self).solve_weights(w)
+    }
+
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        Ok(BlockFactor::view(self).diag_ratio())
     }
 }

@@ -82,6 +82,7 @@ use crate::qrdrls::{self, FilterError};
 use crate::regressor::{self, Equations, RegressorError};
 use crate::scalar::Real;
 use crate::scaling::ColumnScaling;
+use crate::sqrtfree::SqrtFreeFactor;
 use crate::table::{BearingTable, TableError, TableSetup};
 use core::fmt;
 use nalgebra::ComplexField;
@@ -789,8 +790,10 @@ pub struct Estimates<T, const NQ: usize, const NP: usize> {
 /// with `NB = NQ` blocks of `W` channel coefficients and `S` shared
 /// unbalance unknowns ([`BlockShape::of`]; the aliases
 /// [`PaperBlockIdentifier`], [`PhysicalBlockIdentifier`]), which stores
-/// only the blocks and updates in time linear in `N_b`. The generated
-/// `type Id` of `rotorid tables` is the block-structured one. A block
+/// only the blocks and updates in time linear in `N_b`, or its
+/// square-root-free form [`SqrtFreeFactor`] (aliases
+/// [`PaperSqrtFreeIdentifier`], [`PhysicalSqrtFreeIdentifier`]). The
+/// generated `type Id` of `rotorid tables` is the block-structured one. A block
 /// layout that is not the structure's is [`IdentifyError::Dimension`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Identifier<
@@ -855,6 +858,34 @@ pub type PhysicalBlockIdentifier<
     const W: usize,
     const S: usize,
 > = Identifier<T, T, NQ, NP, M, N, BlockFactor<T, NQ, W, S>>;
+
+/// Paper-structure identifier with the square-root-free block filter
+/// ([`crate::sqrtfree`]): the layout of [`PaperBlockIdentifier`], the same
+/// estimates to round-off, fewer instructions per update, entries limited
+/// to [`crate::sqrtfree::input_limit`].
+pub type PaperSqrtFreeIdentifier<
+    T,
+    const NQ: usize,
+    const NP: usize,
+    const M: usize,
+    const N: usize,
+    const W: usize,
+    const S: usize,
+> = Identifier<T, Complex<T>, NQ, NP, M, N, SqrtFreeFactor<Complex<T>, NQ, W, S>>;
+
+/// Physical-structure identifier with the square-root-free block filter
+/// ([`crate::sqrtfree`]): the layout of [`PhysicalBlockIdentifier`], the
+/// same estimates to round-off, fewer instructions per update, entries
+/// limited to [`crate::sqrtfree::input_limit`].
+pub type PhysicalSqrtFreeIdentifier<
+    T,
+    const NQ: usize,
+    const NP: usize,
+    const M: usize,
+    const N: usize,
+    const W: usize,
+    const S: usize,
+> = Identifier<T, T, NQ, NP, M, N, SqrtFreeFactor<T, NQ, W, S>>;
 
 /// The structure of formulation `formulation` with `m` unknowns and `n`
 /// rows for `nq` channels and `np` planes; a compile-time error (in a const
@@ -1029,7 +1060,7 @@ impl<
     /// The scaled weights `w~` (back-substitution).
     pub fn scaled_weights(&self) -> Result<[F; M], IdentifyError> {
         let mut w = [F::zero(); M];
-        self.factor.view().solve_weights(&mut w)?;
+        Factor::solve_weights(&self.factor, &mut w)?;
         Ok(w)
     }
 
@@ -1042,10 +1073,7 @@ impl<
 
     /// `min|R_ii| / max|R_ii|` of the factor.
     pub fn diag_ratio(&self) -> T {
-        self.factor
-            .view()
-            .diag_ratio()
-            .unwrap_or_else(|_| T::zero())
+        Factor::diag_ratio(&self.factor).unwrap_or_else(|_| T::zero())
     }
 
     /// Physical estimates, bearing coefficients evaluated at `omega` (rad/s;

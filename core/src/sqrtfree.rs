@@ -105,6 +105,7 @@
 //! ```
 
 use crate::blockqrd::{block_of_fixed, BlockFactor, BlockShape, BLOCKS_KEPT};
+use crate::factor::{Factor, FilterState};
 use crate::givens::min_normal;
 use crate::qrdrls::{self, FilterError};
 use crate::Real;
@@ -552,14 +553,13 @@ where
     T: Real,
 {
     /// A filter with forgetting factor `lambda` in `(0, 1]` and
-    /// regularisation `delta >= 0` (finite, at most `sqrt(T::MAX)`).
+    /// regularisation `delta` in `(0, sqrt(T::MAX)]` (as the Givens
+    /// filters).
     ///
-    /// Errors: `InvalidLambda`; `OutOfRange` for a bad `delta`.
+    /// Errors: `InvalidLambda`, `InvalidDelta`.
     pub fn new(lambda: T, delta: T) -> Result<Self, FilterError> {
         qrdrls::validate_lambda(lambda)?;
-        if !(delta >= T::zero() && delta <= input_limit::<T>() * input_limit::<T>()) {
-            return Err(FilterError::OutOfRange);
-        }
+        qrdrls::validate_delta(delta)?;
         Ok(SqrtFreeQrdRls {
             factor: SqrtFreeFactor::new(delta),
             lambda,
@@ -614,6 +614,77 @@ where
     /// Errors: as [`SqrtFreeFactor::solve_weights`].
     pub fn weights(&self, w: &mut [F]) -> Result<(), FilterError> {
         self.factor.solve_weights(w)
+    }
+}
+
+/// Mutable view of an inline [`SqrtFreeFactor`]: the filter state of an
+/// identifier that holds one ([`crate::identify::PhysicalSqrtFreeIdentifier`],
+/// [`crate::identify::PaperSqrtFreeIdentifier`]).
+#[derive(Debug)]
+pub struct SqrtFreeMut<'a, F: ComplexField, const NB: usize, const W: usize, const S: usize>(
+    pub &'a mut SqrtFreeFactor<F, NB, W, S>,
+);
+
+impl<F, T, const NB: usize, const W: usize, const S: usize> FilterState<F>
+    for SqrtFreeMut<'_, F, NB, W, S>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn unknowns(&self) -> usize {
+        SqrtFreeFactor::<F, NB, W, S>::SHAPE.unknowns()
+    }
+    fn shape(&self) -> Option<BlockShape> {
+        Some(SqrtFreeFactor::<F, NB, W, S>::SHAPE)
+    }
+    fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        qrdrls::validate_delta(delta)?;
+        self.0.init(delta);
+        Ok(())
+    }
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        self.0.update_rows(u, d, lambda, xi, gamma)
+    }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        self.0.solve_weights(w)
+    }
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        Ok(self.0.diag_ratio())
+    }
+}
+
+impl<F, T, const NB: usize, const W: usize, const S: usize> Factor<F>
+    for SqrtFreeFactor<F, NB, W, S>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    type View<'a>
+        = SqrtFreeMut<'a, F, NB, W, S>
+    where
+        Self: 'a;
+
+    fn zeroed() -> Self {
+        SqrtFreeFactor::new(T::zero())
+    }
+
+    fn view_mut(&mut self) -> SqrtFreeMut<'_, F, NB, W, S> {
+        SqrtFreeMut(self)
+    }
+
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        SqrtFreeFactor::solve_weights(self, w)
+    }
+
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        Ok(SqrtFreeFactor::diag_ratio(self))
     }
 }
 
@@ -856,9 +927,14 @@ mod tests {
 
     #[test]
     fn no_information_is_singular() {
-        let f = SqrtFreeQrdRls::<f64, 2, 2, 1>::new(1.0, 0.0).unwrap();
+        assert_eq!(
+            SqrtFreeQrdRls::<f64, 2, 2, 1>::new(1.0, 0.0),
+            Err(FilterError::InvalidDelta)
+        );
+        // No information: the factor of zeros is singular.
+        let f = SqrtFreeFactor::<f64, 2, 2, 1>::new(0.0);
         let mut w = [0.0; 5];
-        assert_eq!(f.weights(&mut w), Err(FilterError::Singular));
+        assert_eq!(f.solve_weights(&mut w), Err(FilterError::Singular));
         // A zero row is the identity: gamma 1, xi = d.
         let mut f = SqrtFreeQrdRls::<f64, 2, 2, 1>::new(1.0, 1.0).unwrap();
         let (mut xi, mut gamma) = ([0.0; 1], [0.0; 1]);

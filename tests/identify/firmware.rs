@@ -9,7 +9,8 @@ use num_complex::Complex;
 use rotorid::core::factor::Factor;
 use rotorid::core::identify::{
     Config, IdField, Identifier, IdentifyError, PaperBlockIdentifier, PaperIdentifier,
-    PhysicalBlockIdentifier, PhysicalIdentifier,
+    PaperSqrtFreeIdentifier, PhysicalBlockIdentifier, PhysicalIdentifier,
+    PhysicalSqrtFreeIdentifier,
 };
 use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
@@ -63,6 +64,24 @@ fn max_rel_diff(fw: &rotorid::core::identify::Estimates<f32, NQ, NP>, desk: &Est
     worst
 }
 
+/// Largest relative difference between two sets of firmware estimates.
+fn max_rel_between(
+    a: &rotorid::core::identify::Estimates<f32, NQ, NP>,
+    b: &rotorid::core::identify::Estimates<f32, NQ, NP>,
+) -> f64 {
+    let rel = |x: f32, y: f32| ((x as f64 - y as f64) / y as f64).abs();
+    let mut worst = 0.0f64;
+    for (p, q) in a.bearings.iter().zip(&b.bearings) {
+        for j in 0..4 {
+            worst = worst.max(rel(p.k[j], q.k[j])).max(rel(p.c[j], q.c[j]));
+        }
+    }
+    for (p, q) in a.unbalance.iter().zip(&b.unbalance) {
+        worst = worst.max(((p.a - q.a).norm() / q.a.norm()) as f64);
+    }
+    worst
+}
+
 #[test]
 fn firmware_and_desktop_paths_agree_in_f32() {
     let model = RotorModel::paper();
@@ -101,7 +120,8 @@ fn firmware_and_desktop_paths_agree_in_f32() {
             .unwrap();
         let view = TableView::<f32>::parse(&blob).unwrap();
         assert_eq!(view.scaling(), scaling32);
-        let fw = if structure == Structure::physical(1) {
+        // `sf`: the same with the square-root-free filter.
+        let (fw, sf) = if structure == Structure::physical(1) {
             // The type the generated source defines for physical 1.
             assert_eq!(generated::STRUCTURE, structure);
             assert_eq!(generated::Id::STRUCTURE, structure);
@@ -112,15 +132,23 @@ fn firmware_and_desktop_paths_agree_in_f32() {
                 PaperIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view),
                 Err(IdentifyError::Structure { .. })
             ));
-            firmware_run(&blob, id, &meas)
+            let fw = firmware_run(&blob, id, &meas);
+            // The square-root-free filter: the same estimates to f32 round-off.
+            let sf =
+                PhysicalSqrtFreeIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::from_table(&view).unwrap();
+            let sf = firmware_run(&blob, sf, &meas);
+            (fw, sf)
         } else {
+            let sf =
+                PaperSqrtFreeIdentifier::<f32, NQ, NP, 19, 4, 4, 3>::from_table(&view).unwrap();
             let id = PaperBlockIdentifier::<f32, NQ, NP, 19, 4, 4, 3>::from_table(&view).unwrap();
             assert_eq!(id.config().structure, Structure::paper(1));
             let dense = PaperIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view).unwrap();
             // Block-structured and dense filters: the same estimates.
             let fw = firmware_run(&blob, id, &meas);
             assert_eq!(fw, firmware_run(&blob, dense, &meas));
-            fw
+            let sf = firmware_run(&blob, sf, &meas);
+            (fw, sf)
         };
         let mut opts = Options::new(structure);
         opts.precision = Precision::F32;
@@ -140,6 +168,25 @@ fn firmware_and_desktop_paths_agree_in_f32() {
         println!("{structure:?}: firmware vs desktop (f32) worst relative difference {diff:.2e}; desktop errors {e_desk:?}");
         // The same kernel on the same f32 data: bit-identical estimates.
         assert_eq!(diff, 0.0);
+        // The square-root-free filter's f32 estimates against the f64 ones:
+        // f32 round-off, of the size of the Givens filter's.
+        opts.precision = Precision::F64;
+        let desk64 = identify_with(
+            &model.bearing_nodes(),
+            &model.planes,
+            &meas,
+            &opts,
+            &mut red.source(),
+            None,
+        )
+        .unwrap();
+        let round = max_rel_diff(&fw, &desk64.last);
+        let round_sf = max_rel_diff(&sf, &desk64.last);
+        let d_sf = max_rel_between(&sf, &fw);
+        println!(
+            "{structure:?}: f32 against f64, Givens {round:.2e}, square-root-free {round_sf:.2e}; between the two {d_sf:.2e}"
+        );
+        assert!(round_sf < 1.5 * round, "{round_sf:e} against {round:e}");
     }
     // Type aliases are the same identifiers.
     let _ = PaperIdentifier::<f32, NQ, NP, 19, 4>::new;

@@ -33,9 +33,23 @@ mod sweep {
 mod run;
 
 /// The identifier: the generated `type Id` (block-structured filter), or
-/// with the `dense` feature the same structure with the dense filter.
-#[cfg(not(feature = "dense"))]
+/// with the `dense` feature the same structure with the dense filter, or
+/// with the `sqrt-free` feature with the square-root-free block filter.
+#[cfg(not(any(feature = "dense", feature = "sqrt-free")))]
 pub type FwId = table::Id;
+/// The identifier: the generated `type Id` (block-structured filter), or
+/// with the `dense` feature the same structure with the dense filter, or
+/// with the `sqrt-free` feature with the square-root-free block filter.
+#[cfg(all(feature = "sqrt-free", not(feature = "dense")))]
+pub type FwId = rotorid_core::identify::PhysicalSqrtFreeIdentifier<
+    f32,
+    { table::NQ },
+    { table::NP },
+    { table::M },
+    { table::N },
+    { table::W },
+    { table::S },
+>;
 /// The identifier: the generated `type Id` (block-structured filter), or
 /// with the `dense` feature the same structure with the dense filter.
 #[cfg(feature = "dense")]

@@ -1,14 +1,15 @@
 //! The identification run of the firmware, shared word for word with its
-//! host check (`examples/firmware_host.rs`): the identifier of the generated
-//! table (`type Id`, block-structured filter, f32) folds in the measured
+//! host check (`examples/firmware_host.rs`): the identifier `FwId` of the
+//! enclosing module (the generated table's `type Id`, block-structured
+//! filter, f32, or another filter of the same structure) folds in the measured
 //! sweep and prints its estimates. Each value is printed as a fixed-point
 //! decimal (integer arithmetic on the `f32`, truncated) followed by its
 //! `f32` bit pattern in hex, so equal lines mean bit-identical estimates.
 //! (Core's float formatting would add about 10 KiB of flash.)
 
+use super::FwId as Id;
 use crate::sweep::SWEEP;
 use crate::table::{SCALING, STRUCTURE, TABLE};
-use crate::FwId as Id;
 use core::fmt::{self, Write};
 use rotorid_core::identify::{Config, IdentifyError};
 use rotorid_core::parametrization::COEFFICIENTS;
@@ -92,10 +93,20 @@ pub fn run<W: Write, P: Probe>(out: &mut W, probe: &mut P) -> Result<usize, Iden
             );
         }
     }
+    // The unbalance phasor itself is compared; its magnitude and phase
+    // (`hypot`, `atan2`) are printed as comments: the target's `libm` and
+    // the host's C library may round those differently by an ulp.
     for (k, u) in est.unbalance.iter().enumerate() {
         let _ = writeln!(
             out,
-            "est plane {} me {} g mm phase {} deg",
+            "est plane {} a {} {} g mm",
+            k + 1,
+            Fixed(u.a.re * 1e6, 3),
+            Fixed(u.a.im * 1e6, 3)
+        );
+        let _ = writeln!(
+            out,
+            "# plane {} me {} g mm phase {} deg",
             k + 1,
             Fixed(u.me * 1e6, 3),
             Fixed(u.phase_deg(), 3)
