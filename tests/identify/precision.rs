@@ -23,8 +23,10 @@
 
 use crate::common::*;
 use num_complex::Complex;
+use rotorid::core::factor::{DenseFactor, Factor};
 use rotorid::core::identify::{Config, Estimates, IdField, Identifier, SteadyPolicy};
 use rotorid::core::parametrization::Structure;
+use rotorid::core::sqrtfree::SqrtFreeFactor;
 use rotorid::core::table::{TableScalar, TableView};
 use rotorid::core::Real;
 use rotorid::io::measurement::{Measurements, Sample};
@@ -92,14 +94,14 @@ fn order(n: usize, steps: usize) -> impl Iterator<Item = usize> {
 }
 
 /// The firmware identifier of `structure` set up from the table `view`.
-fn identifier<T: TableScalar, F: IdField<T>, const M: usize, const N: usize>(
+fn identifier<T: TableScalar, F: IdField<T>, const M: usize, const N: usize, R: Factor<F>>(
     view: &TableView<T>,
     structure: Structure,
-) -> Identifier<T, F, NQ, NP, M, N> {
+) -> Identifier<T, F, NQ, NP, M, N, R> {
     let config = Config::new(structure, rotorid::core::table::TableSetup::scaling(view))
         .with_lambda(T::lit(0.999))
         .with_steady(SteadyPolicy::off());
-    Identifier::<T, F, NQ, NP, M, N>::new(config).unwrap()
+    Identifier::<T, F, NQ, NP, M, N, R>::new(config).unwrap()
 }
 
 /// One sample narrowed to `T`.
@@ -110,14 +112,24 @@ fn sample<T: Real>(s: &Sample) -> (T, [Complex<T>; NQ]) {
     )
 }
 
-/// Runs the long stream; the estimates at every checkpoint.
+/// Runs the long stream (dense filter); the estimates at every checkpoint.
 fn run<T: TableScalar, F: IdField<T>, const M: usize, const N: usize>(
     blob: &[u8],
     structure: Structure,
     meas: &Measurements,
 ) -> Vec<Check> {
+    run_with::<T, F, M, N, DenseFactor<F, M>>(blob, structure, meas)
+}
+
+/// Runs the long stream with filter state `R`; the estimates at every
+/// checkpoint.
+fn run_with<T: TableScalar, F: IdField<T>, const M: usize, const N: usize, R: Factor<F>>(
+    blob: &[u8],
+    structure: Structure,
+    meas: &Measurements,
+) -> Vec<Check> {
     let view = TableView::<T>::parse(blob).unwrap();
-    let mut id = identifier::<T, F, M, N>(&view, structure);
+    let mut id = identifier::<T, F, M, N, R>(&view, structure);
     let top = T::lit(top_speed(meas));
     let mut out = Vec::new();
     for (step, i) in order(meas.samples.len(), STEPS).enumerate() {
@@ -163,28 +175,42 @@ fn gaps(a: &Check, b: &Check) -> (f64, f64, f64) {
     (gk, gc, gu)
 }
 
-/// The f32 and f64 runs of `structure` (checkpoints of each).
+/// The f32 and f64 runs of `structure` (checkpoints of each): the dense
+/// filter in both, or with `sqrt_free` the square-root-free block filter
+/// in f32 (order-1 structures) against the dense filter in f64.
 fn runs(
     structure: Structure,
     blob32: &[u8],
     blob64: &[u8],
     meas: &Measurements,
+    sqrt_free: bool,
 ) -> (Vec<Check>, Vec<Check>) {
     use rotorid::core::Formulation::{Paper, Physical};
-    match (structure.formulation, structure.order) {
-        (Physical, 1) => (
+    match (structure.formulation, structure.order, sqrt_free) {
+        (Physical, 1, true) => (
+            run_with::<f32, f32, 22, 8, SqrtFreeFactor<f32, 4, 4, 6>>(blob32, structure, meas),
+            run::<f64, f64, 22, 8>(blob64, structure, meas),
+        ),
+        (Paper, 1, true) => (
+            run_with::<f32, Complex<f32>, 19, 4, SqrtFreeFactor<Complex<f32>, 4, 4, 3>>(
+                blob32, structure, meas,
+            ),
+            run::<f64, Complex<f64>, 19, 4>(blob64, structure, meas),
+        ),
+        (_, _, true) => panic!("no square-root-free identifier type for {structure:?}"),
+        (Physical, 1, false) => (
             run::<f32, f32, 22, 8>(blob32, structure, meas),
             run::<f64, f64, 22, 8>(blob64, structure, meas),
         ),
-        (Physical, 3) => (
+        (Physical, 3, false) => (
             run::<f32, f32, 54, 8>(blob32, structure, meas),
             run::<f64, f64, 54, 8>(blob64, structure, meas),
         ),
-        (Paper, 1) => (
+        (Paper, 1, false) => (
             run::<f32, Complex<f32>, 19, 4>(blob32, structure, meas),
             run::<f64, Complex<f64>, 19, 4>(blob64, structure, meas),
         ),
-        (Paper, 2) => (
+        (Paper, 2, false) => (
             run::<f32, Complex<f32>, 27, 4>(blob32, structure, meas),
             run::<f64, Complex<f64>, 27, 4>(blob64, structure, meas),
         ),
@@ -201,9 +227,10 @@ fn compare(
     blob32: &[u8],
     blob64: &[u8],
     meas: &Measurements,
+    sqrt_free: bool,
 ) -> (String, Vec<String>) {
     let mut problems = Vec::new();
-    let (r32, r64) = runs(structure, blob32, blob64, meas);
+    let (r32, r64) = runs(structure, blob32, blob64, meas, sqrt_free);
     let n = meas.samples.len();
     let first_sweep = n.div_ceil(EVERY);
     let mut worst = (0.0f64, 0.0f64, 0.0f64);
@@ -320,7 +347,7 @@ fn f32_tracks_f64_over_20000_updates() {
         add_noise(&mut noisy, 0.001, 3).unwrap();
         for (noise, meas) in [(0.0, &clean), (0.001, &noisy)] {
             for structure in structures {
-                let (row, p) = compare(case, structure, noise, &blob32, &blob64, meas);
+                let (row, p) = compare(case, structure, noise, &blob32, &blob64, meas, false);
                 println!("{row}");
                 table.push_str(&row);
                 table.push('\n');
@@ -342,6 +369,32 @@ fn f32_tracks_f64_over_20000_updates() {
              measures; regenerate it with\n  ROTORID_WRITE_README=1 cargo test --test lib \
              identify::precision::f32_tracks_f64\nthe table measured now:\n{table}"
         ));
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// The square-root-free block filter (`rotorid_core::sqrtfree`) in the f32
+/// identifier against the dense one in f64, case 4.1, `physical` 1 and
+/// `paper` 1, with and without noise: within the same tolerances as the
+/// Givens filter's f32 run, and no growth of the gap over the 20000
+/// updates (the README's "Firmware" section gives the rows).
+#[test]
+fn square_root_free_f32_tracks_f64_over_20000_updates() {
+    let speeds = sweep(10.0, 15000.0, 5.0);
+    let model = RotorModel::paper();
+    let tables = rotorid::tables::build(&model, &speeds).unwrap();
+    let blob32 = tables.to_blob(Scalar::F32).unwrap();
+    let blob64 = tables.to_blob(Scalar::F64).unwrap();
+    let clean = simulate(&model, &speeds);
+    let mut noisy = clean.clone();
+    add_noise(&mut noisy, 0.001, 3).unwrap();
+    let mut problems = Vec::new();
+    for (noise, meas) in [(0.0, &clean), (0.001, &noisy)] {
+        for structure in [Structure::physical(1), Structure::paper(1)] {
+            let (row, p) = compare("4.1", structure, noise, &blob32, &blob64, meas, true);
+            println!("square-root-free {row}");
+            problems.extend(p);
+        }
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
@@ -371,8 +424,8 @@ fn ten_million_f32_updates_stay_within_the_f32_bound() {
     let view64 = TableView::<f64>::parse(&blob64).unwrap();
     let mut meas = simulate(&model, &speeds);
     add_noise(&mut meas, 0.001, 3).unwrap();
-    let mut id32 = identifier::<f32, f32, 22, 8>(&view32, structure);
-    let mut id64 = identifier::<f64, f64, 22, 8>(&view64, structure);
+    let mut id32 = identifier::<f32, f32, 22, 8, DenseFactor<f32, 22>>(&view32, structure);
+    let mut id64 = identifier::<f64, f64, 22, 8, DenseFactor<f64, 22>>(&view64, structure);
     let (tol_k, tol_c, tol_u) = tolerances(structure);
     let finite = |w: &Wide| {
         w.0.iter()
