@@ -596,9 +596,10 @@ where
     if dn <= T::zero() {
         return None;
     }
-    let inv = T::one() / dn;
-    let sbar = x.conjugate().scale(*delta * inv);
-    *delta *= *d * inv;
+    // `t = delta / d'`: `sbar = t x^*`, `delta' = t d`.
+    let t = *delta / dn;
+    let sbar = x.conjugate().scale(t);
+    *delta = t * *d;
     *d = dn;
     Some(sbar)
 }
