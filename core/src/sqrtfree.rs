@@ -249,7 +249,8 @@ where
     ///
     /// Errors (state untouched): `Dimension` (lengths, or a row with
     /// non-zeros in two blocks), `InvalidLambda`, `NonFinite`, `OutOfRange`
-    /// (an entry beyond [`input_limit`]).
+    /// (an entry beyond [`input_limit`], or an update whose result would
+    /// not be finite at the precision, see the module documentation).
     pub fn update_rows(
         &mut self,
         u: &[F],
@@ -261,6 +262,7 @@ where
         let m = Self::SHAPE.unknowns();
         let mut blocks = [u16::MAX; BLOCKS_KEPT];
         BlockFactor::<F, NB, W, S>::validate(u, d, lambda, xi, gamma, &mut blocks, input_limit())?;
+        let saved = self.clone();
         if lambda != T::one() {
             self.forget(lambda);
         }
@@ -287,7 +289,7 @@ where
             self.fold_shared(&mut r);
             (*xj, *gj) = r.result();
         }
-        Ok(())
+        self.commit_or_restore(saved)
     }
 
     /// One update with `N = d.len()` rows given by their structure: row `j`
@@ -298,7 +300,8 @@ where
     ///
     /// Errors (state untouched): `Dimension` (lengths, or a block index
     /// `>= NB`), `InvalidLambda`, `NonFinite`, `OutOfRange` (an entry
-    /// beyond [`input_limit`]).
+    /// beyond [`input_limit`], or an update whose result would not be
+    /// finite at the precision).
     #[allow(clippy::too_many_arguments)]
     pub fn update_block_rows(
         &mut self,
@@ -335,21 +338,60 @@ where
                 FilterError::NonFinite
             });
         }
+        let saved = self.clone();
         if lambda != T::one() {
             self.forget(lambda);
         }
+        // Rows of `c` by chunks (`chunks_exact(0)` would panic: with `S = 0`
+        // every row's shared part is the empty array).
+        let mut cs = c.chunks_exact(S.max(1));
         let rows = blocks
             .iter()
             .zip(d)
-            .zip(a.chunks_exact(W).zip(c.chunks_exact(S)))
+            .zip(a.chunks_exact(W))
             .zip(xi.iter_mut().zip(gamma));
-        for (((&b, &dj), (aj, cj)), (xj, gj)) in rows {
-            let (Ok(aj), Ok(cj)) = (<&[F; W]>::try_from(aj), <&[F; S]>::try_from(cj)) else {
+        for (((&b, &dj), aj), (xj, gj)) in rows {
+            let cj = if S == 0 { Some(&[][..]) } else { cs.next() };
+            let (Ok(aj), Some(Ok(cj))) = (<&[F; W]>::try_from(aj), cj.map(<&[F; S]>::try_from))
+            else {
                 continue;
             };
             (*xj, *gj) = self.fold_row(b.min(NB - 1), aj, cj, dj);
         }
-        Ok(())
+        self.commit_or_restore(saved)
+    }
+
+    /// Ends an update: keeps it if every stored entry is finite, else puts
+    /// `saved` (the state before the update) back and reports
+    /// `OutOfRange`. Squares and ratios of in-range data can still leave
+    /// the type's range here (entries of `U` are `R_ik / R_ii`, the working
+    /// row is the Givens row over `sqrt(delta)`), where the Givens filters'
+    /// entries stay bounded by the data's column norms; the check makes such
+    /// an update an error that changes nothing (found by the
+    /// `sqrtfree_update` fuzz target: rows of `1e-20` in `f32`, whose
+    /// squares are subnormal, after forgetting had flushed `d` to zero).
+    fn commit_or_restore(&mut self, saved: Self) -> Result<(), FilterError> {
+        let max = T::max_value().unwrap_or_else(T::one);
+        let fin = |ok: bool, x: &F| ok & (x.real().abs() <= max) & (x.imaginary().abs() <= max);
+        let fin_t = |ok: bool, x: &T| ok & (x.abs() <= max);
+        let ok = self.db.as_flattened().iter().fold(true, fin_t)
+            & self.ds.iter().fold(true, fin_t)
+            & self.ub.as_flattened().as_flattened().iter().fold(true, fin)
+            & self
+                .coupling
+                .as_flattened()
+                .as_flattened()
+                .iter()
+                .fold(true, fin)
+            & self.us.as_flattened().iter().fold(true, fin)
+            & self.qb.as_flattened().iter().fold(true, fin)
+            & self.qs.iter().fold(true, fin);
+        if ok {
+            Ok(())
+        } else {
+            *self = saved;
+            Err(FilterError::OutOfRange)
+        }
     }
 
     /// Back-substitution `U w = q` (`w` has `M` entries, block-then-shared
@@ -959,6 +1001,26 @@ mod tests {
     fn agrees_with_the_givens_filters_f32() {
         compare::<f32, f32, 4, 4, 6, 22, 8>(0.999, 300, r32, 2e-4);
         compare::<Complex<f32>, f32, 4, 4, 3, 19, 4>(0.999, 300, c32, 2e-4);
+    }
+
+    #[test]
+    fn an_update_that_would_overflow_is_rejected_and_changes_nothing() {
+        // Found by the `sqrtfree_update` fuzz target: forgetting flushes
+        // `d = 2.4e-38 * 7.1e-15` to zero in f32, then a row of `8.4e-21`
+        // has a subnormal square and `delta / d'` overflows.
+        let mut f = SqrtFreeQrdRls::<f32, 1, 1, 0>::new(7.077_681_5e-15, 2.350_988_6e-38).unwrap();
+        let before = f.clone();
+        let (mut xi, mut gamma) = ([0.0f32; 2], [0.0f32; 2]);
+        let x = 8.370_678e-21f32;
+        assert_eq!(
+            f.update_block_rows(&[0, 0], &[x, x], &[], &[x, x], &mut xi, &mut gamma),
+            Err(FilterError::OutOfRange)
+        );
+        assert_eq!(f, before);
+        // The same rows at order one are fine.
+        assert!(f
+            .update_block_rows(&[0, 0], &[1.0, 1.0], &[], &[1.0, 1.0], &mut xi, &mut gamma)
+            .is_ok());
     }
 
     #[test]
