@@ -861,8 +861,8 @@ pub type PhysicalBlockIdentifier<
 
 /// Paper-structure identifier with the square-root-free block filter
 /// ([`crate::sqrtfree`]): the layout of [`PaperBlockIdentifier`], the same
-/// estimates to round-off, fewer instructions per update, entries limited
-/// to [`crate::sqrtfree::input_limit`].
+/// estimates to round-off, fewer instructions per update; an update whose
+/// arithmetic would leave the range is rejected (see [`crate::sqrtfree`]).
 pub type PaperSqrtFreeIdentifier<
     T,
     const NQ: usize,
@@ -875,8 +875,9 @@ pub type PaperSqrtFreeIdentifier<
 
 /// Physical-structure identifier with the square-root-free block filter
 /// ([`crate::sqrtfree`]): the layout of [`PhysicalBlockIdentifier`], the
-/// same estimates to round-off, fewer instructions per update, entries
-/// limited to [`crate::sqrtfree::input_limit`].
+/// same estimates to round-off, fewer instructions per update; an update
+/// whose arithmetic would leave the range is rejected (see
+/// [`crate::sqrtfree`]).
 pub type PhysicalSqrtFreeIdentifier<
     T,
     const NQ: usize,

@@ -54,21 +54,30 @@
 //!
 //! # Input range
 //!
-//! The squares `d_i` and `delta |x_i|^2` are formed directly, so entries are
-//! limited to [`input_limit`] `= T::MAX^(1/4)` (about `4.3e9` in `f32`,
-//! `1.3e77` in `f64`) instead of the Givens filters' `sqrt(T::MAX)`: a
-//! column of `n` such rows keeps `d_i <= n sqrt(T::MAX)`. Entries of `U`
-//! are ratios `R_ik / R_ii`: a factor whose diagonal spans many decades
-//! (a long-unexcited direction under forgetting) makes them, and the
-//! working row, large. The Givens filters of [`crate::blockqrd`] and
-//! [`crate::qrdrls`], whose entries stay bounded by the data's column norms,
-//! remain the range-safe reference and the identifier's filter; this one is
-//! the fast update for scaled regressions (the identification's unknowns
-//! are scaled to order one, [`crate::scaling`]).
+//! The squares `d_i` and `delta |x_i|^2` are formed directly, and entries
+//! of `U` are ratios `R_ik / R_ii`: a factor whose diagonal spans many
+//! decades (a long-unexcited direction under forgetting) makes them, and
+//! the working row `x = y / sqrt(delta)`, large, where the Givens filters'
+//! entries stay bounded by the data's column norms. No bound on the
+//! entries keeps every update finite, so none is imposed: entries must be
+//! finite, and an update whose result would not be finite at the precision
+//! is undone and reported. Each update keeps a copy of the state, folds its
+//! rows, and checks that every stored entry (and, for compact rows, every
+//! returned `xi_j`, `gamma_j`) is finite; otherwise it puts the copy back
+//! and returns `NonFinite` if an input was not finite, `OutOfRange` if the
+//! arithmetic left the range. A non-finite input cannot pass unseen: every
+//! entry of a row is the pivot entry of some rotation, where it makes `d_i`
+//! non-finite, and a non-finite right-hand side reaches `q` or `xi_j`. The
+//! Givens filters of [`crate::blockqrd`] and [`crate::qrdrls`] remain the
+//! range-safe reference and the identifier's filter; this one is the fast
+//! update for scaled regressions (the identification's unknowns are scaled
+//! to order one, [`crate::scaling`]).
 //!
-//! Bad input is rejected before anything is written, as in
-//! [`crate::blockqrd`] (the same checks and errors, with the tighter
-//! limit).
+//! Rows of `M` entries are checked before anything is written, as in
+//! [`crate::blockqrd`] (lengths, forgetting factor, finiteness, one block
+//! per row); compact rows are checked for lengths, block indices and
+//! forgetting factor first, for finiteness by the check after the fold
+//! (a rejected update changes nothing either way).
 //!
 //! # Rows
 //!
@@ -111,12 +120,6 @@ use crate::qrdrls::{self, FilterError};
 use crate::Real;
 use nalgebra::ComplexField;
 
-/// Largest entry magnitude (real or imaginary part) the square-root-free
-/// filter accepts: `T::MAX^(1/4)` (`2^32` in `f32`, `2^256` in `f64`).
-pub fn input_limit<T: Real>() -> T {
-    T::max_value().unwrap_or_else(T::one).sqrt().sqrt()
-}
-
 /// The square-root-free factor `R = D^(1/2) U`, `p = D^(1/2) q` of the
 /// block-arrowhead layout `(NB, W, S)` (see the module documentation).
 ///
@@ -124,7 +127,7 @@ pub fn input_limit<T: Real>() -> T {
 /// the strictly upper entries of `U` (the `W x W` blocks and the `S x S`
 /// shared part keep their diagonal slots at zero, the unit diagonal is
 /// implied), the coupling blocks `D_b^(-1/2) C_b`, and `q`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SqrtFreeFactor<F: ComplexField, const NB: usize, const W: usize, const S: usize> {
     db: [[F::RealField; W]; NB],
     ub: [[[F; W]; W]; NB],
@@ -248,9 +251,9 @@ where
     /// and conversion factors `gamma`.
     ///
     /// Errors (state untouched): `Dimension` (lengths, or a row with
-    /// non-zeros in two blocks), `InvalidLambda`, `NonFinite`, `OutOfRange`
-    /// (an entry beyond [`input_limit`], or an update whose result would
-    /// not be finite at the precision, see the module documentation).
+    /// non-zeros in two blocks), `InvalidLambda`, `NonFinite` (an entry),
+    /// `OutOfRange` (an update whose result would not be finite at the
+    /// precision, see the module documentation).
     pub fn update_rows(
         &mut self,
         u: &[F],
@@ -261,8 +264,9 @@ where
     ) -> Result<(), FilterError> {
         let m = Self::SHAPE.unknowns();
         let mut blocks = [u16::MAX; BLOCKS_KEPT];
-        BlockFactor::<F, NB, W, S>::validate(u, d, lambda, xi, gamma, &mut blocks, input_limit())?;
-        let saved = self.clone();
+        let max = T::max_value().unwrap_or_else(T::one);
+        BlockFactor::<F, NB, W, S>::validate(u, d, lambda, xi, gamma, &mut blocks, max)?;
+        let saved = *self;
         if lambda != T::one() {
             self.forget(lambda);
         }
@@ -289,7 +293,7 @@ where
             self.fold_shared(&mut r);
             (*xj, *gj) = r.result();
         }
-        self.commit_or_restore(saved)
+        self.commit_or_restore(&saved, true)
     }
 
     /// One update with `N = d.len()` rows given by their structure: row `j`
@@ -299,9 +303,10 @@ where
     /// `lambda` for this step. Nothing scans the zeros.
     ///
     /// Errors (state untouched): `Dimension` (lengths, or a block index
-    /// `>= NB`), `InvalidLambda`, `NonFinite`, `OutOfRange` (an entry
-    /// beyond [`input_limit`], or an update whose result would not be
-    /// finite at the precision).
+    /// `>= NB`), `InvalidLambda`, `NonFinite` (an entry), `OutOfRange` (an
+    /// update whose result would not be finite at the precision). Entries
+    /// are checked for finiteness after the fold, by the same check as its
+    /// result (module documentation).
     #[allow(clippy::too_many_arguments)]
     pub fn update_block_rows(
         &mut self,
@@ -324,21 +329,7 @@ where
             return Err(FilterError::Dimension);
         }
         qrdrls::validate_lambda(lambda)?;
-        let limit = input_limit::<T>();
-        let within =
-            |ok: bool, x: &F| ok & (x.real().abs() <= limit) & (x.imaginary().abs() <= limit);
-        if !(a.iter().fold(true, within)
-            & c.iter().fold(true, within)
-            & d.iter().fold(true, within))
-        {
-            let finite = a.iter().chain(c).chain(d).all(|x| x.is_finite());
-            return Err(if finite {
-                FilterError::OutOfRange
-            } else {
-                FilterError::NonFinite
-            });
-        }
-        let saved = self.clone();
+        let saved = *self;
         if lambda != T::one() {
             self.forget(lambda);
         }
@@ -349,7 +340,7 @@ where
             .iter()
             .zip(d)
             .zip(a.chunks_exact(W))
-            .zip(xi.iter_mut().zip(gamma));
+            .zip(xi.iter_mut().zip(gamma.iter_mut()));
         for (((&b, &dj), aj), (xj, gj)) in rows {
             let cj = if S == 0 { Some(&[][..]) } else { cs.next() };
             let (Ok(aj), Some(Ok(cj))) = (<&[F; W]>::try_from(aj), cj.map(<&[F; S]>::try_from))
@@ -358,40 +349,45 @@ where
             };
             (*xj, *gj) = self.fold_row(b.min(NB - 1), aj, cj, dj);
         }
-        self.commit_or_restore(saved)
+        let out = all_finite(xi) & all_finite_real(gamma);
+        self.commit_or_restore(&saved, out).map_err(|e| {
+            if a.iter().chain(c).chain(d).all(|x| x.is_finite()) {
+                e
+            } else {
+                FilterError::NonFinite
+            }
+        })
     }
 
-    /// Ends an update: keeps it if every stored entry is finite, else puts
-    /// `saved` (the state before the update) back and reports
-    /// `OutOfRange`. Squares and ratios of in-range data can still leave
-    /// the type's range here (entries of `U` are `R_ik / R_ii`, the working
+    /// Ends an update: keeps it if `ok` (the caller's outputs are finite)
+    /// and every stored entry is finite, else puts `saved` (the state
+    /// before the update) back and reports `OutOfRange`. Squares and ratios
+    /// of finite data can leave the type's range here (entries of `U` are `R_ik / R_ii`, the working
     /// row is the Givens row over `sqrt(delta)`), where the Givens filters'
     /// entries stay bounded by the data's column norms; the check makes such
     /// an update an error that changes nothing (found by the
     /// `sqrtfree_update` fuzz target: rows of `1e-20` in `f32`, whose
     /// squares are subnormal, after forgetting had flushed `d` to zero).
-    fn commit_or_restore(&mut self, saved: Self) -> Result<(), FilterError> {
-        let max = T::max_value().unwrap_or_else(T::one);
-        let fin = |ok: bool, x: &F| ok & (x.real().abs() <= max) & (x.imaginary().abs() <= max);
-        let fin_t = |ok: bool, x: &T| ok & (x.abs() <= max);
-        let ok = self.db.as_flattened().iter().fold(true, fin_t)
-            & self.ds.iter().fold(true, fin_t)
-            & self.ub.as_flattened().as_flattened().iter().fold(true, fin)
-            & self
-                .coupling
-                .as_flattened()
-                .as_flattened()
-                .iter()
-                .fold(true, fin)
-            & self.us.as_flattened().iter().fold(true, fin)
-            & self.qb.as_flattened().iter().fold(true, fin)
-            & self.qs.iter().fold(true, fin);
-        if ok {
+    fn commit_or_restore(&mut self, saved: &Self, ok: bool) -> Result<(), FilterError> {
+        if ok & self.is_finite() {
             Ok(())
         } else {
-            *self = saved;
+            *self = *saved;
             Err(FilterError::OutOfRange)
         }
+    }
+
+    /// Whether every stored entry (`D`, `U`, `D^(-1/2) C`, `q`) is finite:
+    /// true after every accepted update (the check that ends one).
+    #[inline(always)]
+    pub fn is_finite(&self) -> bool {
+        all_finite_real(self.db.as_flattened())
+            & all_finite_real(&self.ds)
+            & all_finite(self.ub.as_flattened().as_flattened())
+            & all_finite(self.coupling.as_flattened().as_flattened())
+            & all_finite(self.us.as_flattened())
+            & all_finite(self.qb.as_flattened())
+            & all_finite(&self.qs)
     }
 
     /// Back-substitution `U w = q` (`w` has `M` entries, block-then-shared
@@ -442,9 +438,15 @@ where
     /// The same factor in the Givens filters' form, `R = D^(1/2) U`,
     /// `p = D^(1/2) q`, written into `out` (for the readers of a
     /// [`BlockFactor`]: covariance, conditioning, the dense form).
+    ///
+    /// Errors: `OutOfRange` if an entry of the Givens form is not finite
+    /// at the precision (`out` is written all the same). The stored
+    /// factor is always finite, but a product `d_i^(1/2) q_i` can exceed
+    /// `T::MAX` where `q_i` alone does not (in `f32`, `d_i = 6.3e4` and
+    /// `q_i = -1.4e36`, found by the `sqrtfree_update` fuzz target).
     // index proven: `b < NB`, `i, k < W` or `< S`.
     #[allow(clippy::indexing_slicing)]
-    pub fn to_block(&self, out: &mut BlockFactor<F, NB, W, S>) {
+    pub fn to_block(&self, out: &mut BlockFactor<F, NB, W, S>) -> Result<(), FilterError> {
         let v = out.view_mut();
         for b in 0..NB {
             for i in 0..W {
@@ -479,6 +481,17 @@ where
             }
             v.ps[i] = self.qs[i].scale(r);
         }
+        let v = out.view();
+        let finite = all_finite(v.diag)
+            & all_finite(v.coupling)
+            & all_finite(v.shared)
+            & all_finite(v.pb)
+            & all_finite(v.ps);
+        if finite {
+            Ok(())
+        } else {
+            Err(FilterError::OutOfRange)
+        }
     }
 
     /// Conditioning indicator `min_i |R_ii| / max_i |R_ii|`
@@ -497,6 +510,27 @@ where
 
 /// Number of pivots written out one by one in [`SqrtFreeFactor`]'s kernel.
 const UNROLL: usize = 16;
+
+/// Whether every entry of `xs` is finite: `|x| <= T::MAX` (false for NaN
+/// and the infinities), folded without branches so that it vectorises.
+#[inline(always)]
+fn all_finite_real<T: Real>(xs: &[T]) -> bool {
+    let max = T::max_value().unwrap_or_else(T::one);
+    xs.iter().fold(true, |ok, x| ok & (x.abs() <= max))
+}
+
+/// [`all_finite_real`] for field entries (real and imaginary parts).
+#[inline(always)]
+fn all_finite<F, T>(xs: &[F]) -> bool
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    let max = T::max_value().unwrap_or_else(T::one);
+    xs.iter().fold(true, |ok, x| {
+        ok & (x.real().abs() <= max) & (x.imaginary().abs() <= max)
+    })
+}
 
 /// The working row `sqrt(delta) (xb, xs, e)` of one fold: block entries,
 /// shared entries, right-hand side and weight.
@@ -959,7 +993,7 @@ mod tests {
         assert!(worst_g < tol, "gamma: {worst_g:e}");
         // The factor in Givens form against the block Givens filter's.
         let mut as_block = BlockFactor::<F, NB, W, S>::zeroed();
-        sf.factor().to_block(&mut as_block);
+        sf.factor().to_block(&mut as_block).unwrap();
         let (mut r1, mut p1) = (vec![F::zero(); M * M], vec![F::zero(); M]);
         let (mut r2, mut p2) = (vec![F::zero(); M * M], vec![F::zero(); M]);
         as_block.view().to_dense(&mut r1, &mut p1).unwrap();
@@ -1031,7 +1065,8 @@ mod tests {
         let (mut xi, mut gamma) = ([0.0; 1], [0.0; 1]);
         f.update_rows(&u, &[1.0], &mut xi, &mut gamma).unwrap();
         let before = f.clone();
-        let big = input_limit::<f64>() * 2.0;
+        // Finite, but its square is not: the update would leave the range.
+        let big = 1e200;
         let cases: [(&[f64], &[f64], FilterError); 5] = [
             (
                 &[f64::NAN, 0.5, 0.0, 0.0, 1.0],
@@ -1051,7 +1086,7 @@ mod tests {
             assert_eq!(f.update_rows(u, d, &mut xi, &mut gamma), Err(err));
             assert_eq!(f, before);
         }
-        let compact: [(&[usize], &[f64], &[f64], &[f64], FilterError); 4] = [
+        let compact: [(&[usize], &[f64], &[f64], &[f64], FilterError); 6] = [
             (&[2], &[1.0, 0.5], &[1.0], &[1.0], FilterError::Dimension),
             (&[0], &[1.0], &[1.0], &[1.0], FilterError::Dimension),
             (
@@ -1062,6 +1097,20 @@ mod tests {
                 FilterError::NonFinite,
             ),
             (&[1], &[1.0, 0.5], &[-big], &[1.0], FilterError::OutOfRange),
+            (
+                &[1],
+                &[1.0, 0.5],
+                &[f64::INFINITY],
+                &[1.0],
+                FilterError::NonFinite,
+            ),
+            (
+                &[1],
+                &[1.0, 0.5],
+                &[1.0],
+                &[f64::NAN],
+                FilterError::NonFinite,
+            ),
         ];
         for (b, a, c, d, err) in compact {
             assert_eq!(
@@ -1074,6 +1123,74 @@ mod tests {
             SqrtFreeQrdRls::<f64, 2, 2, 1>::new(1.5, 1e-3),
             Err(FilterError::InvalidLambda)
         );
+    }
+
+    #[test]
+    fn large_finite_entries_are_accepted_when_the_result_is_finite() {
+        // No input bound: `1e100` squares to `1e200`, within `f64`.
+        let mut f = SqrtFreeQrdRls::<f64, 2, 2, 1>::new(1.0, 1e-3).unwrap();
+        let (mut xi, mut gamma) = ([0.0; 2], [0.0; 2]);
+        let rows = f.update_block_rows(
+            &[0, 1],
+            &[1e100, 1.0, 2.0, 1e100],
+            &[1.0, 1.0],
+            &[1e100, 1e100],
+            &mut xi,
+            &mut gamma,
+        );
+        assert_eq!(rows, Ok(()));
+        assert!(xi.iter().chain(&gamma).all(|x| x.is_finite()));
+    }
+
+    #[test]
+    fn a_finite_factor_whose_givens_form_overflows_reports_it() {
+        // The fuzz case: q = d / a grows to -1.4e36 while d_i = 6.3e4, so
+        // the stored factor is finite but p = d^(1/2) q exceeds f32::MAX.
+        let mut f = SqrtFreeQrdRls::<f32, 1, 1, 0>::new(2.910383e-11, 2.7015305e-20).unwrap();
+        let (mut xi, mut gamma) = ([0.0f32; 2], [0.0f32; 2]);
+        f.update_rows(
+            &[8.3706784e-21; 2],
+            &[8.3706784e-21; 2],
+            &mut xi,
+            &mut gamma,
+        )
+        .unwrap();
+        f.update_block_rows(
+            &[0, 0],
+            &[158.00032, 195.26274],
+            &[],
+            &[-2.3961028e38, -2.595487e38],
+            &mut xi,
+            &mut gamma,
+        )
+        .unwrap();
+        assert!(f.factor().is_finite());
+        let mut block = BlockFactor::<f32, 1, 1, 0>::zeroed();
+        assert_eq!(
+            f.factor().to_block(&mut block),
+            Err(FilterError::OutOfRange)
+        );
+        // The weights come from `U w = q`, not from the Givens form.
+        let mut w = [0.0f32; 1];
+        f.weights(&mut w).unwrap();
+        assert!(w[0].is_finite());
+    }
+
+    #[test]
+    fn a_non_finite_right_hand_side_no_rotation_touches_is_rejected() {
+        // Forgetting flushes every `d_i` to zero in f32 and the row is zero:
+        // every pivot is skipped, so only `xi` sees the NaN.
+        let mut f = SqrtFreeQrdRls::<f32, 1, 2, 1>::new(1e-30, 1e-30).unwrap();
+        let (mut xi, mut gamma) = ([0.0f32; 1], [0.0f32; 1]);
+        let zero = [0.0f32; 2];
+        f.update_block_rows(&[0], &zero, &[0.0], &[0.0], &mut xi, &mut gamma)
+            .unwrap();
+        let before = f.clone();
+        assert_eq!(
+            f.update_block_rows(&[0], &zero, &[0.0], &[f32::NAN], &mut xi, &mut gamma),
+            Err(FilterError::NonFinite)
+        );
+        assert_eq!(f, before);
     }
 
     #[test]
