@@ -3,7 +3,7 @@
 # thumbv7em-none-eabihf, print its footprint, run it under QEMU's MPS2-AN386
 # board model (Cortex-M4 with FPU) and check that its estimates equal those
 # of the host f32 run of the same code (examples/firmware_host.rs); the same
-# for the build with the square-root-free block filter (--features sqrt-free).
+# for the build with the Givens block filter (--features givens).
 #
 #   .ci/firmware.sh            build, footprint, QEMU run, comparison
 #   FIRMWARE_ICOUNT=1 .ci/firmware.sh
@@ -55,12 +55,12 @@ footprint() {
 echo "-- footprint"
 footprint "$ELF"
 
-# The same program with the square-root-free block filter.
-SF_ELF=$FW/target/sqrt-free/thumbv7em-none-eabihf/release/rotorid-firmware
-echo "-- firmware build with the square-root-free block filter (--features sqrt-free)"
-(cd "$FW" && cargo build --release --features sqrt-free --target-dir target/sqrt-free)
-echo "-- footprint (square-root-free)"
-footprint "$SF_ELF"
+# The same program with the Givens block filter.
+GV_ELF=$FW/target/givens/thumbv7em-none-eabihf/release/rotorid-firmware
+echo "-- firmware build with the Givens block filter (--features givens)"
+(cd "$FW" && cargo build --release --features givens --target-dir target/givens)
+echo "-- footprint (Givens block filter)"
+footprint "$GV_ELF"
 
 if ! command -v qemu-system-arm >/dev/null 2>&1; then
   echo "-- qemu-system-arm missing: trying to install it"
@@ -92,18 +92,18 @@ if [ ! -s "$OUT/target.est" ] || ! diff -u "$OUT/host.est" "$OUT/target.est"; th
 fi
 echo "firmware (QEMU Cortex-M4F) and host f32 estimates identical: $(wc -l <"$OUT/target.est") lines"
 
-echo "-- firmware run, square-root-free block filter"
+echo "-- firmware run, Givens block filter"
 timeout 300 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -semihosting -nographic \
-  -kernel "$SF_ELF" >"$OUT/target_sf.txt"
-cat "$OUT/target_sf.txt"
-cargo run --quiet --example firmware_host -- --sqrt-free >"$OUT/host_sf.txt"
-grep '^est ' "$OUT/target_sf.txt" >"$OUT/target_sf.est"
-grep '^est ' "$OUT/host_sf.txt" >"$OUT/host_sf.est"
-if [ ! -s "$OUT/target_sf.est" ] || ! diff -u "$OUT/host_sf.est" "$OUT/target_sf.est"; then
-  echo "error: the square-root-free firmware's estimates differ from the host f32 run (diff above)" >&2
+  -kernel "$GV_ELF" >"$OUT/target_gv.txt"
+cat "$OUT/target_gv.txt"
+cargo run --quiet --example firmware_host -- --givens >"$OUT/host_gv.txt"
+grep '^est ' "$OUT/target_gv.txt" >"$OUT/target_gv.est"
+grep '^est ' "$OUT/host_gv.txt" >"$OUT/host_gv.est"
+if [ ! -s "$OUT/target_gv.est" ] || ! diff -u "$OUT/host_gv.est" "$OUT/target_gv.est"; then
+  echo "error: the Givens-filter firmware's estimates differ from the host f32 run (diff above)" >&2
   exit 1
 fi
-echo "square-root-free firmware (QEMU) and host f32 estimates identical: $(wc -l <"$OUT/target_sf.est") lines"
+echo "Givens-filter firmware (QEMU) and host f32 estimates identical: $(wc -l <"$OUT/target_gv.est") lines"
 
 icount() {
   local ELF=$1
@@ -127,11 +127,11 @@ icount() {
 
 if [ "${FIRMWARE_ICOUNT:-0}" = 1 ]; then
   echo "-- instructions per update (QEMU, one instruction per translation block, exec trace)"
-  echo "block-structured filter (the firmware):"
+  echo "square-root-free block filter (the firmware, generated type Id):"
   icount "$ELF"
+  echo "Givens block filter (--features givens):"
+  icount "$GV_ELF"
   echo "dense filter (--features dense, same program otherwise):"
   (cd "$FW" && cargo build --release --features dense --target-dir target/dense)
   icount "$FW/target/dense/thumbv7em-none-eabihf/release/rotorid-firmware"
-  echo "square-root-free block filter (--features sqrt-free):"
-  icount "$SF_ELF"
 fi

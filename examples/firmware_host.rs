@@ -6,7 +6,7 @@
 //!
 //! ```sh
 //! cargo run --release --example firmware_host
-//! cargo run --release --example firmware_host -- --sqrt-free
+//! cargo run --release --example firmware_host -- --givens
 //! cargo run --release --example firmware_host -- --write-sweep examples/firmware/src/sweep.rs
 //! ```
 //!
@@ -29,13 +29,14 @@ mod sweep {
 #[path = "firmware/src/run.rs"]
 mod run;
 
-/// The firmware's identifier type (the generated `type Id`).
+/// The firmware's identifier type (the generated `type Id`, square-root-free
+/// block filter).
 type FwId = table::Id;
 
-/// The same run with the square-root-free block filter (the firmware's
-/// `sqrt-free` feature).
-#[path = "firmware_host/sqrt_free.rs"]
-mod sqrt_free;
+/// The same run with the Givens block filter (the firmware's `givens`
+/// feature).
+#[path = "firmware_host/givens.rs"]
+mod givens;
 
 use std::fmt::Write as _;
 
@@ -43,7 +44,7 @@ use std::fmt::Write as _;
 struct NoProbe;
 
 impl run::Probe for NoProbe {}
-impl sqrt_free::run::Probe for NoProbe {}
+impl givens::run::Probe for NoProbe {}
 
 /// Writes the sweep source (speeds in rad/s, phasors in m, f32).
 fn write_sweep(path: &str) -> Result<(), Box<dyn std::error::Error>> {
@@ -101,9 +102,9 @@ fn main() {
     let mut out = String::new();
     let result = match args.as_slice() {
         [] => run::run(&mut out, &mut NoProbe),
-        [flag] if flag == "--sqrt-free" => sqrt_free::run::run(&mut out, &mut NoProbe),
+        [flag] if flag == "--givens" => givens::run::run(&mut out, &mut NoProbe),
         _ => {
-            eprintln!("usage: firmware_host [--sqrt-free | --write-sweep PATH]");
+            eprintln!("usage: firmware_host [--givens | --write-sweep PATH]");
             std::process::exit(2);
         }
     };

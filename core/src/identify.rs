@@ -792,9 +792,15 @@ pub struct Estimates<T, const NQ: usize, const NP: usize> {
 /// [`PaperBlockIdentifier`], [`PhysicalBlockIdentifier`]), which stores
 /// only the blocks and updates in time linear in `N_b`, or its
 /// square-root-free form [`SqrtFreeFactor`] (aliases
-/// [`PaperSqrtFreeIdentifier`], [`PhysicalSqrtFreeIdentifier`]). The
-/// generated `type Id` of `rotorid tables` is the block-structured one. A block
-/// layout that is not the structure's is [`IdentifyError::Dimension`].
+/// [`PaperSqrtFreeIdentifier`], [`PhysicalSqrtFreeIdentifier`]), the
+/// fastest per update. The generated `type Id` of `rotorid tables` is the
+/// square-root-free one: the same estimates as the Givens filters to
+/// round-off, but a step whose arithmetic would leave the range of `T` is
+/// refused ([`IdentifyError::Filter`] with `OutOfRange`, state untouched)
+/// where the Givens filters' bounded entries go on; with the unknowns
+/// scaled to order one ([`crate::scaling`]) that takes data far outside
+/// any machine's. A block layout that is not the structure's is
+/// [`IdentifyError::Dimension`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Identifier<
     T,

@@ -69,9 +69,10 @@
 //! entry of a row is the pivot entry of some rotation, where it makes `d_i`
 //! non-finite, and a non-finite right-hand side reaches `q` or `xi_j`. The
 //! Givens filters of [`crate::blockqrd`] and [`crate::qrdrls`] remain the
-//! range-safe reference and the identifier's filter; this one is the fast
-//! update for scaled regressions (the identification's unknowns are scaled
-//! to order one, [`crate::scaling`]).
+//! range-safe reference and the desktop driver's filter; this one is the
+//! fast update for scaled regressions (the identification's unknowns are
+//! scaled to order one, [`crate::scaling`]) and the filter of the
+//! generated firmware identifier (`type Id` of `rotorid tables`).
 //!
 //! Rows of `M` entries are checked before anything is written, as in
 //! [`crate::blockqrd`] (lengths, forgetting factor, finiteness, one block

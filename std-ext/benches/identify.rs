@@ -1,11 +1,11 @@
 //! One identification step at the paper's size (2 bearings, 3 planes) on the
-//! firmware type: form the regression from given terms, scale, guard, Givens
+//! firmware type: form the regression from given terms, scale, guard, filter
 //! update; for each structure in f32 and f64, beside the bare filter update
 //! of the same size (the baseline: what the regression formation adds).
-//! The identifier runs with the block-structured filter (the generated
-//! `type Id`) and with the dense one; the bare filters are compared on rows
-//! of the identification's structure (one channel's block plus the shared
-//! unbalance columns), and the growth of the update cost with the number of
+//! The identifier runs with the square-root-free block filter (the generated
+//! `type Id`), the Givens block filter and the dense one; the bare filters
+//! are compared on rows of the identification's structure (one channel's
+//! block plus the shared unbalance columns), and the growth of the update cost with the number of
 //! bearings `N_b = 1, 2, 4, 8` (physical order 1, 3 planes, f64).
 //!
 //! `cargo bench --bench identify -- --warm-up-time 1 --measurement-time 3`
@@ -17,6 +17,7 @@ use rotorid::core::identify::{Config, IdField, Identifier, SteadyPolicy};
 use rotorid::core::parametrization::Structure;
 use rotorid::core::qrdrls::VectorQrdRls;
 use rotorid::core::scaling::ColumnScaling;
+use rotorid::core::sqrtfree::SqrtFreeFactor;
 use rotorid::core::Real;
 use rotorid::fe::assembly::FeModel;
 use rotorid::fe::response::{unbalance_response, Forcing};
@@ -117,6 +118,18 @@ fn bench_one<
     });
     g.bench_function("identifier_step_block", |bch| {
         let mut id = Identifier::<T, F, NQ, NP, M, N, BlockFactor<F, NQ, W, S>>::new(config)
+            .expect("config");
+        let mut i = 0;
+        bch.iter(|| {
+            i = (i + 1) % d.omega.len();
+            black_box(
+                id.update_with_terms(d.omega[i], &d.a[i], &d.b[i], &d.q[i])
+                    .expect("step"),
+            )
+        })
+    });
+    g.bench_function("identifier_step_sqrt_free", |bch| {
+        let mut id = Identifier::<T, F, NQ, NP, M, N, SqrtFreeFactor<F, NQ, W, S>>::new(config)
             .expect("config");
         let mut i = 0;
         bch.iter(|| {

@@ -1,8 +1,9 @@
 //! The firmware path (core only: f32 table blob, const-generic identifier
 //! set up from the blob's structure and scaling, the `Id` type of a
-//! generated table source, block-structured filter) against the desktop
-//! path (runtime sizes, dense filter, f32) on the same sweep: bit-identical
-//! estimates.
+//! generated table source) against the desktop path (runtime sizes, dense
+//! filter, f32) on the same sweep: with the Givens block filter,
+//! bit-identical estimates; with the square-root-free block filter (the
+//! generated `Id`), the same to f32 round-off.
 
 use crate::common::*;
 use num_complex::Complex;
@@ -132,11 +133,13 @@ fn firmware_and_desktop_paths_agree_in_f32() {
                 PaperIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view),
                 Err(IdentifyError::Structure { .. })
             ));
-            let fw = firmware_run(&blob, id, &meas);
-            // The square-root-free filter: the same estimates to f32 round-off.
-            let sf =
-                PhysicalSqrtFreeIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::from_table(&view).unwrap();
-            let sf = firmware_run(&blob, sf, &meas);
+            // The generated `Id` is the square-root-free filter: the same
+            // estimates to f32 round-off (checked below).
+            let sf = firmware_run(&blob, id, &meas);
+            // The Givens block filter: the desktop's kernel, bit for bit.
+            let fw =
+                PhysicalBlockIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::from_table(&view).unwrap();
+            let fw = firmware_run(&blob, fw, &meas);
             (fw, sf)
         } else {
             let sf =
@@ -191,7 +194,7 @@ fn firmware_and_desktop_paths_agree_in_f32() {
     // Type aliases are the same identifiers.
     let _ = PaperIdentifier::<f32, NQ, NP, 19, 4>::new;
     let _: fn(Config<f32>) -> Result<generated::Id, IdentifyError> =
-        PhysicalBlockIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::new;
+        PhysicalSqrtFreeIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::new;
 }
 
 /// The product paths end to end: `rotorid::tables::build` (banded

@@ -124,7 +124,7 @@ fn structure_and_scaling_from_the_command_line() {
         ),
         "pub const M: usize = STRUCTURE.n_unknowns(NQ / 2, NP);".to_string(),
         "pub const W: usize = rotorid_core::blockqrd::BlockShape::of(STRUCTURE, NQ / 2, NP).width;".to_string(),
-        "pub type Id = rotorid_core::identify::PaperBlockIdentifier<f64, NQ, NP, M, N, W, S>;".to_string(),
+        "pub type Id = rotorid_core::identify::PaperSqrtFreeIdentifier<f64, NQ, NP, M, N, W, S>;".to_string(),
     ] {
         assert!(text.lines().any(|l| l == line), "missing: {line}");
     }

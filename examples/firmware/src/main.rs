@@ -32,16 +32,16 @@ mod sweep {
 
 mod run;
 
-/// The identifier: the generated `type Id` (block-structured filter), or
-/// with the `dense` feature the same structure with the dense filter, or
-/// with the `sqrt-free` feature with the square-root-free block filter.
-#[cfg(not(any(feature = "dense", feature = "sqrt-free")))]
+/// The identifier: the generated `type Id` (square-root-free block
+/// filter), or with the `givens` feature the Givens block filter, or with
+/// the `dense` feature the dense filter (same structure).
+#[cfg(not(any(feature = "dense", feature = "givens")))]
 pub type FwId = table::Id;
-/// The identifier: the generated `type Id` (block-structured filter), or
-/// with the `dense` feature the same structure with the dense filter, or
-/// with the `sqrt-free` feature with the square-root-free block filter.
-#[cfg(all(feature = "sqrt-free", not(feature = "dense")))]
-pub type FwId = rotorid_core::identify::PhysicalSqrtFreeIdentifier<
+/// The identifier: the generated `type Id` (square-root-free block
+/// filter), or with the `givens` feature the Givens block filter, or with
+/// the `dense` feature the dense filter (same structure).
+#[cfg(all(feature = "givens", not(feature = "dense")))]
+pub type FwId = rotorid_core::identify::PhysicalBlockIdentifier<
     f32,
     { table::NQ },
     { table::NP },
@@ -50,8 +50,8 @@ pub type FwId = rotorid_core::identify::PhysicalSqrtFreeIdentifier<
     { table::W },
     { table::S },
 >;
-/// The identifier: the generated `type Id` (block-structured filter), or
-/// with the `dense` feature the same structure with the dense filter.
+/// The identifier: the generated `type Id` (square-root-free block
+/// filter), or with the `dense` feature the dense filter (same structure).
 #[cfg(feature = "dense")]
 pub type FwId = rotorid_core::identify::PhysicalIdentifier<
     f32,

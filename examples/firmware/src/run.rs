@@ -1,6 +1,6 @@
 //! The identification run of the firmware, shared word for word with its
 //! host check (`examples/firmware_host.rs`): the identifier `FwId` of the
-//! enclosing module (the generated table's `type Id`, block-structured
+//! enclosing module (the generated table's `type Id`, square-root-free block
 //! filter, f32, or another filter of the same structure) folds in the measured
 //! sweep and prints its estimates. Each value is printed as a fixed-point
 //! decimal (integer arithmetic on the `f32`, truncated) followed by its

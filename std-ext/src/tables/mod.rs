@@ -492,7 +492,7 @@ impl ModelTable {
     /// pub const N: usize = STRUCTURE.n_rows(NQ / 2);
     /// pub const W: usize = BlockShape::of(STRUCTURE, NQ / 2, NP).width;
     /// pub const S: usize = BlockShape::of(STRUCTURE, NQ / 2, NP).shared;
-    /// pub type Id = rotorid_core::identify::PhysicalBlockIdentifier<T, NQ, NP, M, N, W, S>; // or PaperBlockIdentifier
+    /// pub type Id = rotorid_core::identify::PhysicalSqrtFreeIdentifier<T, NQ, NP, M, N, W, S>; // or PaperSqrtFreeIdentifier
     /// pub static TABLE: rotorid_core::table::Table<T, NQ, NP, NS> = ..;
     /// ```
     ///
@@ -569,8 +569,8 @@ impl ModelTable {
             list(&self.plane_nodes)
         );
         let (ctor, id_alias) = match self.structure.formulation {
-            Formulation::Physical => ("physical", "PhysicalBlockIdentifier"),
-            Formulation::Paper => ("paper", "PaperBlockIdentifier"),
+            Formulation::Physical => ("physical", "PhysicalSqrtFreeIdentifier"),
+            Formulation::Paper => ("paper", "PaperSqrtFreeIdentifier"),
         };
         let order = self.structure.order;
         let _ = writeln!(
@@ -625,7 +625,7 @@ impl ModelTable {
         );
         let _ = writeln!(
             w,
-            "/// The firmware identifier for this table (block-structured filter): `Id::new(Config::new(STRUCTURE, SCALING))`."
+            "/// The firmware identifier for this table (square-root-free block filter): `Id::new(Config::new(STRUCTURE, SCALING))`."
         );
         let _ = writeln!(
             w,

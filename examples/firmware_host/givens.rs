@@ -1,9 +1,9 @@
 //! The firmware's run (`examples/firmware/src/run.rs`, the same source)
-//! with the square-root-free block filter, as the firmware's `sqrt-free`
-//! feature builds it.
+//! with the Givens block filter, as the firmware's `givens` feature builds
+//! it.
 
-/// The identifier with the square-root-free block filter.
-type FwId = rotorid_core::identify::PhysicalSqrtFreeIdentifier<
+/// The identifier with the Givens block filter.
+type FwId = rotorid_core::identify::PhysicalBlockIdentifier<
     f32,
     { super::table::NQ },
     { super::table::NP },
