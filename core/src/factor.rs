@@ -143,6 +143,22 @@ pub trait FilterState<F: ComplexField> {
         xi: &mut [F],
         gamma: &mut [F::RealField],
     ) -> Result<(), FilterError>;
+    /// Folds in `N` rows of `M` entries that the caller built in the block
+    /// layout's groups: `NB` consecutive groups of `N / NB` rows, group `b`
+    /// zero outside block `b` and the shared columns (the identification's
+    /// rows). A block filter may then read only those entries (the
+    /// square-root-free one does); by default this is [`Self::update_rows`],
+    /// which checks the structure.
+    fn update_grouped_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: F::RealField,
+        xi: &mut [F],
+        gamma: &mut [F::RealField],
+    ) -> Result<(), FilterError> {
+        self.update_rows(u, d, lambda, xi, gamma)
+    }
     /// Back-substitution `R w = p` into `w` (`M` entries).
     fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError>;
     /// `min|R_ii| / max|R_ii|`.

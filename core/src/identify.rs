@@ -631,7 +631,11 @@ impl<T: Real, F: IdField<T>, V: FilterState<F>> Kernel<'_, T, F, V> {
                 relative_residual: T::zero(),
             });
         }
-        self.factor.update_rows(u, d, lambda_used, xi, gamma)?;
+        // The rows come in one group per channel, each in its channel's
+        // block (checked layout): a block filter may read only those
+        // entries.
+        self.factor
+            .update_grouped_rows(u, d, lambda_used, xi, gamma)?;
         // Only now (the filter accepted the step) does the guard move.
         if excited {
             self.guard.record_excited(omega);

@@ -360,6 +360,72 @@ where
         })
     }
 
+    /// One update with `N = d.len()` rows of `M` entries whose structure
+    /// the caller guarantees: the rows come in `NB` consecutive groups of
+    /// `N / NB`, the rows of group `b` lie in block `b` (the
+    /// identification's rows: one group per channel, [`crate::regressor`]),
+    /// and only each row's block entries `u[j M + b W .. j M + (b + 1) W]`
+    /// and shared entries `u[j M + NB W .. (j + 1) M]` are read; the rest of
+    /// the row is taken as zero without a look. The rows' compact form
+    /// ([`Self::update_block_rows`]) without copying them out: the cost of
+    /// compact rows where the caller has rows of `M` entries.
+    ///
+    /// Errors (state untouched): `Dimension` (lengths, or `N` not a
+    /// multiple of `NB`), `InvalidLambda`, `NonFinite` (an entry read),
+    /// `OutOfRange` (as [`Self::update_block_rows`], whose finiteness check
+    /// this is).
+    pub fn update_grouped_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        let m = Self::SHAPE.unknowns();
+        let n = d.len();
+        if n % NB != 0 || n.checked_mul(m) != Some(u.len()) || xi.len() != n || gamma.len() != n {
+            return Err(FilterError::Dimension);
+        }
+        qrdrls::validate_lambda(lambda)?;
+        let saved = *self;
+        if lambda != T::one() {
+            self.forget(lambda);
+        }
+        let per_block = (n / NB).max(1);
+        let groups = u
+            .chunks_exact(per_block * m)
+            .zip(d.chunks_exact(per_block))
+            .zip(
+                xi.chunks_exact_mut(per_block)
+                    .zip(gamma.chunks_exact_mut(per_block)),
+            );
+        for (b, ((ug, dg), (xg, gg))) in groups.enumerate() {
+            let b = b.min(NB - 1);
+            let rows = ug
+                .chunks_exact(m)
+                .zip(dg)
+                .zip(xg.iter_mut().zip(gg.iter_mut()));
+            for ((row, &dj), (xj, gj)) in rows {
+                let (Some(Ok(aj)), Some(Ok(cj))) = (
+                    row.get(b * W..(b + 1) * W).map(<&[F; W]>::try_from),
+                    row.get(NB * W..m).map(<&[F; S]>::try_from),
+                ) else {
+                    continue;
+                };
+                (*xj, *gj) = self.fold_row(b, aj, cj, dj);
+            }
+        }
+        let out = all_finite(xi) & all_finite_real(gamma);
+        self.commit_or_restore(&saved, out).map_err(|e| {
+            if u.iter().chain(d).all(|x| x.is_finite()) {
+                e
+            } else {
+                FilterError::NonFinite
+            }
+        })
+    }
+
     /// Ends an update: keeps it if `ok` (the caller's outputs are finite)
     /// and every stored entry is finite, else puts `saved` (the state
     /// before the update) back and reports `OutOfRange`. Squares and ratios
@@ -757,6 +823,24 @@ where
         self.factor.update_rows(u, d, self.lambda, xi, gamma)
     }
 
+    /// One update with `N = d.len()` rows of `M` entries in `NB` groups of
+    /// `N / NB`, group `b` in block `b`:
+    /// [`SqrtFreeFactor::update_grouped_rows`] with the filter's `lambda`
+    /// (entries outside each row's block and the shared columns are not
+    /// read).
+    ///
+    /// Errors (state untouched): as [`SqrtFreeFactor::update_grouped_rows`].
+    pub fn update_grouped_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        self.factor
+            .update_grouped_rows(u, d, self.lambda, xi, gamma)
+    }
+
     /// One update with `N = d.len()` rows given by their structure
     /// (block index, block entries, shared entries):
     /// [`SqrtFreeFactor::update_block_rows`] with the filter's `lambda`.
@@ -817,6 +901,16 @@ where
         gamma: &mut [T],
     ) -> Result<(), FilterError> {
         self.0.update_rows(u, d, lambda, xi, gamma)
+    }
+    fn update_grouped_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        self.0.update_grouped_rows(u, d, lambda, xi, gamma)
     }
     fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
         self.0.solve_weights(w)
@@ -1141,6 +1235,68 @@ mod tests {
         );
         assert_eq!(rows, Ok(()));
         assert!(xi.iter().chain(&gamma).all(|x| x.is_finite()));
+    }
+
+    /// Grouped rows (one group per block, as the identification's) fold
+    /// exactly as the same rows given as rows of `M` entries, and the
+    /// entries outside each row's block are not read.
+    fn grouped_is_rows<F, T, const NB: usize, const W: usize, const S: usize, const M: usize>(
+        n: usize,
+        sample: fn(&mut SplitMix64) -> F,
+    ) where
+        F: ComplexField<RealField = T> + Copy + core::fmt::Debug,
+        T: Real,
+    {
+        let mut rng = SplitMix64::new(7);
+        let w: [F; M] = core::array::from_fn(|_| sample(&mut rng));
+        let mut by_rows = SqrtFreeQrdRls::<F, NB, W, S>::new(T::lit(0.99), T::lit(1e-2)).unwrap();
+        let mut grouped = by_rows.clone();
+        let (mut xi1, mut g1) = (vec![F::zero(); n], vec![T::zero(); n]);
+        let (mut xi2, mut g2) = (vec![F::zero(); n], vec![T::zero(); n]);
+        for _ in 0..50 {
+            let (_, _, _, mut u, d) = rows::<F, T, NB, W, S, M>(&mut rng, n, &w, sample);
+            // Row j in block j / (n / NB), zero elsewhere.
+            for j in 0..n {
+                let b = j / (n / NB);
+                for k in 0..NB * W {
+                    if k / W != b {
+                        u[j * M + k] = F::zero();
+                    } else if u[j * M + k] == F::zero() {
+                        u[j * M + k] = sample(&mut rng);
+                    }
+                }
+            }
+            by_rows.update_rows(&u, &d, &mut xi1, &mut g1).unwrap();
+            // What grouped rows do not read may be anything.
+            for j in 0..n {
+                let b = j / (n / NB);
+                u[j * M + ((b + 1) % NB) * W] = F::from_real(T::zero() / T::zero());
+            }
+            grouped
+                .update_grouped_rows(&u, &d, &mut xi2, &mut g2)
+                .unwrap();
+            assert_eq!(by_rows.factor(), grouped.factor());
+            assert_eq!(xi1, xi2);
+            assert_eq!(g1, g2);
+        }
+        // Rows that are not a multiple of NB.
+        let (mut xi, mut g) = (vec![F::zero(); n + 1], vec![T::zero(); n + 1]);
+        let u = vec![F::zero(); (n + 1) * M];
+        let d = vec![F::zero(); n + 1];
+        assert_eq!(
+            grouped.update_grouped_rows(&u, &d, &mut xi, &mut g),
+            Err(FilterError::Dimension)
+        );
+    }
+
+    #[test]
+    fn grouped_rows_fold_as_rows_of_m_entries() {
+        // The identification's layouts: physical 1 (real, two rows per
+        // channel) and paper 1 (complex, one row per channel), N_b 2, N_p 3.
+        grouped_is_rows::<f64, f64, 4, 4, 6, 22>(8, r64);
+        grouped_is_rows::<f32, f32, 4, 4, 6, 22>(8, r32);
+        grouped_is_rows::<Complex<f64>, f64, 4, 4, 3, 19>(4, c64);
+        grouped_is_rows::<Complex<f32>, f32, 4, 4, 3, 19>(4, c32);
     }
 
     #[test]

@@ -1,11 +1,11 @@
 //! Numerical stability of the square-root-free block QRD/RLS
 //! (`rotorid_core::sqrtfree`): arbitrary rows (NaN, infinities, subnormals,
-//! huge values, squares beyond the range), block indices and
-//! forgetting factors, in both row forms (rows of `M` entries and compact
-//! rows), over several layouts and both precisions, real and complex. A
-//! rejected update must leave the stored state unchanged; an accepted one
-//! must leave it finite (and `gamma`, `xi`); weights and the Givens form
-//! are finite or an error.
+//! huge values, squares beyond the range), block indices and forgetting
+//! factors, in the three row forms (rows of `M` entries, grouped rows of
+//! `M` entries, compact rows), over several layouts and both precisions,
+//! real and complex. A rejected update must leave the stored state
+//! unchanged; an accepted one must leave it finite (and `gamma`, `xi`);
+//! weights and the Givens form are finite or an error.
 //!
 //! The first byte picks the case: field (f32, f64, complex f32, complex
 //! f64) and layout (NB, W, S) in {(1, 1, 0), (2, 2, 1), (4, 4, 3), (4, 4, 6)}.
@@ -93,7 +93,13 @@ fn run<F: Field, const NB: usize, const W: usize, const S: usize>(mut data: &[u8
             if mode & 2 == 2 && NB > 1 {
                 u[((blocks[0] + 1) % NB) * W] = F::one();
             }
-            filter.update_rows(&u, &d, &mut xi, &mut gamma)
+            if mode & 4 == 4 {
+                // Read as grouped rows (row j in block j / 2): whatever
+                // the rows hold, the same contract.
+                filter.update_grouped_rows(&u, &d, &mut xi, &mut gamma)
+            } else {
+                filter.update_rows(&u, &d, &mut xi, &mut gamma)
+            }
         };
         let after = filter.factor();
         match result {

@@ -106,9 +106,9 @@ fn benches(c: &mut Criterion) {
             black_box(&w);
         })
     });
-    // The square-root-free block filter, on rows of `M` entries and on the
-    // compact rows (block index, block entries, shared entries) the
-    // identification can hand it.
+    // The square-root-free block filter, on rows of `M` entries (checked,
+    // grouped) and on compact rows (block index, block entries, shared
+    // entries).
     let mut f = SqrtFreeQrdRls::<f32, NB, W, S>::new(LAMBDA, DELTA).expect("valid parameters");
     let mut i = 0usize;
     group.bench_function("rotorid_sqrt_free", |b| {
@@ -116,6 +116,24 @@ fn benches(c: &mut Criterion) {
             let (u, d) = &data[i % STEPS];
             i += 1;
             f.update_rows(
+                black_box(u.as_flattened()),
+                black_box(d),
+                &mut xi,
+                &mut gamma,
+            )
+            .expect("finite data");
+            black_box(&xi);
+        })
+    });
+    // Grouped rows: the same rows of `M` entries, read as the identifier
+    // hands them (two rows per channel, each in its channel's block).
+    let mut f = SqrtFreeQrdRls::<f32, NB, W, S>::new(LAMBDA, DELTA).expect("valid parameters");
+    let mut i = 0usize;
+    group.bench_function("rotorid_sqrt_free_grouped", |b| {
+        b.iter(|| {
+            let (u, d) = &data[i % STEPS];
+            i += 1;
+            f.update_grouped_rows(
                 black_box(u.as_flattened()),
                 black_box(d),
                 &mut xi,

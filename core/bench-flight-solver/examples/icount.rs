@@ -8,7 +8,7 @@
 //!   target/release/examples/icount flight_solver $n; done
 //! ```
 //!
-//! Filters: `flight_solver`, `block_structured`, `sqrt_free`, `sqrt_free_compact`.
+//! Filters: `flight_solver`, `block_structured`, `sqrt_free`, `sqrt_free_grouped`, `sqrt_free_compact`.
 use flight_solver::rls::InverseQrRls;
 use nalgebra::SVector;
 use rotorid_bench_flight_solver::{stream_structured, Step, DELTA, LAMBDA, M, N, NB, S, W};
@@ -64,6 +64,20 @@ fn main() {
             for i in 0..steps {
                 let (u, d) = &data[i % 256];
                 f.update_rows(
+                    black_box(u.as_flattened()),
+                    black_box(d),
+                    &mut xi,
+                    &mut gamma,
+                )
+                .expect("finite");
+                black_box(&xi);
+            }
+        }
+        "sqrt_free_grouped" => {
+            let mut f = SqrtFreeQrdRls::<f32, NB, W, S>::new(LAMBDA, DELTA).expect("valid");
+            for i in 0..steps {
+                let (u, d) = &data[i % 256];
+                f.update_grouped_rows(
                     black_box(u.as_flattened()),
                     black_box(d),
                     &mut xi,
