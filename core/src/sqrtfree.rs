@@ -267,10 +267,7 @@ where
         let mut blocks = [u16::MAX; BLOCKS_KEPT];
         let max = T::max_value().unwrap_or_else(T::one);
         BlockFactor::<F, NB, W, S>::validate(u, d, lambda, xi, gamma, &mut blocks, max)?;
-        let saved = *self;
-        if lambda != T::one() {
-            self.forget(lambda);
-        }
+        let saved = self.begin(lambda);
         let rows = u.chunks_exact(m).zip(d).zip(xi).zip(gamma);
         for (j, (((row, &dj), xj), gj)) in rows.enumerate() {
             let b = match blocks.get(j) {
@@ -330,10 +327,7 @@ where
             return Err(FilterError::Dimension);
         }
         qrdrls::validate_lambda(lambda)?;
-        let saved = *self;
-        if lambda != T::one() {
-            self.forget(lambda);
-        }
+        let saved = self.begin(lambda);
         // Rows of `c` by chunks (`chunks_exact(0)` would panic: with `S = 0`
         // every row's shared part is the empty array).
         let mut cs = c.chunks_exact(S.max(1));
@@ -350,13 +344,8 @@ where
             };
             (*xj, *gj) = self.fold_row(b.min(NB - 1), aj, cj, dj);
         }
-        let out = all_finite(xi) & all_finite_real(gamma);
-        self.commit_or_restore(&saved, out).map_err(|e| {
-            if a.iter().chain(c).chain(d).all(|x| x.is_finite()) {
-                e
-            } else {
-                FilterError::NonFinite
-            }
+        self.commit_unchecked(&saved, xi, gamma, || {
+            a.iter().chain(c).chain(d).all(|x| x.is_finite())
         })
     }
 
@@ -388,10 +377,7 @@ where
             return Err(FilterError::Dimension);
         }
         qrdrls::validate_lambda(lambda)?;
-        let saved = *self;
-        if lambda != T::one() {
-            self.forget(lambda);
-        }
+        let saved = self.begin(lambda);
         let per_block = (n / NB).max(1);
         let groups = u
             .chunks_exact(per_block * m)
@@ -416,9 +402,38 @@ where
                 (*xj, *gj) = self.fold_row(b, aj, cj, dj);
             }
         }
+        self.commit_unchecked(&saved, xi, gamma, || {
+            u.iter().chain(d).all(|x| x.is_finite())
+        })
+    }
+
+    /// Starts an update: a copy of the state (for [`Self::commit_or_restore`]),
+    /// then forgetting by `lambda`.
+    #[inline(always)]
+    fn begin(&mut self, lambda: T) -> Self {
+        let saved = *self;
+        if lambda != T::one() {
+            self.forget(lambda);
+        }
+        saved
+    }
+
+    /// Ends an update whose entries were not checked before the fold
+    /// (compact and grouped rows): [`Self::commit_or_restore`] with the
+    /// outputs `xi`, `gamma` in the check; a rejected update is `NonFinite`
+    /// if `inputs_finite()` says an entry read was not finite, else
+    /// `OutOfRange`.
+    #[inline(always)]
+    fn commit_unchecked(
+        &mut self,
+        saved: &Self,
+        xi: &[F],
+        gamma: &[T],
+        inputs_finite: impl FnOnce() -> bool,
+    ) -> Result<(), FilterError> {
         let out = all_finite(xi) & all_finite_real(gamma);
-        self.commit_or_restore(&saved, out).map_err(|e| {
-            if u.iter().chain(d).all(|x| x.is_finite()) {
+        self.commit_or_restore(saved, out).map_err(|e| {
+            if inputs_finite() {
                 e
             } else {
                 FilterError::NonFinite
@@ -428,10 +443,11 @@ where
 
     /// Ends an update: keeps it if `ok` (the caller's outputs are finite)
     /// and every stored entry is finite, else puts `saved` (the state
-    /// before the update) back and reports `OutOfRange`. Squares and ratios
-    /// of finite data can leave the type's range here (entries of `U` are `R_ik / R_ii`, the working
-    /// row is the Givens row over `sqrt(delta)`), where the Givens filters'
-    /// entries stay bounded by the data's column norms; the check makes such
+    /// before the update) back and reports `OutOfRange`. Squares and
+    /// ratios of finite data can leave the type's range here (entries of
+    /// `U` are `R_ik / R_ii`, the working row is the Givens row over
+    /// `sqrt(delta)`), where the Givens filters' entries stay bounded by
+    /// the data's column norms; the check makes such
     /// an update an error that changes nothing (found by the
     /// `sqrtfree_update` fuzz target: rows of `1e-20` in `f32`, whose
     /// squares are subnormal, after forgetting had flushed `d` to zero).
