@@ -16,6 +16,7 @@ mod diagnose;
 
 mod architecture;
 mod cli;
+mod docs;
 mod fe;
 mod files;
 mod identify;
