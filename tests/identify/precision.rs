@@ -14,8 +14,8 @@
 //! gap does not grow over the run (the last checkpoints are no worse than
 //! [`GROWTH`] times the worst of the first sweep).
 //!
-//! The measured gaps are the README's table ("Single against double
-//! precision"), which this test writes (`ROTORID_WRITE_README=1`) or, by
+//! The measured gaps are the table of docs/validation.md ("Single against double
+//! precision"), which this test writes (`ROTORID_WRITE_DOCS=1`) or, by
 //! default, checks against what it measures. The paper structure's damping
 //! (the imaginary part of its complex `Z_1`) is so poorly determined on
 //! this sweep that single-precision rounding moves it by order one; on case
@@ -42,7 +42,7 @@ const STEPS: usize = 20_000;
 /// Checkpoint interval (updates).
 const EVERY: usize = 500;
 /// f32 vs f64 tolerances `(k, c, u)` per structure (the measured gaps are
-/// in the README table, written by this test; the bounds have a margin of
+/// in the table of docs/validation.md, written by this test; the bounds have a margin of
 /// about three).
 fn tolerances(structure: Structure) -> (f64, f64, f64) {
     use rotorid::core::Formulation::{Paper, Physical};
@@ -218,7 +218,7 @@ fn runs(
     }
 }
 
-/// One row of the README table and what went wrong, for `structure` on
+/// One row of the table of docs/validation.md and what went wrong, for `structure` on
 /// `meas` (case `case`, relative noise `noise`).
 fn compare(
     case: &str,
@@ -286,13 +286,13 @@ fn compare(
     (row, problems)
 }
 
-/// `x` with two significant digits, as the README's tables write them
+/// `x` with two significant digits, as the tables of docs/validation.md write them
 /// (`3.1e-5`, `1.6e0`).
 fn sig2(x: f64) -> String {
     format!("{x:.1e}")
 }
 
-/// Marker lines around the generated table in README.md.
+/// Marker lines around the generated table in docs/validation.md.
 const BEGIN: &str = "<!-- precision-table:begin (written by tests/identify/precision.rs) -->";
 const END: &str = "<!-- precision-table:end -->";
 
@@ -355,18 +355,18 @@ fn f32_tracks_f64_over_20000_updates() {
             }
         }
     }
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/validation.md");
     let readme = std::fs::read_to_string(&path).unwrap();
     let fresh = with_table(&readme, &table)
-        .unwrap_or_else(|| panic!("README.md lacks the lines {BEGIN:?} ... {END:?}"));
-    if std::env::var_os("ROTORID_WRITE_README").is_some_and(|v| v == "1") {
+        .unwrap_or_else(|| panic!("docs/validation.md lacks the lines {BEGIN:?} ... {END:?}"));
+    if std::env::var_os("ROTORID_WRITE_DOCS").is_some_and(|v| v == "1") {
         if fresh != readme {
             std::fs::write(&path, &fresh).unwrap();
         }
     } else if fresh != readme {
         problems.push(format!(
-            "the table in README.md (\"Single against double precision\") is not what this test \
-             measures; regenerate it with\n  ROTORID_WRITE_README=1 cargo test --test lib \
+            "the table in docs/validation.md (\"Single against double precision\") is not what this test \
+             measures; regenerate it with\n  ROTORID_WRITE_DOCS=1 cargo test --test lib \
              identify::precision::f32_tracks_f64\nthe table measured now:\n{table}"
         ));
     }
@@ -377,7 +377,7 @@ fn f32_tracks_f64_over_20000_updates() {
 /// identifier against the dense one in f64, case 4.1, `physical` 1 and
 /// `paper` 1, with and without noise: within the same tolerances as the
 /// Givens filter's f32 run, and no growth of the gap over the 20000
-/// updates (the README's "Firmware" section gives the rows).
+/// updates (docs/validation.md gives the rows).
 #[test]
 fn square_root_free_f32_tracks_f64_over_20000_updates() {
     let speeds = sweep(10.0, 15000.0, 5.0);
@@ -409,7 +409,7 @@ const LONG_EVERY: usize = 100_000;
 /// down again and again, a stationary stream), the f64 identifier beside it
 /// on the same stream: every 100000 updates both estimates are finite and
 /// their gap is within the f32 tolerance of the 20000-update test. Slow in
-/// a debug build; the README gives the release numbers:
+/// a debug build; docs/validation.md gives the release numbers:
 /// `cargo test --release --test lib identify::precision::ten_million -- --ignored --nocapture`.
 #[test]
 #[ignore]
