@@ -59,6 +59,17 @@ pub enum SimulateError {
     /// Bad noise level.
     #[error("noise level must be finite and >= 0, got {0}")]
     Noise(f64),
+    /// Bad noise floor.
+    #[error("noise floor must be finite and >= 0 m, got {0}")]
+    NoiseFloor(f64),
+    /// More glitches than samples.
+    #[error("{k} glitches asked for, the sweep has {total} samples")]
+    Glitches {
+        /// Glitches asked for.
+        k: usize,
+        /// Samples (speeds x channels).
+        total: usize,
+    },
     /// The finite-element solve failed.
     #[error("finite-element response: {0}")]
     Solver(#[from] FeError),
@@ -140,6 +151,142 @@ pub fn add_noise(m: &mut Measurements, s: f64, seed: u64) -> Result<(), Simulate
         }
     }
     Ok(())
+}
+
+/// Stream of the ChaCha8 generator (seeded with the same seed) that draws
+/// the noise floor, apart from the relative noise's stream 0, so that a
+/// floor leaves the relative part of the noise unchanged.
+pub const FLOOR_NOISE_STREAM: u64 = 2;
+
+/// Stream that chooses the glitched samples ([`add_glitches`]).
+pub const GLITCH_STREAM: u64 = 3;
+
+/// Stream that draws the phases of [`random_runout`].
+pub const RUNOUT_STREAM: u64 = 4;
+
+/// What a glitch does to a sample: the phasor is multiplied by this (a
+/// revolution group averaged across a spike or a dropout of the probe
+/// signal, a transient of the monitoring system).
+pub const GLITCH_FACTOR: f64 = 8.0;
+
+/// Adds the probe's noise floor: `q += F eps`, `eps = (n1 + j n2) /
+/// sqrt(2)`, `n1, n2 ~ N(0, 1)` from stream [`FLOOR_NOISE_STREAM`] of
+/// ChaCha8 seeded with `seed` (sample by sample, channel by channel, real
+/// then imaginary): with [`add_noise`] the noise of SPEC section 7,
+/// `E|e|^2 = F^2 + s^2 |q|^2`. `F` in metres.
+pub fn add_floor_noise(m: &mut Measurements, floor: f64, seed: u64) -> Result<(), SimulateError> {
+    if !(floor.is_finite() && floor >= 0.0) {
+        return Err(SimulateError::NoiseFloor(floor));
+    }
+    if floor == 0.0 {
+        return Ok(());
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(FLOOR_NOISE_STREAM);
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    for sample in &mut m.samples {
+        for q in &mut sample.q {
+            let n1: f64 = StandardNormal.sample(&mut rng);
+            let n2: f64 = StandardNormal.sample(&mut rng);
+            *q += Complex64::new(n1 * h, n2 * h) * floor;
+        }
+    }
+    Ok(())
+}
+
+/// Stream of the node probes' noise floor.
+pub const NODE_FLOOR_STREAM: u64 = 5;
+
+/// [`add_floor_noise`] for the node probes' phasors (`y, z` per node per
+/// sample), from stream [`NODE_FLOOR_STREAM`].
+pub fn add_floor_noise_nodes(
+    node_q: &mut [Vec<Complex64>],
+    floor: f64,
+    seed: u64,
+) -> Result<(), SimulateError> {
+    if !(floor.is_finite() && floor >= 0.0) {
+        return Err(SimulateError::NoiseFloor(floor));
+    }
+    if floor == 0.0 {
+        return Ok(());
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(NODE_FLOOR_STREAM);
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    for q in node_q.iter_mut().flatten() {
+        let n1: f64 = StandardNormal.sample(&mut rng);
+        let n2: f64 = StandardNormal.sample(&mut rng);
+        *q += Complex64::new(n1 * h, n2 * h) * floor;
+    }
+    Ok(())
+}
+
+/// Spoils `k` samples, each a (speed, channel) drawn without repetition
+/// from stream [`GLITCH_STREAM`] of ChaCha8 seeded with `seed`: the phasor
+/// is multiplied by [`GLITCH_FACTOR`]. Returns the spoilt (sample,
+/// channel) pairs in the order drawn. More glitches than samples is an
+/// error.
+pub fn add_glitches(
+    m: &mut Measurements,
+    k: usize,
+    seed: u64,
+) -> Result<Vec<(usize, usize)>, SimulateError> {
+    let nq = m.samples.first().map_or(0, |s| s.q.len());
+    let total = m.samples.len() * nq;
+    if k > total {
+        return Err(SimulateError::Glitches { k, total });
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(GLITCH_STREAM);
+    let picked = rand::seq::index::sample(&mut rng, total, k);
+    let mut out = Vec::with_capacity(k);
+    for i in picked.iter() {
+        let (n, c) = (i / nq, i % nq);
+        m.samples[n].q[c] *= GLITCH_FACTOR;
+        out.push((n, c));
+    }
+    Ok(out)
+}
+
+/// A runout of magnitude `amplitude` (m) on every bearing channel of a
+/// rotor with `n_bearings` bearings, each with a phase drawn uniformly
+/// from stream [`RUNOUT_STREAM`] of ChaCha8 seeded with `seed`.
+pub fn random_runout(n_bearings: usize, amplitude: f64, seed: u64) -> Vec<Runout> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(RUNOUT_STREAM);
+    let uniform = rand_distr::Uniform::new(0.0, std::f64::consts::TAU)
+        .unwrap_or_else(|_| unreachable!("0 < tau"));
+    (0..2 * n_bearings)
+        .map(|i| Runout {
+            channel: crate::model::extension::Channel {
+                bearing: i / 2,
+                direction: if i % 2 == 0 {
+                    crate::model::extension::Direction::Y
+                } else {
+                    crate::model::extension::Direction::Z
+                },
+            },
+            amplitude,
+            phase: uniform.sample(&mut rng),
+        })
+        .collect()
+}
+
+/// `model` with its unbalance scaled so that the total `sum_k m_k e_k`
+/// matches balance grade `G` (mm/s) at `omega` (rad/s), the phases and
+/// the planes' shares unchanged ([`RotorModel::balance_grade_unbalance`]).
+/// `None` when the model has no unbalance.
+pub fn at_balance_grade(model: &RotorModel, grade_mm_s: f64, omega: f64) -> Option<RotorModel> {
+    let total: f64 = model.unbalance.iter().map(|u| u.me).sum();
+    if !(total > 0.0) {
+        return None;
+    }
+    let g = model.balance_grade_unbalance(grade_mm_s, omega) / total;
+    let mut m = model.clone();
+    for u in &mut m.unbalance {
+        u.me *= g;
+    }
+    Some(m)
 }
 
 /// The bearing-probe response of `model` under `forcing` at the speeds

@@ -10,6 +10,7 @@ mod output_error;
 mod paper;
 mod precision;
 mod prefilter;
+mod real_noise;
 mod std_dev;
 mod steady;
 mod table_grid;

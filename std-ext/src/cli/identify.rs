@@ -160,6 +160,33 @@ pub struct IdentifyArgs {
     /// Raw SI unknowns (no column scaling), as in the paper.
     #[arg(long)]
     pub no_scaling: bool,
+    /// The probes' noise floor (m, every channel), e.g. from the probe
+    /// system's data sheet; without it the floor is estimated from the data
+    /// (SPEC section 7).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub noise_floor: Option<f64>,
+    /// Runout: `auto` fits a runout phasor per channel when the low-speed
+    /// samples show one, `fit` always, `none` never.
+    #[arg(long, value_enum, default_value_t = RunoutArg::Auto, conflicts_with = "slow_roll")]
+    pub runout: RunoutArg,
+    /// Slow-roll vector subtraction instead: the mean vector of the samples
+    /// at or below this speed (rpm) is subtracted from every sample.
+    #[arg(long, value_name = "RPM", allow_negative_numbers = true)]
+    pub slow_roll: Option<f64>,
+    /// Keep every sample in the output-error fit (no outlier exclusion).
+    #[arg(long)]
+    pub no_outliers: bool,
+}
+
+/// `--runout`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RunoutArg {
+    /// Fit the runout when the low-speed samples show one.
+    Auto,
+    /// Always fit a runout phasor per channel.
+    Fit,
+    /// No runout.
+    None,
 }
 
 /// Runs `rotorid identify`: loads the model and the measurements, reduces
@@ -244,6 +271,21 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     if args.no_scaling {
         opts.scaling = Some(crate::core::scaling::ColumnScaling::identity());
     }
+    opts.noise_floor = super::noise_floor_option(args.noise_floor)?;
+    opts.outliers = !args.no_outliers;
+    opts.runout = match (args.slow_roll, args.runout) {
+        (Some(rpm), _) => {
+            if !(rpm.is_finite() && rpm >= 0.0) {
+                return Err(CliError::new(format!(
+                    "--slow-roll must be finite and >= 0 rpm, got {rpm}"
+                )));
+            }
+            crate::estimate::RunoutHandling::SlowRoll(crate::units::rpm_to_rad_s(rpm))
+        }
+        (None, RunoutArg::Auto) => crate::estimate::RunoutHandling::Auto,
+        (None, RunoutArg::Fit) => crate::estimate::RunoutHandling::Fit,
+        (None, RunoutArg::None) => crate::estimate::RunoutHandling::None,
+    };
 
     let n = meas.samples.len();
     let bar = if io.progress && n >= 100 {

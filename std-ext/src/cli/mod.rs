@@ -363,3 +363,13 @@ pub fn read_measurements(
         Err(e) => Err(measurement_error(path, e)),
     }
 }
+
+/// `--noise-floor M`: finite and >= 0 metres.
+pub fn noise_floor_option(v: Option<f64>) -> Result<Option<f64>, CliError> {
+    match v {
+        Some(f) if !(f.is_finite() && f >= 0.0) => Err(CliError::new(format!(
+            "--noise-floor must be finite and >= 0 (metres), got {f}"
+        ))),
+        other => Ok(other),
+    }
+}

@@ -64,8 +64,26 @@ fn parse_node_triple(s: &str) -> Result<Triple<usize>, String> {
     parse_triple::<usize>(s, "NODE:AMOUNT:PHASE_DEG (node from 1)")
 }
 
-fn parse_channel_triple(s: &str) -> Result<Triple<String>, String> {
+/// A `--runout` value.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RunoutArg {
+    /// `CHANNEL:AMPLITUDE_M:PHASE_DEG`.
+    Channel(Triple<String>),
+    /// `AMPLITUDE_M` on every bearing channel, phases from the seed.
+    Every(f64),
+}
+
+fn parse_runout(s: &str) -> Result<RunoutArg, String> {
+    if !s.contains(':') {
+        return match s.trim().parse::<f64>() {
+            Ok(a) if a.is_finite() && a >= 0.0 => Ok(RunoutArg::Every(a)),
+            _ => Err(format!(
+                "expected CHANNEL:AMPLITUDE_M:PHASE_DEG (e.g. b1_y:2e-6:30) or an amplitude in metres >= 0, got `{s}`"
+            )),
+        };
+    }
     parse_triple::<String>(s, "CHANNEL:AMPLITUDE_M:PHASE_DEG (e.g. b1_y:2e-6:30)")
+        .map(RunoutArg::Channel)
 }
 
 /// Arguments of `rotorid simulate`. The effect flags add to (or, for the
@@ -88,6 +106,33 @@ pub struct SimulateArgs {
     /// Seed of the noise generator (ChaCha8).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// The probes' noise floor F (m): each complex sample also gets F eps,
+    /// eps standard complex Gaussian independent of the relative part
+    /// (SPEC section 7: E|e|^2 = F^2 + s^2 |q|^2).
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "M",
+        allow_negative_numbers = true
+    )]
+    pub noise_floor: f64,
+    /// Spoil K samples (speed, channel) drawn from the seed: each is
+    /// multiplied by 8 (a glitch of the monitoring system).
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    pub glitches: usize,
+    /// Scale the model's unbalance (every plane's m e) by this factor.
+    #[arg(
+        long,
+        value_name = "FACTOR",
+        allow_negative_numbers = true,
+        conflicts_with = "balance_grade"
+    )]
+    pub unbalance_scale: Option<f64>,
+    /// Scale the model's unbalance to balance grade G (mm/s, ISO 21940-11)
+    /// at --rpm-max: total m e = G / Omega_max x rotor mass, the planes'
+    /// shares and phases kept (e.g. 6.3 or 2.5).
+    #[arg(long, value_name = "G_MM_S", allow_negative_numbers = true)]
+    pub balance_grade: Option<f64>,
     /// Column layout of the CSV.
     #[arg(long, value_enum, default_value_t = LayoutArg::Complex)]
     pub layout: LayoutArg,
@@ -129,9 +174,11 @@ pub struct SimulateArgs {
     /// Shaft bow point NODE:AMPLITUDE_M:PHASE_DEG (repeatable).
     #[arg(long, value_name = "NODE:AMP:PHASE", value_parser = parse_node_triple)]
     pub bow: Vec<Triple<usize>>,
-    /// Probe runout CHANNEL:AMPLITUDE_M:PHASE_DEG, e.g. b1_y:2e-6:30 (repeatable).
-    #[arg(long, value_name = "CH:AMP:PHASE", value_parser = parse_channel_triple)]
-    pub runout: Vec<Triple<String>>,
+    /// Probe runout CHANNEL:AMPLITUDE_M:PHASE_DEG, e.g. b1_y:2e-6:30, or
+    /// AMPLITUDE_M alone: that runout on every bearing channel, phases
+    /// drawn from the seed (repeatable).
+    #[arg(long, value_name = "CH:AMP:PHASE|AMP", value_parser = parse_runout)]
+    pub runout: Vec<RunoutArg>,
     /// Extra unbalance NODE:ME_KGM:PHASE_DEG (repeatable).
     #[arg(long, value_name = "NODE:ME:PHASE", value_parser = parse_node_triple)]
     pub extra_unbalance: Vec<Triple<usize>>,
@@ -208,13 +255,20 @@ impl SimulateArgs {
             });
         }
         for r in &self.runout {
-            let channel = Channel::parse(&r.first, n_bearings)
-                .map_err(|m| CliError(format!("--runout: {m}")))?;
-            e.runout.push(Runout {
-                channel,
-                amplitude: r.amplitude,
-                phase: r.phase_deg.to_radians(),
-            });
+            match r {
+                RunoutArg::Channel(r) => {
+                    let channel = Channel::parse(&r.first, n_bearings)
+                        .map_err(|m| CliError(format!("--runout: {m}")))?;
+                    e.runout.push(Runout {
+                        channel,
+                        amplitude: r.amplitude,
+                        phase: r.phase_deg.to_radians(),
+                    });
+                }
+                RunoutArg::Every(a) => e
+                    .runout
+                    .extend(crate::simulate::random_runout(n_bearings, *a, self.seed)),
+            }
         }
         for u in &self.extra_unbalance {
             e.extra_unbalance.push(Unbalance {
@@ -241,6 +295,39 @@ pub fn run(args: &SimulateArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             "--noise must be finite and >= 0, got {}",
             args.noise
         )));
+    }
+    if !(args.noise_floor.is_finite() && args.noise_floor >= 0.0) {
+        return Err(CliError(format!(
+            "--noise-floor must be finite and >= 0 (metres), got {}",
+            args.noise_floor
+        )));
+    }
+    let mut file = file;
+    if let Some(g) = args.unbalance_scale {
+        if !(g.is_finite() && g >= 0.0) {
+            return Err(CliError(format!(
+                "--unbalance-scale must be finite and >= 0, got {g}"
+            )));
+        }
+        for u in &mut file.model.unbalance {
+            u.me *= g;
+        }
+    }
+    if let Some(g) = args.balance_grade {
+        let top = speeds_rpm.iter().copied().fold(0.0, f64::max);
+        if !(g.is_finite() && g > 0.0 && top > 0.0) {
+            return Err(CliError(format!(
+                "--balance-grade must be finite and > 0 mm/s with a speed above 0, got {g}"
+            )));
+        }
+        file.model =
+            crate::simulate::at_balance_grade(&file.model, g, crate::units::rpm_to_rad_s(top))
+                .ok_or_else(|| {
+                    CliError(format!(
+                        "--balance-grade: model {} has no unbalance to scale",
+                        args.model
+                    ))
+                })?;
     }
     let flags = args.effects(file.model.n_nodes(), file.model.bearings.len())?;
     let mut effects = file.effects.clone().merged_with(&flags);
@@ -274,6 +361,28 @@ pub fn run(args: &SimulateArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         )),
         other => CliError::from(other),
     })?;
+    let (mut m, mut node_q) = (m, node_q);
+    crate::simulate::add_floor_noise(&mut m, args.noise_floor, args.seed)?;
+    crate::simulate::add_floor_noise_nodes(&mut node_q, args.noise_floor, args.seed)?;
+    let glitched = crate::simulate::add_glitches(&mut m, args.glitches, args.seed)?;
+    if args.noise_floor > 0.0 {
+        m.comments.push(format!(
+            "noise floor: {:e} m (complex Gaussian, every channel)",
+            args.noise_floor
+        ));
+    }
+    for (n, c) in &glitched {
+        m.comments.push(format!(
+            "glitch: sample {} ({} rpm), channel {} x{}",
+            n + 1,
+            crate::units::rad_s_to_rpm(m.samples[*n].omega),
+            crate::io::measurement::default_channel_names(m.n_bearings)
+                .get(*c)
+                .cloned()
+                .unwrap_or_default(),
+            crate::simulate::GLITCH_FACTOR
+        ));
+    }
     let layout = match args.layout {
         LayoutArg::Complex => CsvLayout::Complex,
         LayoutArg::AmpPhase => CsvLayout::AmplitudePhase,

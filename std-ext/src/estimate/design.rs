@@ -33,7 +33,8 @@
 
 use nalgebra::DMatrix;
 
-use crate::estimate::output_error::{fisher_information, OutputErrorError};
+use crate::estimate::noise::NoiseModel;
+use crate::estimate::output_error::{fisher_information_weighted, OutputErrorError, Weighting};
 use crate::estimate::predictor::{Predictor, Terms};
 use crate::io::measurement::Sample;
 use crate::units::rad_s_to_rpm;
@@ -104,8 +105,33 @@ pub fn analyse(
     theta: &[f64],
     noise: f64,
 ) -> Result<TestDesign, OutputErrorError> {
+    analyse_weighted(pr, samples, terms, theta, noise, None)
+}
+
+/// [`analyse`] with the weights of the noise model `model` (a floor and a
+/// relative part, [`Weighting::of_noise`]); `None`: proportional noise.
+pub fn analyse_weighted(
+    pr: &Predictor,
+    samples: &[Sample],
+    terms: &[Terms],
+    theta: &[f64],
+    noise: f64,
+    model: Option<&NoiseModel>,
+) -> Result<TestDesign, OutputErrorError> {
     let np = pr.n_params();
     let floor = 1e-6;
+    let fisher_information = |pr: &Predictor,
+                              samples: &[Sample],
+                              terms: &[Terms],
+                              theta: &[f64],
+                              floor: f64|
+     -> Result<DMatrix<f64>, OutputErrorError> {
+        let w = match model {
+            Some(m) => Weighting::of_noise(samples, floor, m),
+            None => Weighting::proportional(samples, floor),
+        };
+        fisher_information_weighted(pr, samples, terms, theta, &w)
+    };
     let total = fisher_information(pr, samples, terms, theta, floor)?;
     let Spectral { cov: pseudo, null } = spectral_inverse(&total);
     let cov = invert(&total).unwrap_or(pseudo);

@@ -99,6 +99,461 @@ fn centre_smoother(x: &[f64], centre: usize) -> Option<(Vec<f64>, f64)> {
     Some((l, h))
 }
 
+/// Where a [`NoiseModel`] came from (SPEC section 7, `"source"`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NoiseSource {
+    /// Floor and relative part estimated from the data.
+    Estimated,
+    /// The floor given (`--noise-floor`, a probe data sheet); the relative
+    /// part estimated.
+    Given,
+    /// Per-sample standard deviations from the measurement file (the
+    /// `_std` columns), up to one common factor.
+    File,
+}
+
+impl NoiseSource {
+    /// The JSON name.
+    pub fn name(self) -> &'static str {
+        match self {
+            NoiseSource::Estimated => "estimated",
+            NoiseSource::Given => "given",
+            NoiseSource::File => "file",
+        }
+    }
+}
+
+/// The noise model of real probes (SPEC section 7): each complex sample
+/// `q` of channel `c` carries noise `e` with
+///
+/// ```text
+///     E|e|^2 = f_c^2 + s^2 |q|^2 ,
+/// ```
+///
+/// a floor `f_c` (m) per channel (probe electronics, electrical runout
+/// scatter, quantisation) plus the relative part `s`. `f_c = 0` for every
+/// channel is the proportional model of SPEC section 4.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseModel {
+    /// `f_c` per channel (m).
+    pub floor_m: Vec<f64>,
+    /// `s`.
+    pub relative: f64,
+    /// Where it came from.
+    pub source: NoiseSource,
+}
+
+/// The smallest relative part used to express a floor in relative units
+/// (`f_c / s`): data with a floor and no measurable relative part are
+/// weighted as if `s` were this, which leaves the weights constant per
+/// channel (`w ~ f_c / s`).
+pub const MIN_RELATIVE: f64 = 1e-9;
+
+impl NoiseModel {
+    /// Proportional noise `s` on `nq` channels (no floor).
+    pub fn proportional(nq: usize, s: f64, source: NoiseSource) -> Self {
+        NoiseModel {
+            floor_m: vec![0.0; nq],
+            relative: s,
+            source,
+        }
+    }
+
+    /// Whether any channel has a floor.
+    pub fn has_floor(&self) -> bool {
+        self.floor_m.iter().any(|f| *f > 0.0)
+    }
+
+    /// The variance `E|e|^2` of a sample of channel `c` whose true
+    /// response has magnitude squared `q2` (m^2).
+    pub fn variance(&self, c: usize, q2: f64) -> f64 {
+        let f = self.floor_m.get(c).copied().unwrap_or(0.0);
+        f * f + self.relative * self.relative * q2
+    }
+
+    /// The floors in relative units, `phi_c = f_c / s` (m), with `s` at
+    /// least [`MIN_RELATIVE`]: the weight of a sample in the relative
+    /// units of the fits is `sqrt(phi_c^2 + |q|^2) = sigma / s`.
+    pub fn relative_floor(&self) -> Vec<f64> {
+        let s = self.relative.max(MIN_RELATIVE);
+        self.floor_m.iter().map(|f| f / s).collect()
+    }
+}
+
+/// One observation of the noise variance: a squared residual `x` (of
+/// channel `channel`) whose expectation under the noise model is linear in
+/// the variance parameters,
+///
+/// ```text
+///     E[x] = a f_c^2 + b s^2 ,
+/// ```
+///
+/// (`x` exponentially distributed for a complex Gaussian residual): for a
+/// model residual `a = 1`, `b = |q|^2`; for a local smoother's residual the
+/// sums of its squared weights (see [`local_points`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VariancePoint {
+    /// Channel index.
+    pub channel: usize,
+    /// The squared residual.
+    pub x: f64,
+    /// Coefficient of `f_c^2`.
+    pub a: f64,
+    /// Coefficient of `s^2`.
+    pub b: f64,
+}
+
+impl VariancePoint {
+    /// A residual `e` of a sample whose true response has magnitude
+    /// squared `q2` (m^2): `x = |e|^2 corr`, `a = 1`, `b = q2` (`corr` the
+    /// leverage correction of the fit).
+    pub fn residual(channel: usize, e2: f64, q2: f64, corr: f64) -> Self {
+        VariancePoint {
+            channel,
+            x: e2 * corr,
+            a: 1.0,
+            b: q2,
+        }
+    }
+
+    /// A known variance `v` (m^2) of a sample of magnitude squared `q2`.
+    pub fn known(channel: usize, v: f64, q2: f64) -> Self {
+        Self::residual(channel, v, q2, 1.0)
+    }
+
+    /// The response scale of the point, `b / a` (m^2).
+    fn q2(&self) -> f64 {
+        self.b / self.a
+    }
+}
+
+/// Residuals of a local quadratic beyond which a window is treated as
+/// curvature, not noise, by [`fit_variance`]: the ratio `x / E[x]` is
+/// capped here (an `Exp(1)` variable exceeds 4 with probability 1.8 %).
+pub const CAP: f64 = 4.0;
+
+/// Wald statistic `f_c^2 / se(f_c^2)` above which a channel's floor counts
+/// as present in the data; below it the channel's floor is taken as 0 (the
+/// proportional model, which gives exactly the weights of SPEC section 4).
+pub const FLOOR_SIGNIFICANCE: f64 = 4.0;
+
+/// The variance parameters fitted by [`fit_variance`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct VarianceFit {
+    /// `f_c^2` per channel (m^2).
+    pub floor2: Vec<f64>,
+    /// `s^2`.
+    pub relative2: f64,
+    /// `f_c^2 / se(f_c^2)` per channel (0 where the floor was held).
+    pub floor_z: Vec<f64>,
+}
+
+/// Maximum-likelihood variance parameters `f_c^2`, `s^2` of the points
+/// (robust: each point's ratio to its expectation is capped at [`CAP`]).
+///
+/// # Method
+///
+/// With `v_i = a_i f_(c_i)^2 + b_i s^2` and `x_i ~ v_i Exp(1)`, the score
+/// equations of the likelihood are those of a gamma regression with the
+/// identity link, solved by iteratively reweighted least squares: regress
+/// `y_i` on `a_i` (in the column of its channel) and `b_i` with weights
+/// `1 / v_i^2`, `v_i` from the previous iterate. The pseudo-observation is
+/// `y_i = v_i min(x_i / v_i, CAP) / (1 - e^-CAP)`, whose expectation under
+/// the model is `v_i` (`E min(E, c) = 1 - e^-c` for `E ~ Exp(1)`): points
+/// far above their expectation (a local fit across a resonance, a glitch)
+/// have bounded influence. A parameter the iteration drives below zero is
+/// held at zero. The standard errors are those of the gamma regression
+/// (dispersion 1), `(X^T W X)^-1`.
+///
+/// `held[c] = Some(f2)` holds channel `c`'s floor at `f2` (a given
+/// floor, or 0); `None` fits it. `None` when there are no points or the
+/// system is singular.
+pub fn fit_variance(points: &[VariancePoint], held: &[Option<f64>]) -> Option<VarianceFit> {
+    let nq = held.len();
+    if points.is_empty() || points.iter().any(|p| p.channel >= nq) {
+        return None;
+    }
+    let norm = (1.0 - (-CAP).exp()).recip();
+    // Start: s^2 from the upper half of the responses, f_c^2 from the
+    // lower quarter of each channel.
+    let mut by_q: Vec<&VariancePoint> = points.iter().filter(|p| p.a > 0.0).collect();
+    by_q.sort_by(|a, b| a.q2().total_cmp(&b.q2()));
+    let upper: Vec<f64> = by_q[by_q.len() / 2..]
+        .iter()
+        .filter(|p| p.b > 0.0)
+        .map(|p| p.x / p.b)
+        .collect();
+    let mut s2 = median(upper).unwrap_or(0.0) / core::f64::consts::LN_2;
+    let scale_x = points
+        .iter()
+        .map(|p| p.x / p.a.max(f64::MIN_POSITIVE))
+        .sum::<f64>()
+        / points.len() as f64;
+    if !(scale_x.is_finite() && scale_x > 0.0) {
+        return None;
+    }
+    let mut f2: Vec<f64> = (0..nq)
+        .map(|c| {
+            if let Some(h) = held[c] {
+                return h;
+            }
+            let ch: Vec<&&VariancePoint> = by_q.iter().filter(|p| p.channel == c).collect();
+            let low: Vec<f64> = ch[..ch.len().div_ceil(4)]
+                .iter()
+                .map(|p| p.x / p.a)
+                .collect();
+            let m = median(low).unwrap_or(scale_x) / core::f64::consts::LN_2;
+            m.max(1e-6 * scale_x)
+        })
+        .collect();
+    let s2_free = true;
+    let free: Vec<bool> = held.iter().map(Option::is_none).collect();
+    let tiny = 1e-12 * scale_x;
+    let mut floor_z = vec![0.0; nq];
+    for _ in 0..200 {
+        // Unknowns: the free floors, then s^2 (if free).
+        let idx: Vec<usize> = (0..nq).filter(|&c| free[c]).collect();
+        let k = idx.len() + usize::from(s2_free);
+        if k == 0 {
+            break;
+        }
+        let mut a = nalgebra::DMatrix::<f64>::zeros(k, k);
+        let mut b = nalgebra::DVector::<f64>::zeros(k);
+        for p in points {
+            let v = (f2[p.channel] * p.a + s2 * p.b).max(tiny * p.a.max(f64::MIN_POSITIVE));
+            let y = v * (p.x / v).min(CAP) * norm;
+            let w = 1.0 / (v * v);
+            // Known part: held floors (and s^2 when held).
+            let mut known = 0.0;
+            let mut row = [(usize::MAX, 0.0); 2];
+            let mut n = 0;
+            if free[p.channel] {
+                let j = idx.iter().position(|&c| c == p.channel).unwrap_or(0);
+                row[n] = (j, p.a);
+                n += 1;
+            } else {
+                known += f2[p.channel] * p.a;
+            }
+            if s2_free {
+                row[n] = (k - 1, p.b);
+                n += 1;
+            } else {
+                known += s2 * p.b;
+            }
+            for &(i, xi) in &row[..n] {
+                b[i] += w * xi * (y - known);
+                for &(j, xj) in &row[..n] {
+                    a[(i, j)] += w * xi * xj;
+                }
+            }
+        }
+        // Jacobi scaling before the Cholesky factorisation.
+        let d: Vec<f64> = (0..k)
+            .map(|i| a[(i, i)].max(f64::MIN_POSITIVE).sqrt())
+            .collect();
+        let scaled = nalgebra::DMatrix::from_fn(k, k, |i, j| a[(i, j)] / (d[i] * d[j]));
+        let chol = scaled.cholesky()?;
+        let rhs = nalgebra::DVector::from_fn(k, |i, _| b[i] / d[i]);
+        let sol = chol.solve(&rhs);
+        let inv_diag = chol.inverse();
+        let mut change: f64 = 0.0;
+        for (j, &c) in idx.iter().enumerate() {
+            let new = sol[j] / d[j];
+            floor_z[c] = new / (inv_diag[(j, j)].sqrt() / d[j]);
+            // Projected onto f_c^2 >= 0 (the iteration may bring it back).
+            let new = new.max(0.0);
+            change = change.max((new - f2[c]).abs() / scale_x);
+            f2[c] = new;
+        }
+        if s2_free {
+            let new = (sol[k - 1] / d[k - 1]).max(0.0);
+            change = change.max((new - s2).abs() / s2.max(f64::MIN_POSITIVE));
+            s2 = new;
+        }
+        if !f2.iter().chain([&s2]).all(|v| v.is_finite()) {
+            return None;
+        }
+        if change < 1e-10 {
+            break;
+        }
+    }
+    Some(VarianceFit {
+        floor2: f2,
+        relative2: s2,
+        floor_z,
+    })
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
+    Some(*m)
+}
+
+/// The noise model of `points` on `nq` channels: with `given_floor`, the
+/// floor (m, every channel) is held and `s` fitted (source
+/// [`NoiseSource::Given`]); otherwise every channel's floor is fitted and
+/// kept where it is significant ([`FLOOR_SIGNIFICANCE`]), the others set to
+/// 0 and the rest refitted (source [`NoiseSource::Estimated`]). `None` when
+/// [`fit_variance`] fails.
+pub fn noise_from_points(
+    points: &[VariancePoint],
+    nq: usize,
+    given_floor: Option<f64>,
+) -> Option<NoiseModel> {
+    if let Some(f) = given_floor {
+        let fit = fit_variance(points, &vec![Some(f * f); nq])?;
+        return Some(NoiseModel {
+            floor_m: vec![f; nq],
+            relative: fit.relative2.sqrt(),
+            source: NoiseSource::Given,
+        });
+    }
+    let first = fit_variance(points, &vec![None; nq])?;
+    let held: Vec<Option<f64>> = first
+        .floor_z
+        .iter()
+        .map(|z| (*z < FLOOR_SIGNIFICANCE).then_some(0.0))
+        .collect();
+    let fit = if held.iter().any(Option::is_some) {
+        fit_variance(points, &held)?
+    } else {
+        first
+    };
+    Some(NoiseModel {
+        floor_m: fit.floor2.iter().map(|f| f.sqrt()).collect(),
+        relative: fit.relative2.sqrt(),
+        source: NoiseSource::Estimated,
+    })
+}
+
+/// The local-quadratic residuals of the module documentation as variance
+/// points, at each window's centre sample, every channel (windows across a
+/// repeated speed skipped).
+///
+/// With the smoother weights `l_i` of the window (`fit(centre) = sum l_i
+/// y_i`) and `d_i = delta_(i,centre) - l_i`, the centre's residual
+/// `e = sum_i d_i y_i` has `E|e|^2 = sum_i d_i^2 v_i`:
+///
+/// - in the response (`y = q`, `v_i = f^2 + s^2 |q_i|^2`):
+///   `a = sum d_i^2 = 1 - h`, `b = sum d_i^2 |q_i|^2`;
+/// - in the inverse response (`y = 1 / q`, `v_i ~ (f^2 + s^2 |q_i|^2) /
+///   |q_i|^4` to first order): `a = sum d_i^2 / |q_i|^4`,
+///   `b = sum d_i^2 / |q_i|^2`.
+///
+/// Near a resonance the inverse response of a mode is a quadratic in
+/// `Omega` (`(k - m Omega^2 + j c Omega) / F`), while the response itself
+/// changes faster than any local quadratic on a practical speed grid: a
+/// window is read in the inverse response where its centre response is
+/// well above the floor (`|q| > INVERSE_ABOVE_FLOOR f_c`, `floor[c]`),
+/// where the inverse is accurate, and in the response elsewhere (`floor`
+/// empty: the response everywhere). `|q_i|` are the measured magnitudes.
+pub fn local_points(samples: &[Sample], floor: &[f64]) -> Vec<VariancePoint> {
+    let Some(nq) = samples.first().map(|s| s.q.len()) else {
+        return Vec::new();
+    };
+    let mut order: Vec<usize> = (0..samples.len()).collect();
+    order.sort_by(|&i, &j| samples[i].omega.total_cmp(&samples[j].omega));
+    let half = WINDOW / 2;
+    let mut out = Vec::with_capacity(samples.len() * nq);
+    for centre in half..order.len().saturating_sub(half) {
+        let idx = &order[centre - half..=centre + half];
+        let w0 = samples[order[centre]].omega;
+        let span = samples[idx[WINDOW - 1]].omega - samples[idx[0]].omega;
+        if span.is_nan() || span <= 0.0 {
+            continue;
+        }
+        let x: Vec<f64> = idx
+            .iter()
+            .map(|&i| (samples[i].omega - w0) / span)
+            .collect();
+        let Some((coef_of, h)) = centre_smoother(&x, half) else {
+            continue;
+        };
+        if h >= 1.0 {
+            continue;
+        }
+        let d: Vec<f64> = coef_of
+            .iter()
+            .enumerate()
+            .map(|(i, l)| if i == half { 1.0 - l } else { -l })
+            .collect();
+        for c in 0..nq {
+            let fit: num_complex::Complex64 = idx
+                .iter()
+                .zip(&coef_of)
+                .map(|(&i, &l)| samples[i].q[c] * l)
+                .sum();
+            let f = floor.get(c).copied().unwrap_or(0.0);
+            let inverse = f > 0.0 && fit.norm() > INVERSE_ABOVE_FLOOR * f;
+            let q2: Vec<f64> = idx.iter().map(|&i| samples[i].q[c].norm_sqr()).collect();
+            let p = if inverse && q2.iter().all(|v| *v > 0.0) {
+                let e: num_complex::Complex64 = idx
+                    .iter()
+                    .zip(&d)
+                    .map(|(&i, &di)| samples[i].q[c].inv() * di)
+                    .sum();
+                VariancePoint {
+                    channel: c,
+                    x: e.norm_sqr(),
+                    a: d.iter().zip(&q2).map(|(di, v)| di * di / (v * v)).sum(),
+                    b: d.iter().zip(&q2).map(|(di, v)| di * di / v).sum(),
+                }
+            } else {
+                let e = samples[order[centre]].q[c] - fit;
+                VariancePoint {
+                    channel: c,
+                    x: e.norm_sqr(),
+                    a: 1.0 - h,
+                    b: d.iter().zip(&q2).map(|(di, v)| di * di * v).sum(),
+                }
+            };
+            if p.x.is_finite() && p.a.is_finite() && p.b.is_finite() {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+/// A window is read in the inverse response where its centre response
+/// exceeds the floor by this factor ([`local_points`]).
+pub const INVERSE_ABOVE_FLOOR: f64 = 10.0;
+
+/// The noise model of `samples` estimated without the rotor model: the
+/// points of [`local_points`] through [`noise_from_points`]. Where no
+/// channel shows a significant floor the model is the proportional one with
+/// `s` from [`relative_noise_level`] (exactly the estimate of SPEC section
+/// 4's data). `None` as for [`relative_noise_level`].
+pub fn estimate_noise(samples: &[Sample], given_floor: Option<f64>) -> Option<NoiseModel> {
+    let nq = samples.first()?.q.len();
+    let points = local_points(samples, &[]);
+    if points.is_empty() {
+        return None;
+    }
+    let first = noise_from_points(&points, nq, given_floor);
+    match first {
+        // A floor: the windows far above it again, in the inverse response.
+        Some(n) if n.has_floor() => {
+            let points = local_points(samples, &n.floor_m);
+            Some(noise_from_points(&points, nq, given_floor).unwrap_or(n))
+        }
+        Some(n) if n.source == NoiseSource::Given => Some(NoiseModel {
+            relative: relative_noise_level(samples)?,
+            ..n
+        }),
+        _ => Some(NoiseModel::proportional(
+            nq,
+            relative_noise_level(samples)?,
+            NoiseSource::Estimated,
+        )),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -131,5 +586,60 @@ mod tests {
             assert!((est / s - 1.0).abs() < 0.05, "{s}: {est}");
         }
         assert!(relative_noise_level(&[]).is_none());
+    }
+
+    /// A resonance-like sweep on 4 channels with noise `f eps1 + s |q| eps2`.
+    fn composite(f: f64, s: f64, seed: u64, n: usize) -> Vec<Sample> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (1..=n)
+            .map(|i| {
+                let w = i as f64 * 1500.0 / n as f64;
+                // From 0.25 nm at the low end to 0.5 mm at resonance.
+                let q0 = Complex64::new(w * w, 0.0) / Complex64::new(1e6 - w * w, 2e3 * w) * 1e-3;
+                let q: Vec<Complex64> = (0..4)
+                    .map(|c| {
+                        let qt = q0 * (1.0 + 0.3 * c as f64);
+                        let mut g = || {
+                            let n1: f64 = StandardNormal.sample(&mut rng);
+                            let n2: f64 = StandardNormal.sample(&mut rng);
+                            Complex64::new(n1, n2) / 2f64.sqrt()
+                        };
+                        let (e1, e2) = (g(), g());
+                        qt + e1 * (s * qt.norm()) + e2 * f
+                    })
+                    .collect();
+                Sample { omega: w, q }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn separates_the_floor_from_the_relative_part() {
+        for (f, s) in [(5e-7, 5e-3), (1e-7, 5e-3), (2e-6, 1e-2)] {
+            let samples = composite(f, s, 3, 3000);
+            let m = estimate_noise(&samples, None).unwrap();
+            assert_eq!(m.source, NoiseSource::Estimated);
+            for fc in &m.floor_m {
+                assert!((fc / f - 1.0).abs() < 0.1, "{f} {s}: floor {fc}");
+            }
+            assert!(
+                (m.relative / s - 1.0).abs() < 0.1,
+                "{f} {s}: {}",
+                m.relative
+            );
+            // Given: the floor held, s fitted.
+            let g = estimate_noise(&samples, Some(f)).unwrap();
+            assert_eq!(g.source, NoiseSource::Given);
+            assert_eq!(g.floor_m, vec![f; 4]);
+            assert!((g.relative / s - 1.0).abs() < 0.1, "{}", g.relative);
+        }
+    }
+
+    #[test]
+    fn proportional_data_show_no_floor() {
+        let samples = composite(0.0, 5e-3, 4, 3000);
+        let m = estimate_noise(&samples, None).unwrap();
+        assert!(!m.has_floor(), "{m:?}");
+        assert_eq!(m.relative, relative_noise_level(&samples).unwrap());
     }
 }

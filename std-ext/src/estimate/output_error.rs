@@ -62,6 +62,7 @@ use nalgebra::{DMatrix, DMatrixView, DVector};
 use num_complex::Complex64;
 use thiserror::Error;
 
+use crate::estimate::noise::{noise_from_points, NoiseModel, NoiseSource, VariancePoint};
 use crate::estimate::predictor::{Entry, PredictError, Predictor, Solve, Terms};
 use crate::io::measurement::Sample;
 
@@ -140,6 +141,21 @@ pub struct OutputErrorFit {
     pub iterations: usize,
     /// Whether the last polish met the tolerance.
     pub converged: bool,
+    /// The noise model at the end of the fit (refined when asked), when the
+    /// fit was given one.
+    pub noise: Option<NoiseModel>,
+    /// The samples excluded as outliers, by sample and channel.
+    pub outliers: Vec<Outlier>,
+    /// More samples than [`MAX_OUTLIER_FRACTION`] lay beyond the outlier
+    /// limit: the largest were excluded, the others kept.
+    pub outliers_capped: bool,
+    /// The fitted runout phasor per channel (m), when asked for.
+    pub runout: Vec<Complex64>,
+    /// Its standard deviation per channel, `sqrt(E|dr|^2)` (m).
+    pub runout_std: Vec<f64>,
+    /// The misfit against [`FitNoise::reference`]: `S_ref / dof / s_ref^2`,
+    /// 1 when the model describes the data within that noise.
+    pub chi2_per_dof: Option<f64>,
 }
 
 /// Accumulated normal equations of one pass at fixed weights.
@@ -157,30 +173,150 @@ fn speed_entries(pr: &Predictor, samples: &[Sample]) -> Vec<Vec<Entry>> {
     samples.iter().map(|s| pr.entries(s.omega)).collect()
 }
 
+/// How each complex sample `(n, c)` is weighted: `w_(n,c)` in the
+/// relative units of the fit (`sigma_(n,c) / s`, see [`NoiseModel`]).
+///
+/// - proportional noise (SPEC section 4): `w = max(|q^|, floor_c)` with
+///   `floor_c` a tiny fraction of the channel's RMS reading, which only
+///   guards vanishing responses;
+/// - probe noise with a floor (SPEC section 7): `w = sqrt(phi_c^2 + |q^|^2)`
+///   with `phi_c = f_c / s` ([`NoiseModel::relative_floor`]);
+/// - per-sample standard deviations (the file's `_std` columns): fixed;
+/// - an excluded sample (an outlier): `w = inf`, so it adds nothing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Weighting {
+    /// Per-channel guard floors of the proportional model (m).
+    tiny: Vec<f64>,
+    /// `phi_c` per channel (m); empty: proportional.
+    phi: Vec<f64>,
+    /// Fixed weights at `n * nq + c`, when given.
+    fixed: Option<Vec<f64>>,
+    /// Excluded samples at `n * nq + c`; empty: none.
+    excluded: Vec<bool>,
+}
+
+impl Weighting {
+    /// The proportional weighting of `samples` with guard floors `floor`
+    /// times each channel's RMS reading (the weighting of SPEC section 4's
+    /// noise).
+    pub fn proportional(samples: &[Sample], floor: f64) -> Self {
+        Weighting {
+            tiny: floors(samples, floor),
+            phi: Vec::new(),
+            fixed: None,
+            excluded: Vec::new(),
+        }
+    }
+
+    /// The weighting of `noise` on `samples` (guard floors as
+    /// [`Weighting::proportional`]).
+    pub fn of_noise(samples: &[Sample], floor: f64, noise: &NoiseModel) -> Self {
+        let mut w = Self::proportional(samples, floor);
+        w.set_noise(noise);
+        w
+    }
+
+    /// Fixed weights `std_(n,c)` (m) at `n * nq + c`: the noise model of
+    /// per-sample standard deviations.
+    pub fn fixed(samples: &[Sample], floor: f64, std: Vec<f64>) -> Self {
+        let mut w = Self::proportional(samples, floor);
+        w.fixed = Some(std);
+        w
+    }
+
+    fn set_noise(&mut self, noise: &NoiseModel) {
+        self.phi = if noise.has_floor() {
+            noise.relative_floor()
+        } else {
+            Vec::new()
+        };
+    }
+
+    /// The weight of sample `idx = n * nq + c` (channel `c`) whose
+    /// predicted reading is `q`.
+    fn weight(&self, idx: usize, c: usize, q: Complex64) -> f64 {
+        if self.excluded.get(idx).copied().unwrap_or(false) {
+            return f64::INFINITY;
+        }
+        if let Some(f) = &self.fixed {
+            return f.get(idx).copied().unwrap_or(f64::INFINITY);
+        }
+        match self.phi.get(c) {
+            Some(&p) if p > 0.0 => p.hypot(q.norm()),
+            _ => q
+                .norm()
+                .max(self.tiny.get(c).copied().unwrap_or(f64::MIN_POSITIVE)),
+        }
+    }
+
+    /// Whether sample `idx` is excluded.
+    fn is_excluded(&self, idx: usize) -> bool {
+        self.excluded.get(idx).copied().unwrap_or(false)
+    }
+
+    /// Complex samples that count.
+    fn count(&self, n: usize) -> usize {
+        n - self.excluded.iter().filter(|x| **x).count()
+    }
+}
+
 /// What every pass reads: the model, the samples, their terms and the
-/// parameters' entries at their speeds, and the weight floors.
+/// parameters' entries at their speeds, the weighting and whether a
+/// runout phasor per channel is fitted (its parameters follow the model's,
+/// `Re`, `Im` per channel, in units of `runout_scale`).
 struct Data<'a> {
     pr: &'a Predictor,
     samples: &'a [Sample],
     terms: &'a [Terms],
     entries: Vec<Vec<Entry>>,
-    floors: Vec<f64>,
+    weighting: Weighting,
+    runout_scale: Vec<f64>,
 }
 
 impl<'a> Data<'a> {
+    #[cfg(test)]
     fn new(pr: &'a Predictor, samples: &'a [Sample], terms: &'a [Terms], floor: f64) -> Self {
+        Self::weighted(pr, samples, terms, Weighting::proportional(samples, floor))
+    }
+
+    fn weighted(
+        pr: &'a Predictor,
+        samples: &'a [Sample],
+        terms: &'a [Terms],
+        weighting: Weighting,
+    ) -> Self {
         Data {
             pr,
             samples,
             terms,
             entries: speed_entries(pr, samples),
-            floors: floors(samples, floor),
+            weighting,
+            runout_scale: Vec::new(),
         }
+    }
+
+    /// Parameters in all: the model's and the runout's.
+    fn n_all(&self) -> usize {
+        self.pr.n_params() + 2 * self.runout_scale.len()
+    }
+
+    /// The runout phasors (m) in `theta` (all parameters).
+    fn runout(&self, theta: &[f64]) -> Vec<Complex64> {
+        let np = self.pr.n_params();
+        self.runout_scale
+            .iter()
+            .enumerate()
+            .map(|(c, sc)| {
+                let re = theta.get(np + 2 * c).copied().unwrap_or(0.0);
+                let im = theta.get(np + 2 * c + 1).copied().unwrap_or(0.0);
+                Complex64::new(re, im) * *sc
+            })
+            .collect()
     }
 
     /// [`pass`] with weights from this pass's own prediction.
     fn reweighted(&self, theta: &[f64], jacobian: bool) -> Result<(Pass, Vec<f64>), PredictError> {
-        self.pass(WeightsFrom::Prediction(&self.floors), theta, jacobian)
+        self.pass(WeightsFrom::Prediction, theta, jacobian)
     }
 
     fn pass(
@@ -189,15 +325,13 @@ impl<'a> Data<'a> {
         theta: &[f64],
         jacobian: bool,
     ) -> Result<(Pass, Vec<f64>), PredictError> {
-        pass(
-            self.pr,
-            self.samples,
-            self.terms,
-            &self.entries,
-            weights,
-            theta,
-            jacobian,
-        )
+        pass(self, weights, theta, jacobian)
+    }
+
+    /// Complex samples that count (not excluded).
+    fn n_counted(&self) -> usize {
+        let nq = self.samples.first().map_or(0, |s| s.q.len());
+        self.weighting.count(self.samples.len() * nq)
     }
 }
 
@@ -217,8 +351,9 @@ enum WeightsFrom<'a> {
     /// Fixed (within a Levenberg-Marquardt polish): `w_(n,c)` at
     /// `n * nq + c`.
     Given(&'a [f64]),
-    /// This pass's own prediction, with these floors (a reweighting).
-    Prediction(&'a [f64]),
+    /// This pass's own prediction, by the data's [`Weighting`] (a
+    /// reweighting).
+    Prediction,
 }
 
 /// Speeds per block of [`Rows`]: one matrix product per block.
@@ -331,6 +466,21 @@ impl Rows {
         }
     }
 
+    /// The weighted columns of the runout parameters (from column `np0`,
+    /// `Re`, `Im` per channel, scaled by `scale`): `d(reading_c) / d Re r_c
+    /// = scale_c`, `/ d Im r_c = j scale_c`, each over `w_c`.
+    fn runout_columns(&mut self, np0: usize, scale: &[f64], w: &[f64]) {
+        let (cap, row0, nq) = (self.cap, self.filled, self.nq);
+        for (c, sc) in scale.iter().enumerate() {
+            for part in 0..2 {
+                let i = np0 + 2 * c + part;
+                let out = &mut self.x[i * cap + row0..i * cap + row0 + 2 * nq];
+                out.fill(0.0);
+                out[2 * c + part] = sc / w[c];
+            }
+        }
+    }
+
     /// The extra column `y` of `[X y]` at this speed.
     fn extra(&mut self, v: &[Complex64]) {
         let at = self.np * self.cap + self.filled;
@@ -381,43 +531,52 @@ impl Rows {
 /// gives `Re(J^H D^2 J)` and the gradient `-Re(J^H D^2 (q_meas - q))`
 /// (checked against the Jacobian of the predictor in the tests).
 fn pass(
-    pr: &Predictor,
-    samples: &[Sample],
-    terms: &[Terms],
-    entries: &[Vec<Entry>],
+    data: &Data<'_>,
     weights: WeightsFrom<'_>,
     theta: &[f64],
     jacobian: bool,
 ) -> Result<(Pass, Vec<f64>), PredictError> {
+    let pr = data.pr;
     let np = pr.n_params();
+    let na = data.n_all();
     let (nq, npl) = (2 * pr.param.n_bearings(), pr.param.n_planes());
-    if theta.len() != np || entries.iter().any(|en| en.len() != np) {
+    if theta.len() != na || data.entries.iter().any(|en| en.len() != np) {
         return Err(PredictError::Dimension);
     }
+    let runout = data.runout(theta);
     let mut solve = Solve::new(nq, npl);
-    let mut rows = jacobian.then(|| Rows::new(nq, npl, np, false));
+    let mut rows = jacobian.then(|| Rows::new(nq, npl, na, false));
     let mut r = vec![Complex64::new(0.0, 0.0); nq];
+    let mut read = vec![Complex64::new(0.0, 0.0); nq];
     let mut cost = 0.0;
-    let mut used = Vec::with_capacity(samples.len() * nq);
-    for (n, ((s, t), en)) in samples.iter().zip(terms).zip(entries).enumerate() {
-        solve.run(s.omega, t, en, theta)?;
+    let mut used = Vec::with_capacity(data.samples.len() * nq);
+    let it = data.samples.iter().zip(data.terms).zip(&data.entries);
+    for (n, ((s, t), en)) in it.enumerate() {
+        solve.run(s.omega, t, en, &theta[..np])?;
+        // What the probes read: the shaft's motion plus the runout.
+        for (c, o) in read.iter_mut().enumerate() {
+            *o = solve.q[c] + runout.get(c).copied().unwrap_or_default();
+        }
         let w0 = used.len();
         match weights {
             WeightsFrom::Given(w) => used.extend_from_slice(&w[n * nq..(n + 1) * nq]),
-            WeightsFrom::Prediction(floors) => {
-                used.extend(solve.q.iter().zip(floors).map(|(q, f)| q.norm().max(*f)))
-            }
+            WeightsFrom::Prediction => used.extend(
+                read.iter()
+                    .enumerate()
+                    .map(|(c, q)| data.weighting.weight(n * nq + c, c, *q)),
+            ),
         }
         let wn = &used[w0..];
         for (c, rc) in r.iter_mut().enumerate() {
             let d2 = 1.0 / (wn[c] * wn[c]);
-            let ec = s.q[c] - solve.q[c];
+            let ec = s.q[c] - read[c];
             cost += ec.norm_sqr() * d2;
             *rc = ec / wn[c];
         }
         if let Some(rows) = rows.as_mut() {
             rows.set_speed(&solve.h_inv, t.1.as_slice(), wn);
             rows.columns(false, en, &solve.q);
+            rows.runout_columns(np, &data.runout_scale, wn);
             rows.extra(&r);
             rows.advance();
         }
@@ -425,15 +584,15 @@ fn pass(
     let (normal, gradient) = match rows {
         Some(rows) => {
             let out = rows.finish();
-            let mut normal = out.columns(0, np).into_owned();
-            for i in 0..np {
+            let mut normal = out.columns(0, na).into_owned();
+            for i in 0..na {
                 for k in 0..i {
                     normal[(i, k)] = normal[(k, i)];
                 }
             }
-            (normal, -out.column(np))
+            (normal, -out.column(na))
         }
-        None => (DMatrix::zeros(np, np), DVector::zeros(np)),
+        None => (DMatrix::zeros(na, na), DVector::zeros(na)),
     };
     Ok((
         Pass {
@@ -453,34 +612,42 @@ fn pass(
 /// number as [`Data::reweighted`]'s: the pass that checks one step's
 /// result sets up the next step).
 fn iv_system(data: &Data<'_>, theta: &[f64]) -> Result<(f64, DMatrix<f64>), PredictError> {
-    let (pr, floors) = (data.pr, &data.floors);
+    let pr = data.pr;
     let np = pr.n_params();
     let (nq, npl) = (2 * pr.param.n_bearings(), pr.param.n_planes());
-    if theta.len() != np {
+    if theta.len() != data.n_all() {
         return Err(PredictError::Dimension);
     }
+    // The runout is held: the shaft's motion is the reading less it.
+    let runout = data.runout(theta);
     let mut cost = 0.0;
     let mut solve = Solve::new(nq, npl);
     let mut rows = Rows::new(nq, npl, np, true);
     let zero = Complex64::new(0.0, 0.0);
     let (mut w, mut aq, mut y0) = (vec![0.0; nq], vec![zero; nq], vec![zero; nq]);
-    for ((s, t), entries) in data.samples.iter().zip(data.terms).zip(&data.entries) {
+    let mut shaft = vec![zero; nq];
+    let it = data.samples.iter().zip(data.terms).zip(&data.entries);
+    for (n, ((s, t), entries)) in it.enumerate() {
         let (a, b) = t;
-        solve.run(s.omega, t, entries, theta)?;
-        for ((wc, q), f) in w.iter_mut().zip(&solve.q).zip(floors) {
-            *wc = q.norm().max(*f);
+        solve.run(s.omega, t, entries, &theta[..np])?;
+        for (c, o) in shaft.iter_mut().enumerate() {
+            *o = s.q[c] - runout.get(c).copied().unwrap_or_default();
+        }
+        for (c, wc) in w.iter_mut().enumerate() {
+            let read = solve.q[c] + runout.get(c).copied().unwrap_or_default();
+            *wc = data.weighting.weight(n * nq + c, c, read);
         }
         for (c, wc) in w.iter().enumerate() {
             let d2 = 1.0 / (wc * wc);
-            cost += (s.q[c] - solve.q[c]).norm_sqr() * d2;
+            cost += (shaft[c] - solve.q[c]).norm_sqr() * d2;
         }
         rows.set_speed(&solve.h_inv, b.as_slice(), &w);
         // Instruments from the prediction, regressors from the measurement.
         rows.columns(true, entries, &solve.q);
-        rows.columns(false, entries, &s.q);
+        rows.columns(false, entries, &shaft);
         // y_0 = D H^-1 A q_meas.
         aq.fill(zero);
-        for (ac, qc) in a.as_slice().chunks_exact(nq).zip(&s.q) {
+        for (ac, qc) in a.as_slice().chunks_exact(nq).zip(&shaft) {
             for (o, aic) in aq.iter_mut().zip(ac) {
                 *o += aic * qc;
             }
@@ -524,9 +691,9 @@ fn levenberg_marquardt(
     start: (Vec<f64>, Pass),
     opts: &OutputErrorOptions,
 ) -> Result<(Vec<f64>, usize, bool), OutputErrorError> {
-    let np = data.pr.n_params();
+    let np = data.n_all();
     let (mut theta, mut cur) = start;
-    let n = data.samples.len() * data.samples.first().map_or(0, |s| s.q.len());
+    let n = data.n_counted();
     if cur.cost <= PERFECT * n as f64 {
         return Ok((theta, 0, true));
     }
@@ -591,7 +758,8 @@ fn levenberg_marquardt(
 
 /// The output-error fit of `samples` (with their reduced `terms`, one per
 /// sample) from the start `start` (scaled weights, e.g. the QRD/RLS
-/// estimate).
+/// estimate), under proportional noise (SPEC section 4): the fit of
+/// [`fit_output_error_with`] with [`FitNoise::default`].
 pub fn fit_output_error(
     pr: &Predictor,
     samples: &[Sample],
@@ -599,20 +767,208 @@ pub fn fit_output_error(
     start: &[Complex64],
     opts: &OutputErrorOptions,
 ) -> Result<OutputErrorFit, OutputErrorError> {
+    fit_output_error_with(pr, samples, terms, start, opts, &FitNoise::default())
+}
+
+/// The noise treatment of [`fit_output_error_with`]. The default is the
+/// proportional model of SPEC section 4, nothing excluded, no runout.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FitNoise {
+    /// The noise model the fit weights with (`None`: proportional).
+    pub model: Option<NoiseModel>,
+    /// Refine `model`'s variance parameters by maximum likelihood from the
+    /// fit's residuals between the reweightings ([`noise_from_points`]: a
+    /// given floor stays, an estimated one is refitted).
+    pub refine: bool,
+    /// Per-sample standard deviations (m) at `n * nq + c` (the measurement
+    /// file's `_std` columns): fixed weights, instead of `model`'s.
+    pub sample_std: Option<Vec<f64>>,
+    /// Find the samples the noise model cannot explain, exclude them and
+    /// refit ([`Outlier`]).
+    pub outliers: bool,
+    /// Fit a constant runout phasor per channel, from these values (m).
+    pub runout: Option<Vec<Complex64>>,
+    /// The noise model the misfit is judged against (e.g. the model-free
+    /// estimate): [`OutputErrorFit::chi2_per_dof`].
+    pub reference: Option<NoiseModel>,
+}
+
+/// A sample the noise model cannot explain, excluded from the fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Outlier {
+    /// Index of the sample.
+    pub sample: usize,
+    /// Its channel.
+    pub channel: usize,
+    /// Its residual in standard deviations of the noise model.
+    pub sigmas: f64,
+}
+
+/// False alarms of the outlier test per data set: a sample is an outlier
+/// when `|e|^2 / sigma^2 > ln(N / OUTLIER_FALSE_ALARM)`, `N` complex
+/// samples (for complex Gaussian noise `|e|^2 / sigma^2` is `Exp(1)`, so
+/// the chance that any of `N` is flagged is about this).
+pub const OUTLIER_FALSE_ALARM: f64 = 0.01;
+
+/// At most this fraction of the samples is excluded as outliers; beyond
+/// it the noise model does not describe the data, and excluding more would
+/// hide a misfit.
+pub const MAX_OUTLIER_FRACTION: f64 = 0.05;
+
+/// Rounds of outlier exclusion and refit at most.
+const OUTLIER_ROUNDS: usize = 5;
+
+/// Variance points of the residuals at `theta`, excluded samples left
+/// out. Each residual is corrected for the fit's leverage:
+/// `x = |e|^2 / (1 - h)`, `h` the mean leverage of the sample's real and
+/// imaginary rows in the weighted Jacobian (`h = x_r N^-1 x_r^T`,
+/// `N = X^T X`). The few speeds near the critical speeds carry most of the
+/// information and most of the leverage, and they are the ones that
+/// determine the relative part of the noise: without the correction their
+/// shrunken residuals would make it far too small.
+fn residual_points(data: &Data<'_>, theta: &[f64]) -> Result<Vec<VariancePoint>, PredictError> {
+    let pr = data.pr;
+    let np = pr.n_params();
+    let na = data.n_all();
+    let nq = 2 * pr.param.n_bearings();
+    let runout = data.runout(theta);
+    let (p, w) = data.reweighted(theta, true)?;
+    let n_inv = p.normal.clone().cholesky().map(|c| c.inverse());
+    let mut out = Vec::with_capacity(data.samples.len() * nq);
+    let mut row = DVector::<f64>::zeros(na);
+    let it = data.samples.iter().zip(data.terms).zip(&data.entries);
+    for (k, ((s, t), en)) in it.enumerate() {
+        let pred = pr.predict_with(s.omega, t, en, &theta[..np], n_inv.is_some())?;
+        for c in 0..nq {
+            let idx = k * nq + c;
+            if data.weighting.is_excluded(idx) {
+                continue;
+            }
+            let read = pred.q[c] + runout.get(c).copied().unwrap_or_default();
+            let mut h = 0.0;
+            if let (Some(ni), Some(jac)) = (&n_inv, &pred.jacobian) {
+                for part in 0..2 {
+                    row.fill(0.0);
+                    for i in 0..np {
+                        let z = jac[(c, i)] / w[idx];
+                        row[i] = if part == 0 { z.re } else { z.im };
+                    }
+                    if let Some(sc) = data.runout_scale.get(c) {
+                        row[np + 2 * c + part] = sc / w[idx];
+                    }
+                    h += 0.5 * (ni * &row).dot(&row);
+                }
+            }
+            let corr = 1.0 / (1.0 - h).max(1e-3);
+            out.push(VariancePoint::residual(
+                c,
+                (s.q[c] - read).norm_sqr(),
+                read.norm_sqr(),
+                corr,
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// Standardised residuals `|e| / (w s_0)` at `theta` with the pass's
+/// weights `w`, `s_0` a robust scale (`median(|e|^2 / w^2) / ln 2`), at
+/// `n * nq + c`; excluded samples 0.
+fn standardised(data: &Data<'_>, theta: &[f64], w: &[f64]) -> Result<Vec<f64>, PredictError> {
+    let pr = data.pr;
+    let np = pr.n_params();
+    let (nq, npl) = (2 * pr.param.n_bearings(), pr.param.n_planes());
+    let runout = data.runout(theta);
+    let mut solve = Solve::new(nq, npl);
+    let mut z = Vec::with_capacity(w.len());
+    let it = data.samples.iter().zip(data.terms).zip(&data.entries);
+    for (k, ((s, t), en)) in it.enumerate() {
+        solve.run(s.omega, t, en, &theta[..np])?;
+        for c in 0..nq {
+            let read = solve.q[c] + runout.get(c).copied().unwrap_or_default();
+            let wk = w[k * nq + c];
+            z.push(if wk.is_finite() {
+                (s.q[c] - read).norm() / wk
+            } else {
+                0.0
+            });
+        }
+    }
+    let mut sq: Vec<f64> = z
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !data.weighting.is_excluded(*i))
+        .map(|(_, x)| x * x)
+        .collect();
+    if sq.is_empty() {
+        return Ok(z);
+    }
+    let mid = sq.len() / 2;
+    let (_, med, _) = sq.select_nth_unstable_by(mid, f64::total_cmp);
+    let s0 = (*med / core::f64::consts::LN_2).sqrt();
+    if s0 > 0.0 && s0.is_finite() {
+        for x in &mut z {
+            *x /= s0;
+        }
+    }
+    Ok(z)
+}
+
+/// The output-error fit of `samples` (with their reduced `terms`, one per
+/// sample) from the start `start` (scaled weights, e.g. the QRD/RLS
+/// estimate), with the noise treatment `noise` (see the module
+/// documentation and [`FitNoise`]).
+pub fn fit_output_error_with(
+    pr: &Predictor,
+    samples: &[Sample],
+    terms: &[Terms],
+    start: &[Complex64],
+    opts: &OutputErrorOptions,
+    noise: &FitNoise,
+) -> Result<OutputErrorFit, OutputErrorError> {
     let nq = 2 * pr.param.n_bearings();
     if samples.len() != terms.len() || samples.iter().any(|s| s.q.len() != nq) {
         return Err(OutputErrorError::Dimension);
     }
-    let n = samples.len() * nq;
+    let n_all = samples.len() * nq;
     let np = pr.n_params();
-    if 2 * n <= np {
+    let weighting = match (&noise.sample_std, &noise.model) {
+        (Some(std), _) => {
+            if std.len() != n_all || std.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                return Err(OutputErrorError::Dimension);
+            }
+            Weighting::fixed(samples, opts.floor, std.clone())
+        }
+        (None, Some(m)) => Weighting::of_noise(samples, opts.floor, m),
+        (None, None) => Weighting::proportional(samples, opts.floor),
+    };
+    let mut data = Data::weighted(pr, samples, terms, weighting);
+    let mut theta = pr.theta(start);
+    if let Some(r0) = &noise.runout {
+        if r0.len() != nq {
+            return Err(OutputErrorError::Dimension);
+        }
+        // Scale: the start's size, at least a thousandth of the channel's
+        // RMS reading, so that the runout parameters are of order one.
+        data.runout_scale = r0
+            .iter()
+            .zip(&floors(samples, 1e-3))
+            .map(|(r, f)| r.norm().max(*f))
+            .collect();
+        for (r, sc) in r0.iter().zip(&data.runout_scale) {
+            theta.push(r.re / sc);
+            theta.push(r.im / sc);
+        }
+    }
+    let na = data.n_all();
+    if 2 * n_all <= na {
         return Err(OutputErrorError::TooFewEquations {
-            equations: 2 * n,
-            params: np,
+            equations: 2 * n_all,
+            params: na,
         });
     }
-    let data = Data::new(pr, samples, terms, opts.floor);
-    let mut theta = pr.theta(start);
+    let mut model = noise.model.clone();
+    let refine = noise.refine && noise.sample_std.is_none() && model.is_some();
     // A pass keeps its result only if it explains the data better: on data
     // the start already fits to round-off, the instrumental-variable
     // equations (whose conditioning is that of the normal equations) must
@@ -629,13 +985,18 @@ pub fn fit_output_error(
         (data.reweighted(&theta, false)?.0.cost, None)
     };
     let mut fresh = None;
+    let with_runout = |t: Vec<f64>, theta: &[f64]| -> Vec<f64> {
+        let mut t = t;
+        t.extend_from_slice(&theta[np..]);
+        t
+    };
     for k in 0..opts.iv_passes {
-        if cost <= PERFECT * n as f64 {
+        if cost <= PERFECT * n_all as f64 {
             break;
         }
         let Some(sys) = system.take() else { break };
         let t = match solve_iv(sys) {
-            Ok(t) => t,
+            Ok(t) => with_runout(t, &theta),
             Err(OutputErrorError::Predict(_)) | Err(OutputErrorError::Singular) => break,
             Err(e) => return Err(e),
         };
@@ -661,18 +1022,76 @@ pub fn fit_output_error(
     }
     let mut iterations = 0;
     let mut converged = false;
-    for _ in 0..opts.reweightings.max(1) {
-        let (cur, w) = match fresh.take() {
-            Some(f) => f,
-            None => data.reweighted(&theta, true)?,
-        };
-        let (t, it, ok) = levenberg_marquardt(&data, &w, (theta, cur), opts)?;
-        theta = t;
-        iterations += it;
-        converged = ok;
+    let mut outliers: Vec<Outlier> = Vec::new();
+    let max_out = (MAX_OUTLIER_FRACTION * n_all as f64).floor() as usize;
+    let mut too_many = false;
+    for round in 0..OUTLIER_ROUNDS {
+        for k in 0..opts.reweightings.max(1) {
+            if refine && (k > 0 || round > 0) {
+                if let Some(m) = model.as_mut() {
+                    refine_noise(&data, &theta, m)?;
+                    data.weighting.set_noise(m);
+                    fresh = None;
+                }
+            }
+            let (cur, w) = match fresh.take() {
+                Some(f) => f,
+                None => data.reweighted(&theta, true)?,
+            };
+            let (t, it, ok) = levenberg_marquardt(&data, &w, (theta, cur), opts)?;
+            theta = t;
+            iterations += it;
+            converged = ok;
+        }
+        if !noise.outliers || too_many {
+            break;
+        }
+        let (_, w) = data.reweighted(&theta, false)?;
+        let z = standardised(&data, &theta, &w)?;
+        let limit = (data.n_counted().max(1) as f64 / OUTLIER_FALSE_ALARM)
+            .ln()
+            .sqrt();
+        let mut new: Vec<(usize, f64)> = z
+            .iter()
+            .enumerate()
+            .filter(|(i, x)| **x > limit && !data.weighting.is_excluded(*i))
+            .map(|(i, x)| (i, *x))
+            .collect();
+        if new.is_empty() {
+            break;
+        }
+        if outliers.len() + new.len() > max_out {
+            // Keep the largest up to the limit; the rest stays in (and the
+            // caller warns that the noise model does not describe the data).
+            new.sort_by(|a, b| b.1.total_cmp(&a.1));
+            new.truncate(max_out.saturating_sub(outliers.len()));
+            too_many = true;
+            if new.is_empty() {
+                break;
+            }
+        }
+        if data.weighting.excluded.is_empty() {
+            data.weighting.excluded = vec![false; n_all];
+        }
+        for (i, x) in new {
+            data.weighting.excluded[i] = true;
+            outliers.push(Outlier {
+                sample: i / nq,
+                channel: i % nq,
+                sigmas: x,
+            });
+        }
     }
+    if refine {
+        if let Some(m) = model.as_mut() {
+            refine_noise(&data, &theta, m)?;
+            data.weighting.set_noise(m);
+        }
+    }
+    outliers.sort_by_key(|o| (o.sample, o.channel));
+    let n = data.n_counted();
     let (fin, _) = data.reweighted(&theta, true)?;
-    let dof = n as f64 - np as f64 / 2.0;
+    let dof = n as f64 - na as f64 / 2.0;
     let residual_noise = (fin.cost / dof).sqrt();
     let inv = fin
         .normal
@@ -680,16 +1099,83 @@ pub fn fit_output_error(
         .cholesky()
         .map(|c| c.inverse())
         .ok_or(OutputErrorError::Singular)?;
-    let covariance = inv * (residual_noise * residual_noise / 2.0);
+    let full = inv * (residual_noise * residual_noise / 2.0);
+    let runout = data.runout(&theta);
+    let runout_std = data
+        .runout_scale
+        .iter()
+        .enumerate()
+        .map(|(c, sc)| {
+            (full[(np + 2 * c, np + 2 * c)] + full[(np + 2 * c + 1, np + 2 * c + 1)])
+                .max(0.0)
+                .sqrt()
+                * sc
+        })
+        .collect();
+    // With a floor, the model-free relative part rests on the few windows
+    // where the response exceeds the floor, near a resonance, where a local
+    // smoother also reads curvature: it is an upper bound. The reference is
+    // the fit's relative part when below it (a fit within the noise), the
+    // model-free one otherwise (a fit whose relative residual exceeds even
+    // that bound misfits).
+    let reference = noise.reference.as_ref().map(|r| match &model {
+        Some(m) if r.has_floor() => NoiseModel {
+            relative: m.relative.min(r.relative),
+            ..r.clone()
+        },
+        _ => r.clone(),
+    });
+    let chi2_per_dof = match &reference {
+        Some(r) if r.relative > 0.0 => {
+            let mut d = Data::weighted(
+                pr,
+                samples,
+                terms,
+                Weighting::of_noise(samples, opts.floor, r),
+            );
+            d.runout_scale = data.runout_scale.clone();
+            d.weighting.excluded = data.weighting.excluded.clone();
+            let (p, _) = d.reweighted(&theta, false)?;
+            Some(p.cost / dof / (r.relative * r.relative))
+        }
+        _ => None,
+    };
+    theta.truncate(np);
     Ok(OutputErrorFit {
         weights: pr.weights(&theta),
         theta,
-        covariance,
+        covariance: full.view((0, 0), (np, np)).into_owned(),
         residual: (fin.cost / n as f64).sqrt(),
         residual_noise,
         iterations,
         converged,
+        noise: model,
+        outliers,
+        outliers_capped: too_many,
+        runout,
+        runout_std,
+        chi2_per_dof,
     })
+}
+
+/// `model` refitted by maximum likelihood to the residuals at `theta`
+/// ([`noise_from_points`]; a given floor is held).
+fn refine_noise(
+    data: &Data<'_>,
+    theta: &[f64],
+    model: &mut NoiseModel,
+) -> Result<(), PredictError> {
+    let points = residual_points(data, theta)?;
+    let nq = model.floor_m.len();
+    let given =
+        (model.source == NoiseSource::Given).then(|| model.floor_m.first().copied().unwrap_or(0.0));
+    if let Some(m) = noise_from_points(&points, nq, given) {
+        *model = NoiseModel {
+            source: model.source,
+            ..m
+        };
+    }
+    Ok(())
 }
 
 /// The Fisher information of `theta` per unit noise, `2 Re(J^H J)` with
@@ -707,7 +1193,29 @@ pub fn fisher_information(
     if samples.len() != terms.len() {
         return Err(OutputErrorError::Dimension);
     }
-    let (p, _) = Data::new(pr, samples, terms, floor).reweighted(theta, true)?;
+    fisher_information_weighted(
+        pr,
+        samples,
+        terms,
+        theta,
+        &Weighting::proportional(samples, floor),
+    )
+}
+
+/// [`fisher_information`] with the weights of `weighting` (e.g. of a noise
+/// model with a floor, [`Weighting::of_noise`]): `2 Re(J^H J)` with
+/// `J = (dq/dtheta) / w`; divide by `s^2` for the information of the data.
+pub fn fisher_information_weighted(
+    pr: &Predictor,
+    samples: &[Sample],
+    terms: &[Terms],
+    theta: &[f64],
+    weighting: &Weighting,
+) -> Result<DMatrix<f64>, OutputErrorError> {
+    if samples.len() != terms.len() {
+        return Err(OutputErrorError::Dimension);
+    }
+    let (p, _) = Data::weighted(pr, samples, terms, weighting.clone()).reweighted(theta, true)?;
     Ok(p.normal * 2.0)
 }
 
@@ -724,9 +1232,30 @@ pub fn misfit(
     if samples.len() != terms.len() || samples.is_empty() {
         return Err(OutputErrorError::Dimension);
     }
+    misfit_weighted(
+        pr,
+        samples,
+        terms,
+        w,
+        &Weighting::proportional(samples, floor),
+    )
+}
+
+/// [`misfit`] with the weights of `weighting`.
+pub fn misfit_weighted(
+    pr: &Predictor,
+    samples: &[Sample],
+    terms: &[Terms],
+    w: &[Complex64],
+    weighting: &Weighting,
+) -> Result<(f64, f64), OutputErrorError> {
+    if samples.len() != terms.len() || samples.is_empty() {
+        return Err(OutputErrorError::Dimension);
+    }
     let theta = pr.theta(w);
-    let (p, _) = Data::new(pr, samples, terms, floor).reweighted(&theta, false)?;
-    let n = (samples.len() * samples[0].q.len()) as f64;
+    let data = Data::weighted(pr, samples, terms, weighting.clone());
+    let (p, _) = data.reweighted(&theta, false)?;
+    let n = data.n_counted() as f64;
     let dof = (n - pr.n_params() as f64 / 2.0).max(1.0);
     Ok(((p.cost / n).sqrt(), (p.cost / dof).sqrt()))
 }
@@ -779,18 +1308,8 @@ mod tests {
                 samples.push(Sample { omega, q: qm });
                 terms.push(t);
             }
-            let floors = floors(&samples, 1e-6);
-            let entries = speed_entries(&pr, &samples);
-            let (fast, w) = pass(
-                &pr,
-                &samples,
-                &terms,
-                &entries,
-                WeightsFrom::Prediction(&floors),
-                &theta,
-                true,
-            )
-            .unwrap();
+            let data = Data::new(&pr, &samples, &terms, 1e-6);
+            let (fast, w) = pass(&data, WeightsFrom::Prediction, &theta, true).unwrap();
             // Reference: explicit Jacobian rows -J / w.
             let np = pr.n_params();
             let mut normal = DMatrix::<f64>::zeros(np, np);

@@ -25,8 +25,13 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
-use crate::estimate::noise::relative_noise_level;
-use crate::estimate::output_error::{fit_output_error, OutputErrorError, OutputErrorOptions};
+use crate::estimate::noise::{
+    estimate_noise, noise_from_points, relative_noise_level, NoiseModel, NoiseSource, VariancePoint,
+};
+use crate::estimate::output_error::{
+    fit_output_error_with, misfit_weighted, FitNoise, OutputErrorError, OutputErrorOptions,
+    Weighting, MAX_OUTLIER_FRACTION,
+};
 use crate::estimate::predictor::{Predictor, Terms};
 use crate::estimate::{EstimateSet, Identification};
 use crate::io::measurement::Sample;
@@ -50,22 +55,51 @@ pub struct FitCheck {
     pub chi2_per_dof: Option<f64>,
     /// One line each: what an engineer must know before trusting the result.
     pub warnings: Vec<String>,
+    /// The noise model the estimate was weighted with (SPEC section 7).
+    pub noise: Option<NoiseModel>,
+    /// The samples excluded as outliers.
+    pub outliers: Vec<OutlierReport>,
+}
+
+/// A sample excluded as an outlier, as reported.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutlierReport {
+    /// Index of the sample in the measurement (0-based).
+    pub sample: usize,
+    /// Its speed (rad/s).
+    pub omega: f64,
+    /// Its channel (index, `b1_y, b1_z, b2_y, ...`).
+    pub channel: usize,
+    /// Its residual in standard deviations of the noise model.
+    pub sigmas: f64,
 }
 
 impl FitCheck {
     /// The check of an estimate with residual noise `s_fit` and misfit
-    /// `residual` on `samples`.
+    /// `residual` on `samples` (proportional noise).
     pub fn new(samples: &[Sample], residual: f64, s_fit: f64) -> Self {
         let noise_level = relative_noise_level(samples);
         let chi2_per_dof = noise_level
             .filter(|s| *s > 0.0)
             .map(|s| (s_fit / s).powi(2));
+        Self::with_chi2(noise_level, residual, s_fit, chi2_per_dof, None)
+    }
+
+    /// The check with `chi2_per_dof` computed against `noise` (the
+    /// model-free estimate, relative part `noise_level`).
+    pub fn with_chi2(
+        noise_level: Option<f64>,
+        residual: f64,
+        s_fit: f64,
+        chi2_per_dof: Option<f64>,
+        noise: Option<NoiseModel>,
+    ) -> Self {
         let mut warnings = Vec::new();
         match (noise_level, chi2_per_dof) {
             (Some(s), Some(chi2)) if chi2 > MISFIT_CHI2 && s_fit > PERFECT_FIT => warnings.push(format!(
                 "residual {:.1}x the noise level ({:.2e} against {:.2e}): the model lacks something; `rotorid diagnose` looks for what",
                 chi2.sqrt(),
-                s_fit,
+                s * chi2.sqrt(),
                 s
             )),
             (None, _) => warnings.push(
@@ -79,6 +113,55 @@ impl FitCheck {
             residual,
             chi2_per_dof,
             warnings,
+            noise,
+            outliers: Vec::new(),
+        }
+    }
+}
+
+/// How the noise of the measurements is described to the identification.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct NoiseSetup {
+    /// The probes' noise floor (m, every channel), e.g. from a data sheet;
+    /// `None`: estimated from the data.
+    pub floor: Option<f64>,
+    /// Per-sample standard deviations (m) at `n * nq + c`, from the
+    /// measurement file's `_std` columns.
+    pub sample_std: Option<Vec<f64>>,
+    /// Exclude the samples the noise model cannot explain (glitches).
+    pub outliers: bool,
+    /// Fit a runout phasor per channel from these start values (m).
+    pub runout: Option<Vec<Complex64>>,
+}
+
+impl NoiseSetup {
+    /// The noise model of `samples` without the rotor model: the file's
+    /// standard deviations summarised as floor and relative part, or the
+    /// model-free estimate ([`estimate_noise`]) with the given floor.
+    pub fn reference(&self, samples: &[Sample]) -> Option<NoiseModel> {
+        match &self.sample_std {
+            Some(std) => {
+                let nq = samples.first()?.q.len();
+                let points: Vec<VariancePoint> = samples
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(n, s)| {
+                        s.q.iter().enumerate().map(move |(c, q)| {
+                            VariancePoint::known(
+                                c,
+                                std.get(n * nq + c).map_or(0.0, |x| x * x),
+                                q.norm_sqr(),
+                            )
+                        })
+                    })
+                    .collect();
+                let m = noise_from_points(&points, nq, None)?;
+                Some(NoiseModel {
+                    source: NoiseSource::File,
+                    ..m
+                })
+            }
+            None => estimate_noise(samples, self.floor),
         }
     }
 }
@@ -97,6 +180,9 @@ pub struct Refinement {
     /// What these speeds determine and what would help
     /// ([`crate::estimate::design`]).
     pub design: Option<crate::estimate::design::TestDesign>,
+    /// The fitted runout phasor per channel (m) with its standard deviation
+    /// `sqrt(E|dr|^2)` (m); empty unless fitted.
+    pub runout: Vec<(Complex64, f64)>,
 }
 
 /// Checks the (QRD/RLS) estimate of `id` against `samples` without refining
@@ -105,30 +191,139 @@ pub fn check(
     id: &mut Identification,
     samples: &[Sample],
     terms: &[Terms],
+    setup: &NoiseSetup,
 ) -> Result<(), OutputErrorError> {
     let pr = Predictor::new(id.param.clone());
-    let (residual, s_fit) = crate::estimate::output_error::misfit(
-        &pr,
-        samples,
-        terms,
-        &id.scaled_weights,
-        OutputErrorOptions::default().floor,
-    )?;
-    id.check = Some(FitCheck::new(samples, residual, s_fit));
+    let floor = OutputErrorOptions::default().floor;
+    let reference = setup.reference(samples);
+    let weighting = weighting_of(samples, floor, setup, reference.as_ref());
+    let (residual, s_fit) = misfit_weighted(&pr, samples, terms, &id.scaled_weights, &weighting)?;
+    let noise_level = noise_level_of(samples, reference.as_ref());
+    let chi2 = reference_chi2(reference.as_ref(), setup, s_fit);
+    id.check = Some(FitCheck::with_chi2(
+        noise_level,
+        residual,
+        s_fit,
+        chi2,
+        reference,
+    ));
     Ok(())
 }
 
+/// The weights of `setup` (fixed by the file's standard deviations, or
+/// of the noise model).
+fn weighting_of(
+    samples: &[Sample],
+    floor: f64,
+    setup: &NoiseSetup,
+    reference: Option<&NoiseModel>,
+) -> Weighting {
+    match (&setup.sample_std, reference) {
+        (Some(std), _) => Weighting::fixed(samples, floor, std.clone()),
+        (None, Some(m)) => Weighting::of_noise(samples, floor, m),
+        (None, None) => Weighting::proportional(samples, floor),
+    }
+}
+
+/// The relative noise level reported (`noise_level`): the model-free
+/// estimate of SPEC section 4's `s` when the noise is proportional, the
+/// relative part of the noise model otherwise.
+fn noise_level_of(samples: &[Sample], reference: Option<&NoiseModel>) -> Option<f64> {
+    match reference {
+        Some(m) if m.has_floor() || m.source == NoiseSource::File => Some(m.relative),
+        _ => relative_noise_level(samples),
+    }
+}
+
+/// The relative noise level reported after the fit: the model-free one
+/// where the data determine it without the model, the fit's otherwise.
+fn fitted_noise_level(
+    samples: &[Sample],
+    reference: Option<&NoiseModel>,
+    fitted: Option<&NoiseModel>,
+) -> Option<f64> {
+    match (reference, fitted) {
+        (Some(r), Some(f)) if r.has_floor() => Some(f.relative.min(r.relative)),
+        _ => noise_level_of(samples, reference),
+    }
+}
+
+/// `chi^2 / dof` of a misfit `s_fit` (relative units of the weights)
+/// against the reference noise model: `(s_fit / s)^2`, and for the file's
+/// standard deviations (weights in metres) `s_fit^2`.
+fn reference_chi2(reference: Option<&NoiseModel>, setup: &NoiseSetup, s_fit: f64) -> Option<f64> {
+    if setup.sample_std.is_some() {
+        return Some(s_fit * s_fit);
+    }
+    reference
+        .filter(|m| m.relative > 0.0)
+        .map(|m| (s_fit / m.relative.max(crate::estimate::noise::MIN_RELATIVE)).powi(2))
+}
+
 /// Refines `id` (a QRD/RLS identification of `samples`, with their
-/// reduced `terms` in the same order) by the output-error fit.
+/// reduced `terms` in the same order) by the output-error fit, with the
+/// noise described by `setup`.
 pub fn refine(
     id: &mut Identification,
     samples: &[Sample],
     terms: &[Terms],
+    setup: &NoiseSetup,
 ) -> Result<(), OutputErrorError> {
     let pr = Predictor::new(id.param.clone());
     let opts = OutputErrorOptions::default();
-    let fit = fit_output_error(&pr, samples, terms, &id.scaled_weights, &opts)?;
-    let mut check = FitCheck::new(samples, fit.residual, fit.residual_noise);
+    let reference = setup.reference(samples);
+    let noise = FitNoise {
+        model: reference.clone(),
+        refine: setup.sample_std.is_none(),
+        sample_std: setup.sample_std.clone(),
+        outliers: setup.outliers,
+        runout: setup.runout.clone(),
+        reference: reference.clone(),
+    };
+    let fit = fit_output_error_with(&pr, samples, terms, &id.scaled_weights, &opts, &noise)?;
+    let noise_level = fitted_noise_level(samples, reference.as_ref(), fit.noise.as_ref());
+    let chi2 = if setup.sample_std.is_some() {
+        Some(fit.residual_noise * fit.residual_noise)
+    } else {
+        fit.chi2_per_dof
+    };
+    let reported = if setup.sample_std.is_some() {
+        reference.clone()
+    } else {
+        fit.noise.clone()
+    };
+    let mut check = FitCheck::with_chi2(
+        noise_level,
+        fit.residual,
+        fit.residual_noise,
+        chi2,
+        reported,
+    );
+    check.outliers = fit
+        .outliers
+        .iter()
+        .map(|o| OutlierReport {
+            sample: o.sample,
+            omega: samples.get(o.sample).map_or(0.0, |s| s.omega),
+            channel: o.channel,
+            sigmas: o.sigmas,
+        })
+        .collect();
+    let n_all = samples.len() * samples.first().map_or(0, |s| s.q.len());
+    if fit.outliers_capped {
+        check.warnings.push(format!(
+            "more than {:.0} % of the samples lie beyond the noise model ({} excluded as outliers, more remain): the noise model does not describe these data",
+            100.0 * MAX_OUTLIER_FRACTION,
+            fit.outliers.len()
+        ));
+    } else if fit.outliers.len() as f64 > OUTLIER_WARNING * n_all as f64 {
+        check.warnings.push(format!(
+            "{} of {} samples ({:.1} %) excluded as outliers: more than a few per cent, the noise model does not describe these data",
+            fit.outliers.len(),
+            n_all,
+            100.0 * fit.outliers.len() as f64 / n_all.max(1) as f64
+        ));
+    }
     if !fit.converged {
         check.warnings.insert(
             0,
@@ -160,7 +355,18 @@ pub fn refine(
     let rls_weights = std::mem::replace(&mut id.scaled_weights, fit.weights.clone());
     id.covariance = Some(weight_covariance(&pr, &fit.covariance));
     let noise = check.noise_level.unwrap_or(fit.residual_noise);
-    let design = crate::estimate::design::analyse(&pr, samples, terms, &fit.theta, noise);
+    let design_noise = match &fit.noise {
+        Some(m) if setup.sample_std.is_none() => Some(m),
+        _ => reference.as_ref(),
+    };
+    let design = crate::estimate::design::analyse_weighted(
+        &pr,
+        samples,
+        terms,
+        &fit.theta,
+        noise,
+        design_noise.filter(|m| m.has_floor()),
+    );
     match &design {
         Ok(d) if !d.undetermined.is_empty() => check.warnings.push(undetermined_warning(d)),
         Ok(_) => {}
@@ -175,10 +381,19 @@ pub fn refine(
         iterations: fit.iterations,
         converged: fit.converged,
         design,
+        runout: fit
+            .runout
+            .iter()
+            .zip(&fit.runout_std)
+            .map(|(r, s)| (*r, *s))
+            .collect(),
     });
     id.check = Some(check);
     Ok(())
 }
+
+/// Outliers above this fraction of the samples draw a warning.
+pub const OUTLIER_WARNING: f64 = 0.02;
 
 /// The warning naming the parameters `d` finds undetermined.
 fn undetermined_warning(d: &crate::estimate::design::TestDesign) -> String {

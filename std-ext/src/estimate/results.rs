@@ -138,6 +138,59 @@ pub struct IdentifyResult {
     pub bearings: Vec<BearingResult>,
     /// Planes in plane order.
     pub unbalance: Vec<UnbalanceResult>,
+    /// The noise model used (SPEC section 7).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise: Option<NoiseResult>,
+    /// The samples excluded as outliers (SPEC section 7).
+    pub outliers: Vec<OutlierResult>,
+    /// The fitted runout per channel, when fitted.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub runout: Vec<RunoutResult>,
+}
+
+/// The noise model as written (SPEC section 7).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NoiseResult {
+    /// The floor `f_c` per channel (m).
+    pub floor_m: Vec<f64>,
+    /// The relative part `s`.
+    pub relative: f64,
+    /// `"estimated"`, `"given"` or `"file"`.
+    pub source: &'static str,
+}
+
+impl From<&crate::estimate::noise::NoiseModel> for NoiseResult {
+    fn from(m: &crate::estimate::noise::NoiseModel) -> Self {
+        NoiseResult {
+            floor_m: m.floor_m.clone(),
+            relative: m.relative,
+            source: m.source.name(),
+        }
+    }
+}
+
+/// A sample excluded as an outlier (SPEC section 7).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OutlierResult {
+    /// Its speed (rpm).
+    pub speed_rpm: f64,
+    /// Its channel (`b1_y`, ...).
+    pub channel: String,
+    /// Its residual in standard deviations of the noise model.
+    pub sigmas: f64,
+}
+
+/// A fitted runout phasor.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunoutResult {
+    /// The channel (`b1_y`, ...).
+    pub channel: String,
+    /// `|r|` (m).
+    pub amplitude_m: f64,
+    /// `arg r` (deg).
+    pub phase_deg: f64,
+    /// Standard deviation of the phasor, `sqrt(E|dr|^2)` (m).
+    pub std_m: f64,
 }
 
 impl Identification {
@@ -189,6 +242,7 @@ impl Identification {
             })
             .collect();
         let check = self.check.as_ref();
+        let names = crate::io::measurement::default_channel_names(p.n_bearings());
         IdentifyResult {
             estimator: if self.refinement.is_some() {
                 "oe"
@@ -215,6 +269,35 @@ impl Identification {
             frozen_steps: self.frozen,
             bearings,
             unbalance,
+            noise: check.and_then(|c| c.noise.as_ref()).map(NoiseResult::from),
+            outliers: check
+                .map(|c| {
+                    c.outliers
+                        .iter()
+                        .map(|o| OutlierResult {
+                            speed_rpm: rad_s_to_rpm(o.omega),
+                            channel: names.get(o.channel).cloned().unwrap_or_default(),
+                            sigmas: o.sigmas,
+                        })
+                        .collect()
+                })
+                .unwrap_or_default(),
+            runout: self
+                .refinement
+                .as_ref()
+                .map(|r| {
+                    r.runout
+                        .iter()
+                        .zip(&names)
+                        .map(|((z, sd), n)| RunoutResult {
+                            channel: n.clone(),
+                            amplitude_m: z.norm(),
+                            phase_deg: z.arg().to_degrees(),
+                            std_m: *sd,
+                        })
+                        .collect()
+                })
+                .unwrap_or_default(),
         }
     }
 }

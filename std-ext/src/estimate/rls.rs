@@ -106,6 +106,18 @@ pub enum IdentifyError {
     /// Estimates could not be extracted (singular factor).
     #[error("estimates: {0}")]
     Estimates(CoreError),
+    /// Per-sample standard deviations that do not match the samples, or
+    /// are not finite and positive.
+    #[error(
+        "measurements: the standard deviations must be finite and > 0, one per sample and channel"
+    )]
+    StdShape,
+    /// No sample at or below the slow-roll speed.
+    #[error("--slow-roll {rpm} rpm: no sample at or below that speed")]
+    NoSlowRoll {
+        /// The slow-roll speed (rpm).
+        rpm: f64,
+    },
     /// The output-error refinement failed.
     #[error(transparent)]
     OutputError(#[from] crate::estimate::output_error::OutputErrorError),
@@ -152,6 +164,35 @@ pub struct Options {
     /// paper's method) or refined by the output-error fit (the default of
     /// `rotorid identify`).
     pub estimator: Estimator,
+    /// The probes' noise floor (m, every channel), e.g. from a data sheet;
+    /// `None`: estimated from the data (SPEC section 7).
+    pub noise_floor: Option<f64>,
+    /// Exclude the samples the noise model cannot explain (glitches) from
+    /// the output-error fit, and report them.
+    pub outliers: bool,
+    /// What is done about the probes' runout.
+    pub runout: RunoutHandling,
+}
+
+/// What the identification does about probe runout: a constant phasor on
+/// each channel (mechanical and electrical runout of the probe track) that
+/// the rotor model does not predict.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum RunoutHandling {
+    /// Nothing: the data are taken as free of runout.
+    None,
+    /// Slow-roll vector subtraction, the practice of the trade: the mean
+    /// vector of the samples at or below this speed (rad/s) is subtracted
+    /// from every sample of its channel.
+    SlowRoll(f64),
+    /// A runout phasor per channel as unknowns of the output-error fit
+    /// (started from the slow-roll estimate of [`slow_roll_estimate`]).
+    Fit,
+    /// [`RunoutHandling::Fit`] when the low-speed samples show a runout
+    /// significantly different from zero ([`slow_roll_estimate`]),
+    /// otherwise [`RunoutHandling::None`] (the default).
+    #[default]
+    Auto,
 }
 
 /// Which estimate is reported.
@@ -180,6 +221,9 @@ impl Options {
             steady: SteadyPolicy::default_guard(),
             record_history: true,
             estimator: Estimator::Rls,
+            noise_floor: None,
+            outliers: true,
+            runout: RunoutHandling::Auto,
         }
     }
 }
@@ -257,6 +301,19 @@ pub fn identify(
     options: &Options,
     progress: Option<&dyn Fn(usize)>,
 ) -> Result<Identification, IdentifyError> {
+    identify_with_std(model, meas, None, options, progress)
+}
+
+/// [`identify`] with per-sample standard deviations `std[n][c]` (m) of
+/// every sample and bearing channel (the measurement file's `_std`
+/// columns), which are then the noise model (SPEC section 7).
+pub fn identify_with_std(
+    model: &RotorModel,
+    meas: &Measurements,
+    std: Option<&[Vec<f64>]>,
+    options: &Options,
+    progress: Option<&dyn Fn(usize)>,
+) -> Result<Identification, IdentifyError> {
     let fe = crate::fe::assembly::FeModel::new(model)?;
     let banded = crate::reduce::Reducer::new(&fe, model)?;
     let reducer = banded.many();
@@ -272,19 +329,171 @@ pub fn identify(
     };
     let mut opts = *options;
     opts.scaling = Some(scaling);
+    let sample_std = match std {
+        Some(s) => Some(flatten_std(s, meas)?),
+        None => None,
+    };
+    // Runout: the samples the filter sees, and the start of a fitted one.
+    let (filtered, fitted) = match options.runout {
+        RunoutHandling::None => (None, None),
+        RunoutHandling::SlowRoll(omega) => {
+            let mut m = meas.clone();
+            subtract_slow_roll(&mut m, omega)?;
+            (Some(m), None)
+        }
+        RunoutHandling::Fit | RunoutHandling::Auto => match slow_roll_estimate(&meas.samples) {
+            Some(est) if options.runout == RunoutHandling::Fit || est.significant() => {
+                let mut m = meas.clone();
+                for s in &mut m.samples {
+                    for (q, r) in s.q.iter_mut().zip(&est.runout) {
+                        *q -= r;
+                    }
+                }
+                (Some(m), Some(est.runout))
+            }
+            None if options.runout == RunoutHandling::Fit => {
+                let nq = meas.samples.first().map_or(0, |s| s.q.len());
+                (None, Some(vec![Complex64::new(0.0, 0.0); nq]))
+            }
+            _ => (None, None),
+        },
+    };
+    let seen = filtered.as_ref().unwrap_or(meas);
     let mut id = identify_with(
         &model.bearing_nodes(),
         &model.planes,
-        meas,
+        seen,
         &opts,
         &mut terms,
         progress,
     )?;
+    let setup = crate::estimate::refine::NoiseSetup {
+        floor: options.noise_floor,
+        sample_std,
+        outliers: options.outliers,
+        runout: fitted.clone(),
+    };
+    // The output-error fit sees the data as measured when it fits the
+    // runout, else what the filter saw.
+    let oe_samples = if fitted.is_some() {
+        &meas.samples
+    } else {
+        &seen.samples
+    };
     match options.estimator {
-        Estimator::OutputError => crate::estimate::refine::refine(&mut id, &meas.samples, &kept)?,
-        Estimator::Rls => crate::estimate::refine::check(&mut id, &meas.samples, &kept)?,
+        Estimator::OutputError => {
+            crate::estimate::refine::refine(&mut id, oe_samples, &kept, &setup)?
+        }
+        Estimator::Rls => crate::estimate::refine::check(&mut id, &seen.samples, &kept, &setup)?,
     }
     Ok(id)
+}
+
+/// The per-sample standard deviations as the fit reads them (`n * nq + c`).
+fn flatten_std(std: &[Vec<f64>], meas: &Measurements) -> Result<Vec<f64>, IdentifyError> {
+    let nq = 2 * meas.n_bearings;
+    if std.len() != meas.samples.len() || std.iter().any(|s| s.len() < nq) {
+        return Err(IdentifyError::StdShape);
+    }
+    let flat: Vec<f64> = std.iter().flat_map(|s| s[..nq].iter().copied()).collect();
+    if flat.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+        return Err(IdentifyError::StdShape);
+    }
+    Ok(flat)
+}
+
+/// Subtracts the slow-roll vector of every channel, the mean of the
+/// samples at or below `omega` (rad/s), from every sample.
+pub fn subtract_slow_roll(meas: &mut Measurements, omega: f64) -> Result<(), IdentifyError> {
+    let slow: Vec<&Sample> = meas.samples.iter().filter(|s| s.omega <= omega).collect();
+    if slow.is_empty() {
+        return Err(IdentifyError::NoSlowRoll {
+            rpm: crate::units::rad_s_to_rpm(omega),
+        });
+    }
+    let nq = meas.samples.first().map_or(0, |s| s.q.len());
+    let mean: Vec<Complex64> = (0..nq)
+        .map(|c| slow.iter().map(|s| s.q[c]).sum::<Complex64>() / slow.len() as f64)
+        .collect();
+    for s in &mut meas.samples {
+        for (q, r) in s.q.iter_mut().zip(&mean) {
+            *q -= r;
+        }
+    }
+    Ok(())
+}
+
+/// The runout seen at the low speeds of a sweep: per channel, the constant
+/// of `q(Omega) = r + b Omega^2 + d Omega^4` fitted by least squares to the
+/// [`SLOW_ROLL_SAMPLES`] lowest-speed samples below a quarter of the
+/// highest speed (where the unbalance response is the first terms of its
+/// series in `Omega^2`), with the standard error of `r` from the fit's own
+/// residuals.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SlowRollEstimate {
+    /// `r` per channel (m).
+    pub runout: Vec<Complex64>,
+    /// Its standard error `sqrt(E|dr|^2)` per channel (m).
+    pub std: Vec<f64>,
+}
+
+/// Samples of the slow-roll fit.
+pub const SLOW_ROLL_SAMPLES: usize = 12;
+
+/// `|r| / std(r)` above which a channel's runout counts as present.
+pub const RUNOUT_SIGNIFICANCE: f64 = 5.0;
+
+impl SlowRollEstimate {
+    /// Whether any channel's runout is significant
+    /// ([`RUNOUT_SIGNIFICANCE`]).
+    pub fn significant(&self) -> bool {
+        self.runout
+            .iter()
+            .zip(&self.std)
+            .any(|(r, s)| r.norm() > RUNOUT_SIGNIFICANCE * s)
+    }
+}
+
+/// The [`SlowRollEstimate`] of a sweep; `None` with fewer than
+/// [`SLOW_ROLL_SAMPLES`] distinct speeds below a quarter of the highest.
+pub fn slow_roll_estimate(samples: &[Sample]) -> Option<SlowRollEstimate> {
+    let top = max_speed(samples);
+    let mut low: Vec<&Sample> = samples.iter().filter(|s| s.omega <= 0.25 * top).collect();
+    low.sort_by(|a, b| a.omega.total_cmp(&b.omega));
+    low.dedup_by(|a, b| a.omega == b.omega);
+    if low.len() < SLOW_ROLL_SAMPLES {
+        return None;
+    }
+    low.truncate(SLOW_ROLL_SAMPLES);
+    let w_ref = low.last()?.omega;
+    if !(w_ref > 0.0) {
+        return None;
+    }
+    let x = DMatrix::from_fn(low.len(), 3, |i, j| {
+        let u = (low[i].omega / w_ref).powi(2);
+        u.powi(j as i32)
+    });
+    let xtx_inv = (x.transpose() * &x).try_inverse()?;
+    let hat = &xtx_inv * x.transpose();
+    let nq = low[0].q.len();
+    let dof = (low.len() - 3) as f64;
+    let mut runout = Vec::with_capacity(nq);
+    let mut std = Vec::with_capacity(nq);
+    for c in 0..nq {
+        let y: Vec<Complex64> = low.iter().map(|s| s.q[c]).collect();
+        let coef: Vec<Complex64> = (0..3)
+            .map(|j| (0..y.len()).map(|i| y[i] * hat[(j, i)]).sum())
+            .collect();
+        let rss: f64 = (0..y.len())
+            .map(|i| {
+                let fit: Complex64 = (0..3).map(|j| coef[j] * x[(i, j)]).sum();
+                (y[i] - fit).norm_sqr()
+            })
+            .sum();
+        runout.push(coef[0]);
+        std.push((rss / dof * xtx_inv[(0, 0)]).sqrt());
+    }
+    Some(SlowRollEstimate { runout, std })
 }
 
 /// Highest speed of a sweep (rad/s), 0 if empty.

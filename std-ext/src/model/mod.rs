@@ -585,6 +585,28 @@ impl RotorModel {
         x
     }
 
+    /// Total mass of the shaft and the disks (kg): `sum rho A L` over the
+    /// shaft elements plus the disks' masses (mass-only layers not counted).
+    pub fn rotor_mass(&self) -> f64 {
+        let shaft: f64 = self
+            .shaft
+            .iter()
+            .map(|e| {
+                let a = std::f64::consts::PI / 4.0
+                    * (e.outer_diameter.powi(2) - e.inner_diameter.powi(2));
+                e.material.rho * a * e.length
+            })
+            .sum();
+        shaft + self.disks.iter().map(|d| d.mass).sum::<f64>()
+    }
+
+    /// The total unbalance `sum_k m_k e_k` (kg m) of a balance grade `G`
+    /// (mm/s) at the service speed `omega` (rad/s), ISO 21940-11: the
+    /// permissible specific unbalance `e = G / Omega`, times the rotor mass.
+    pub fn balance_grade_unbalance(&self, grade_mm_s: f64, omega: f64) -> f64 {
+        grade_mm_s * 1e-3 / omega * self.rotor_mass()
+    }
+
     /// Bearing nodes (0-based), in bearing order.
     pub fn bearing_nodes(&self) -> Vec<usize> {
         self.bearings.iter().map(|b| b.node).collect()

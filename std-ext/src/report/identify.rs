@@ -3,6 +3,7 @@
 //! method paper's Figs. 4-6). Shared by `rotorid identify` and
 //! `examples/paper.rs`.
 
+use crate::estimate::noise::NoiseSource;
 use thiserror::Error;
 
 use crate::estimate::Identification;
@@ -244,6 +245,47 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             c.residual,
             c.chi2_per_dof.map_or("-".into(), |x| format!("{x:.2}"))
         );
+        let names = crate::io::measurement::default_channel_names(id.param.n_bearings());
+        if let Some(m) = c
+            .noise
+            .as_ref()
+            .filter(|m| m.has_floor() || m.source != NoiseSource::Estimated)
+        {
+            let floors: Vec<String> = m.floor_m.iter().map(|f| format!("{f:.2e}")).collect();
+            let _ = writeln!(
+                s,
+                "noise model ({}): floor {} m ({}), relative {:.3e}",
+                m.source.name(),
+                floors.join(", "),
+                names.join(", "),
+                m.relative
+            );
+        }
+        if !c.outliers.is_empty() {
+            let _ = writeln!(s, "outliers excluded from the fit: {}", c.outliers.len());
+            for o in &c.outliers {
+                let _ = writeln!(
+                    s,
+                    "  {} at {:.1} rpm: {:.1} standard deviations",
+                    names.get(o.channel).map_or("?", String::as_str),
+                    crate::units::rad_s_to_rpm(o.omega),
+                    o.sigmas
+                );
+            }
+        }
+    }
+    if let Some(r) = id.refinement.as_ref().filter(|r| !r.runout.is_empty()) {
+        let names = crate::io::measurement::default_channel_names(id.param.n_bearings());
+        let _ = writeln!(s, "runout fitted (m, deg; one standard deviation):");
+        for ((z, sd), n) in r.runout.iter().zip(&names) {
+            let _ = writeln!(
+                s,
+                "  {n:<6} {:.3e} at {:7.2} deg  +- {:.2e}",
+                z.norm(),
+                z.arg().to_degrees(),
+                sd
+            );
+        }
     }
     s
 }
