@@ -278,7 +278,7 @@ pub fn random_runout(n_bearings: usize, amplitude: f64, seed: u64) -> Vec<Runout
 /// `None` when the model has no unbalance.
 pub fn at_balance_grade(model: &RotorModel, grade_mm_s: f64, omega: f64) -> Option<RotorModel> {
     let total: f64 = model.unbalance.iter().map(|u| u.me).sum();
-    if !(total > 0.0) {
+    if total.is_nan() || total <= 0.0 {
         return None;
     }
     let g = model.balance_grade_unbalance(grade_mm_s, omega) / total;

@@ -27,6 +27,11 @@ pub struct DiagnoseArgs {
     /// names an effect.
     #[arg(long, default_value_t = 1e-3)]
     pub false_alarm: f64,
+    /// The probes' noise floor (m, every channel), e.g. from the probe
+    /// system's data sheet; without it the floor is estimated from the data
+    /// (SPEC section 7).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub noise_floor: Option<f64>,
 }
 
 /// Runs `rotorid diagnose`.
@@ -60,6 +65,7 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         order: args.order,
         false_alarm: args.false_alarm,
         relative_probes: model.probes == ProbeReference::Relative,
+        noise_floor: super::noise_floor_option(args.noise_floor)?,
     };
     let d = diagnose(&model, &meas, &opts).map_err(|e| CliError::new(format!("diagnose: {e}")))?;
     let nominal =

@@ -103,6 +103,10 @@ pub struct FitData<'a> {
     /// fit far above it stop stalled, and one at it stop where `S` no
     /// longer moves in chi-square (module documentation).
     pub noise_level: Option<f64>,
+    /// The probes' noise floor per reading channel in relative units,
+    /// `phi_c = f_c / s` (m; empty: proportional noise), see
+    /// [`FitData::with_floors`].
+    pub phi: Vec<f64>,
 }
 
 impl<'a> FitData<'a> {
@@ -165,7 +169,33 @@ impl<'a> FitData<'a> {
             readings,
             inv_w,
             noise_level: None,
+            phi: Vec::new(),
         }
+    }
+
+    /// The same data weighted for a probe noise floor (SPEC section 7):
+    /// `w_(n,c) = sqrt(|y_meas,(n,c)|^2 + phi_c^2)`, `phi_c = f_c / s` the
+    /// floor in the relative units of `S` (so `S / N` stays `s^2` when the
+    /// model fits). Channels past `phi`'s end (probes at other nodes) take
+    /// the mean of `phi`. Empty or all-zero `phi`: unchanged.
+    pub fn with_floors(mut self, phi: &[f64]) -> Self {
+        if phi.iter().all(|p| *p <= 0.0) {
+            return self;
+        }
+        let mean = phi.iter().sum::<f64>() / phi.len() as f64;
+        for (y, iw) in self.readings.iter().zip(&mut self.inv_w) {
+            for (c, (q, o)) in y.iter().zip(iw.iter_mut()).enumerate() {
+                let p = phi.get(c).copied().unwrap_or(mean);
+                let w = q.norm().hypot(p);
+                *o = if w > 0.0 && w.is_finite() {
+                    1.0 / w
+                } else {
+                    0.0
+                };
+            }
+        }
+        self.phi = phi.to_vec();
+        self
     }
 
     /// The same data with the relative noise level `s` of its readings

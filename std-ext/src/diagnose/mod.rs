@@ -57,6 +57,7 @@ use num_complex::Complex64;
 use serde::Serialize;
 use thiserror::Error;
 
+use crate::estimate::noise::NoiseModel;
 use crate::estimate::output_error::{fit_output_error, OutputErrorError, OutputErrorOptions};
 use crate::estimate::predictor::{PredictError, Predictor, Terms};
 use crate::estimate::results::{
@@ -161,6 +162,9 @@ pub struct DiagnoseOptions {
     /// Probes on a pedestal read the shaft relative to it (the default, as
     /// proximity probes are mounted) rather than absolutely.
     pub relative_probes: bool,
+    /// The probes' noise floor (m, every channel); `None`: estimated from
+    /// the data (SPEC section 7).
+    pub noise_floor: Option<f64>,
 }
 
 impl Default for DiagnoseOptions {
@@ -169,6 +173,7 @@ impl Default for DiagnoseOptions {
             order: 1,
             false_alarm: 1e-3,
             relative_probes: true,
+            noise_floor: None,
         }
     }
 }
@@ -334,6 +339,8 @@ pub struct Diagnosis {
     pub effects: Vec<Effect>,
     /// The model-free noise level, when the speeds allow it.
     pub noise_level: Option<f64>,
+    /// The noise model the fits were weighted with (SPEC section 7).
+    pub noise: Option<NoiseModel>,
     /// The nominal model.
     pub nominal: Candidate,
     /// Every hypothesis fitted (best variant of each), pairs included.
@@ -381,7 +388,13 @@ impl Diagnosis {
     /// (m for a bow or runout, kg m for a plane; see [`observe`]); `None`
     /// for effects without a zero (pedestal, modulus, speed law).
     pub fn min_detectable(&self, meas: &Measurements, ext: Extension) -> Option<f64> {
-        let data = FitData::with_probes(&meas.samples, &meas.node_q, &self.terms);
+        let phi = self
+            .noise
+            .as_ref()
+            .filter(|m| m.has_floor())
+            .map(|m| m.relative_floor())
+            .unwrap_or_default();
+        let data = FitData::with_probes(&meas.samples, &meas.node_q, &self.terms).with_floors(&phi);
         observe::min_detectable_single(self, &data, ext)
     }
 
@@ -539,7 +552,30 @@ pub fn diagnose(
     // 1. Nominal: QRD/RLS start, output-error fit, polish on our objective.
     let structure = Structure::physical(opts.order);
     let scaling = auto_scaling(model, omega_max);
-    let (pr, oe_theta) = oe_start(model, samples, &terms, structure, scaling)?;
+    // The noise model: model-free, its relative part refined by the nominal
+    // output-error fit where a floor leaves it to the few samples near the
+    // critical speeds (the same rule as `identify`).
+    let reference = crate::estimate::noise::estimate_noise(samples, opts.noise_floor);
+    let (pr, oe_theta, fitted) = oe_start(
+        model,
+        samples,
+        &terms,
+        structure,
+        scaling,
+        reference.as_ref(),
+    )?;
+    let noise_model = match (reference, fitted) {
+        (Some(r), Some(f)) if r.has_floor() => Some(NoiseModel {
+            relative: f.relative.min(r.relative),
+            ..r
+        }),
+        (r, _) => r,
+    };
+    let phi: Vec<f64> = noise_model
+        .as_ref()
+        .filter(|m| m.has_floor())
+        .map(|m| m.relative_floor())
+        .unwrap_or_default();
     let n_real = 2 * samples.len() * 2 * nb;
     let q_rms = (samples
         .iter()
@@ -556,8 +592,13 @@ pub fn diagnose(
     };
     // The model-free noise level: lets fits far above it stop stalled
     // (`fit` module docs) and judges the misfit below.
-    let noise_level = crate::estimate::noise::relative_noise_level(samples);
-    let data = FitData::with_probes(samples, node_q, &terms).with_noise_level(noise_level);
+    let noise_level = match &noise_model {
+        Some(m) if m.has_floor() => Some(m.relative),
+        _ => crate::estimate::noise::relative_noise_level(samples),
+    };
+    let data = FitData::with_probes(samples, node_q, &terms)
+        .with_floors(&phi)
+        .with_noise_level(noise_level);
     let base = ExtendedModel {
         pr: pr.clone(),
         ext: Vec::new(),
@@ -810,8 +851,15 @@ pub fn diagnose(
                 .iter()
                 .flat_map(|r| [r.re / scales.q, r.im / scales.q])
                 .collect();
-            let mut t = match oe_start(model, &corrected, &terms, structure, scaling) {
-                Ok((_, th)) => th,
+            let mut t = match oe_start(
+                model,
+                &corrected,
+                &terms,
+                structure,
+                scaling,
+                noise_model.as_ref(),
+            ) {
+                Ok((_, th, _)) => th,
                 Err(_) => theta0.clone(),
             };
             t.extend_from_slice(&r0);
@@ -844,8 +892,15 @@ pub fn diagnose(
             let mut best = (1.0, nominal_s, start_with(&m, &[0.0]));
             for e_try in [0.95, 1.05] {
                 let te = builder.build(&omegas, e_try, false)?;
-                if let Ok((_, mut th)) = oe_start(model, samples, &te, structure, scaling) {
-                    let d = FitData::with_probes(samples, node_q, &te);
+                if let Ok((_, mut th, _)) = oe_start(
+                    model,
+                    samples,
+                    &te,
+                    structure,
+                    scaling,
+                    noise_model.as_ref(),
+                ) {
+                    let d = FitData::with_probes(samples, node_q, &te).with_floors(&phi);
                     let en = fit::entries(&base, &d);
                     if let Ok((r, _)) = fit::evaluate(&base, &d, &en, &th, false) {
                         let s_try = r.norm_squared();
@@ -890,7 +945,9 @@ pub fn diagnose(
                 if cur.first().is_none_or(|t| t.da_de.is_none()) {
                     terms::set_secant_derivative(&mut cur, e, &prev, e_prev)?;
                 }
-                let d = FitData::with_probes(samples, node_q, &cur).with_noise_level(noise_level);
+                let d = FitData::with_probes(samples, node_q, &cur)
+                    .with_floors(&phi)
+                    .with_noise_level(noise_level);
                 let Ok(f) = fit::fit(&m, &d, &theta, 50) else {
                     break;
                 };
@@ -1153,6 +1210,7 @@ pub fn diagnose(
         effect,
         effects,
         noise_level,
+        noise: noise_model,
         nominal,
         hypotheses: hyps,
         chosen,
@@ -1167,7 +1225,7 @@ pub fn diagnose(
     };
     let data_de = terms_de
         .as_ref()
-        .map(|t| FitData::with_probes(samples, node_q, t));
+        .map(|t| FitData::with_probes(samples, node_q, t).with_floors(&phi));
     d.observability = observe::analyse(&d, &data, data_de.as_ref());
     clock.lap("observability");
     d.stages = clock.laps;
@@ -1208,7 +1266,8 @@ fn oe_start(
     terms: &[SpeedTerms],
     structure: Structure,
     scaling: rotorid_core::scaling::ColumnScaling<f64>,
-) -> Result<(Predictor, Vec<f64>), DiagnoseError> {
+    noise: Option<&NoiseModel>,
+) -> Result<(Predictor, Vec<f64>, Option<NoiseModel>), DiagnoseError> {
     let mut o = Options::new(structure);
     o.scaling = Some(scaling);
     let index: HashMap<u64, usize> = terms
@@ -1236,14 +1295,28 @@ fn oe_start(
     )?;
     let pr = Predictor::new(id.param.clone());
     let oe_terms: Vec<Terms> = terms.iter().map(|t| (t.a.clone(), t.b.clone())).collect();
-    let oe = fit_output_error(
-        &pr,
-        samples,
-        &oe_terms,
-        &id.scaled_weights,
-        &OutputErrorOptions::default(),
-    )?;
-    Ok((pr, oe.theta))
+    let oe = match noise.filter(|m| m.has_floor()) {
+        Some(m) => crate::estimate::output_error::fit_output_error_with(
+            &pr,
+            samples,
+            &oe_terms,
+            &id.scaled_weights,
+            &OutputErrorOptions::default(),
+            &crate::estimate::output_error::FitNoise {
+                model: Some(m.clone()),
+                refine: true,
+                ..Default::default()
+            },
+        )?,
+        None => fit_output_error(
+            &pr,
+            samples,
+            &oe_terms,
+            &id.scaled_weights,
+            &OutputErrorOptions::default(),
+        )?,
+    };
+    Ok((pr, oe.theta, oe.noise))
 }
 
 /// `b` (a node-searched effect) with its node searched again on top of
@@ -1337,8 +1410,9 @@ fn fit_pair(
             Some((ec, t)) if *ec == e && !t.is_empty() => t.clone(),
             _ => builder.build(omegas, e, true)?,
         };
-        let d =
-            FitData::with_probes(data.samples, data.node_q, &te).with_noise_level(data.noise_level);
+        let d = FitData::with_probes(data.samples, data.node_q, &te)
+            .with_floors(&data.phi)
+            .with_noise_level(data.noise_level);
         // The e parameter of the pair starts at the single fit's offset.
         let k = m
             .ext

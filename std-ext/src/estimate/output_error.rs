@@ -815,6 +815,13 @@ pub const OUTLIER_FALSE_ALARM: f64 = 0.01;
 /// hide a misfit.
 pub const MAX_OUTLIER_FRACTION: f64 = 0.05;
 
+/// Relative change of the noise floors in relative units (`f_c / s`)
+/// below which the refined noise model has settled.
+const NOISE_SETTLED: f64 = 0.02;
+
+/// Reweightings at most while the refined noise model settles.
+const NOISE_ROUNDS: usize = 8;
+
 /// Rounds of outlier exclusion and refit at most.
 const OUTLIER_ROUNDS: usize = 5;
 
@@ -1026,12 +1033,21 @@ pub fn fit_output_error_with(
     let max_out = (MAX_OUTLIER_FRACTION * n_all as f64).floor() as usize;
     let mut too_many = false;
     for round in 0..OUTLIER_ROUNDS {
-        for k in 0..opts.reweightings.max(1) {
+        // Reweightings; with the noise model refined, until its floors in
+        // relative units settle (the weights depend on them).
+        let mut k = 0;
+        loop {
+            let mut changed = 0.0f64;
             if refine && (k > 0 || round > 0) {
                 if let Some(m) = model.as_mut() {
+                    let before = m.relative_floor();
                     refine_noise(&data, &theta, m)?;
                     data.weighting.set_noise(m);
                     fresh = None;
+                    for (a, b) in before.iter().zip(m.relative_floor()) {
+                        let d = (a - b).abs() / a.max(b).max(f64::MIN_POSITIVE);
+                        changed = changed.max(d);
+                    }
                 }
             }
             let (cur, w) = match fresh.take() {
@@ -1042,6 +1058,11 @@ pub fn fit_output_error_with(
             theta = t;
             iterations += it;
             converged = ok;
+            k += 1;
+            let settle = refine && changed > NOISE_SETTLED && k < NOISE_ROUNDS;
+            if k >= opts.reweightings.max(1) && !settle {
+                break;
+            }
         }
         if !noise.outliers || too_many {
             break;
@@ -1216,6 +1237,33 @@ pub fn fisher_information_weighted(
         return Err(OutputErrorError::Dimension);
     }
     let (p, _) = Data::weighted(pr, samples, terms, weighting.clone()).reweighted(theta, true)?;
+    Ok(p.normal * 2.0)
+}
+
+/// The Fisher information (per unit relative noise, as
+/// [`fisher_information_weighted`]) of the model's parameters `theta` and
+/// a runout phasor per channel at `runout` (m), the runout's parameters
+/// last (`Re`, `Im` per channel, in metres): the bound of an estimate that
+/// fits the runout.
+pub fn fisher_information_with_runout(
+    pr: &Predictor,
+    samples: &[Sample],
+    terms: &[Terms],
+    theta: &[f64],
+    runout: &[Complex64],
+    weighting: &Weighting,
+) -> Result<DMatrix<f64>, OutputErrorError> {
+    if samples.len() != terms.len() {
+        return Err(OutputErrorError::Dimension);
+    }
+    let mut data = Data::weighted(pr, samples, terms, weighting.clone());
+    data.runout_scale = vec![1.0; runout.len()];
+    let mut all = theta.to_vec();
+    for r in runout {
+        all.push(r.re);
+        all.push(r.im);
+    }
+    let (p, _) = data.reweighted(&all, true)?;
     Ok(p.normal * 2.0)
 }
 

@@ -466,7 +466,7 @@ pub fn slow_roll_estimate(samples: &[Sample]) -> Option<SlowRollEstimate> {
     }
     low.truncate(SLOW_ROLL_SAMPLES);
     let w_ref = low.last()?.omega;
-    if !(w_ref > 0.0) {
+    if w_ref.is_nan() || w_ref <= 0.0 {
         return None;
     }
     let x = DMatrix::from_fn(low.len(), 3, |i, j| {

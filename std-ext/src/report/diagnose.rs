@@ -73,6 +73,12 @@ pub struct DiagnoseJson {
     pub observability: Vec<Observability>,
     /// Warnings.
     pub warnings: Vec<String>,
+    /// The noise model the fits were weighted with (SPEC section 7).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise: Option<crate::estimate::results::NoiseResult>,
+    /// Samples excluded as outliers: none, the diagnosis keeps every
+    /// sample (a glitch shows as a misfit there).
+    pub outliers: Vec<crate::estimate::results::OutlierResult>,
 }
 
 /// The JSON of `d`.
@@ -111,6 +117,11 @@ pub fn json(d: &Diagnosis) -> DiagnoseJson {
             .collect(),
         observability: d.observability.clone(),
         warnings: d.warnings.clone(),
+        noise: d
+            .noise
+            .as_ref()
+            .map(crate::estimate::results::NoiseResult::from),
+        outliers: Vec::new(),
     }
 }
 
