@@ -359,3 +359,87 @@ fn proportional_noise_leaves_no_runout_and_no_floor() {
     let plain = identify(&c.model, &m, &o, None).unwrap();
     assert_eq!(plain.scaled_weights, id.scaled_weights);
 }
+
+/// The measurement file with `_std` columns after every channel.
+fn with_std_columns(m: &Measurements, std: &[f64]) -> String {
+    let mut out = String::from("# per-sample standard deviations\nspeed_rpm");
+    for ch in ["b1_y", "b1_z", "b2_y", "b2_z"] {
+        out += &format!(",{ch}_re,{ch}_im,{ch}_std");
+    }
+    out += "\n";
+    for (n, s) in m.samples.iter().enumerate() {
+        out += &format!("{:e}", rotorid::units::rad_s_to_rpm(s.omega));
+        for (c, q) in s.q.iter().enumerate() {
+            out += &format!(",{:e},{:e},{:e}", q.re, q.im, std[n * s.q.len() + c]);
+        }
+        out += "\n";
+    }
+    out
+}
+
+#[test]
+fn per_sample_standard_deviations_are_the_noise_model() {
+    let c = g63_case();
+    let f = 5e-7;
+    let m = noisy(&c, f, 4);
+    // The standard deviations of the noise put in (of the clean response).
+    let clean: Vec<Complex64> = c.clean.samples.iter().flat_map(|s| s.q.clone()).collect();
+    let std: Vec<f64> = clean
+        .iter()
+        .map(|q| (f * f + S * S * q.norm_sqr()).sqrt())
+        .collect();
+    let text = with_std_columns(&m, &std);
+    let (read, located) = rotorid::io::measurement::parse_csv_located(&text).unwrap();
+    assert!(read
+        .samples
+        .iter()
+        .zip(&m.samples)
+        .all(|(a, b)| a.q == b.q && (a.omega - b.omega).abs() <= 1e-12 * b.omega));
+    assert_eq!(located.sample_std.len(), m.samples.len());
+    assert_eq!(located.channel_column(1), (5, "b1_z_re".to_string()));
+    let path = crate::common::tmp("std_columns.csv");
+    std::fs::write(&path, &text).unwrap();
+    let json = crate::common::tmp("std_columns.json");
+    let out = crate::common::cli([
+        "identify",
+        "--model",
+        "paper",
+        "--measurements",
+        path.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.success(), "{}", out.stderr);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["noise"]["source"], "file");
+    let chi2 = v["chi2_per_dof"].as_f64().unwrap();
+    assert!((chi2 - 1.0).abs() < 0.2, "chi2/dof {chi2}");
+    // The paper's model in the CLI has the paper's unbalance: only the
+    // bearings are compared, within 3 reported standard deviations.
+    for (b, bearing) in v["bearings"].as_array().unwrap().iter().enumerate() {
+        let truth = crate::common::true_bearings(&c.model, rpm_to_rad_s(15000.0))[b];
+        for (e, key) in ["yy", "yz", "zy", "zz"].iter().enumerate() {
+            let k = bearing["k"][key].as_f64().unwrap();
+            let sd = bearing["std"]["k"][key].as_f64().unwrap();
+            assert!(
+                (k - truth.0[e]).abs() <= 3.0 * sd,
+                "b{} k{key}: {k} vs {}",
+                b + 1,
+                truth.0[e]
+            );
+        }
+    }
+    // A bad standard deviation: its line and column.
+    let bad = text.replacen(&format!(",{:e}\n", std[3]), ",0\n", 1);
+    let err = rotorid::io::measurement::parse_csv(&bad)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("line 3") && err.contains("b2_z_std") && err.contains("column 13"),
+        "{err}"
+    );
+    // Some channels with `_std`, others without: refused.
+    let partial = text.replacen("b2_z_std", "b2_z_sd", 1);
+    assert!(rotorid::io::measurement::parse_csv(&partial).is_err());
+}

@@ -196,7 +196,7 @@ pub enum RunoutArg {
 /// optionally writes the JSON and SVG plots.
 pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     use crate::core::parametrization::{Structure, MAX_ORDER};
-    use crate::estimate::{identify, Estimator, Options, Precision};
+    use crate::estimate::{Estimator, Options, Precision};
     use crate::report::identify::{report_table, write_plots};
 
     if !(1..=MAX_ORDER).contains(&args.order) {
@@ -240,6 +240,20 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     check_response_range(&meas, &located).map_err(|e| CliError::new(format!("{file}: {e}")))?;
     if probe_readings {
         crate::io::measurement::probes_to_yz(&mut meas, &model_file.probes);
+    }
+    // The file's standard deviations; for a probe pair at an angle each of
+    // y, z takes the pair's mean variance (exact for orthogonal probes of
+    // equal noise).
+    let mut sample_std = located.sample_std.clone();
+    if probe_readings {
+        for row in &mut sample_std {
+            for (b, p) in model_file.probes.iter().enumerate() {
+                if let (Some(_), Some(pair)) = (p, row.get_mut(2 * b..2 * b + 2)) {
+                    let v = (0.5 * (pair[0] * pair[0] + pair[1] * pair[1])).sqrt();
+                    pair.fill(v);
+                }
+            }
+        }
     }
     let model = model_file.model;
     let structure = match args.formulation {
@@ -303,7 +317,8 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             pb.set_position(done as u64);
         }
     };
-    let result = identify(&model, &meas, &opts, Some(&tick));
+    let std_rows = (!sample_std.is_empty()).then_some(sample_std.as_slice());
+    let result = crate::estimate::identify_with_std(&model, &meas, std_rows, &opts, Some(&tick));
     if let Some(pb) = &bar {
         pb.finish_and_clear();
     }

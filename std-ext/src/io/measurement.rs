@@ -326,7 +326,7 @@ pub fn parse_csv(text: &str) -> Result<Measurements, MeasurementError> {
 
 /// Where the samples of a parsed file came from (for messages about a
 /// sample: line and column, 1-based).
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct CsvLocations {
     /// 1-based line of every sample.
     pub lines: Vec<usize>,
@@ -335,6 +335,10 @@ pub struct CsvLocations {
     /// The channels' names in the file (`b1_y`, ... or probe names); empty
     /// means the SPEC's `b1_y, b1_z, ...`.
     pub channels: Vec<String>,
+    /// The per-sample standard deviations of the file's `_std` columns (m,
+    /// SPEC section 7): per sample, one per channel (bearing channels, then
+    /// node probes); empty when the file has none.
+    pub sample_std: Vec<Vec<f64>>,
 }
 
 impl CsvLocations {
@@ -354,7 +358,8 @@ impl CsvLocations {
             CsvLayout::Complex => format!("{base}_re"),
             CsvLayout::AmplitudePhase => format!("{base}_amp"),
         };
-        (2 + 2 * ch, name)
+        let per = if self.sample_std.is_empty() { 2 } else { 3 };
+        (2 + per * ch, name)
     }
 }
 
@@ -382,6 +387,9 @@ pub fn parse_csv_channels(
     // A byte-order mark (spreadsheet exports) is not part of the header.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut last_row_line = None;
+    let mut kept: Vec<usize> = Vec::new();
+    let mut std_names: Vec<(usize, String)> = Vec::new();
+    let mut sample_std: Vec<Vec<f64>> = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let line = raw.trim();
@@ -393,7 +401,13 @@ pub fn parse_csv_channels(
             continue;
         }
         let Some((n_b, layout, names)) = &header else {
-            let (n_b, layout, nodes) = parse_header(line_no, line, channels)?;
+            // `_std` columns (SPEC section 7): every channel's or none.
+            let (stripped, std_cols) = std_columns(line_no, line)?;
+            kept = (0..line.split(',').count())
+                .filter(|i| !std_cols.iter().any(|(c, _)| c == i))
+                .collect();
+            std_names = std_cols;
+            let (n_b, layout, nodes) = parse_header(line_no, &stripped, channels)?;
             let bearing_header = match channels {
                 Some(c) => named_header_columns(c, layout),
                 None => header_columns(n_b, layout),
@@ -413,19 +427,47 @@ pub fn parse_csv_channels(
                 max: MAX_ROWS,
             });
         }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        if fields.len() != names.len() {
+        let all: Vec<&str> = line.split(',').map(str::trim).collect();
+        if all.len() != names.len() + std_names.len() {
             return Err(MeasurementError::ColumnCount {
                 line: line_no,
-                expected: names.len(),
-                found: fields.len(),
+                expected: names.len() + std_names.len(),
+                found: all.len(),
             });
         }
+        if !std_names.is_empty() {
+            let mut row = Vec::with_capacity(std_names.len());
+            for (col, name) in &std_names {
+                let f = all[*col];
+                let v: f64 = f.parse().map_err(|_| MeasurementError::Field {
+                    line: line_no,
+                    index: col + 1,
+                    column: name.clone(),
+                    reason: format!("not a number: {:?}", clip(f)),
+                })?;
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(MeasurementError::Field {
+                        line: line_no,
+                        index: col + 1,
+                        column: name.clone(),
+                        reason: format!(
+                            "a standard deviation must be finite and > 0, got {}",
+                            clip(f)
+                        ),
+                    });
+                }
+                row.push(v);
+            }
+            sample_std.push(row);
+        }
+        let fields: Vec<&str> = kept.iter().map(|&i| all[i]).collect();
+        // 1-based column in the file of the `i`-th kept field (0-based).
+        let file_col = |i: usize| kept.get(i).map_or(i, |k| *k) + 1;
         let mut values = Vec::with_capacity(fields.len());
         for (col, (f, name)) in fields.iter().zip(names.iter()).enumerate() {
             let field_err = |reason: String| MeasurementError::Field {
                 line: line_no,
-                index: col + 1,
+                index: file_col(col),
                 column: name.clone(),
                 reason,
             };
@@ -464,7 +506,7 @@ pub fn parse_csv_channels(
             // An amplitude near f64::MAX times cos/sin of its phase.
             return Err(MeasurementError::Field {
                 line: line_no,
-                index: 2 + 2 * col,
+                index: file_col(1 + 2 * col),
                 column: names[1 + 2 * col].clone(),
                 reason: format!("too large: {}", clip(fields[1 + 2 * col])),
             });
@@ -505,8 +547,53 @@ pub fn parse_csv_channels(
             lines,
             layout: file_layout,
             channels: channels.map(<[String]>::to_vec).unwrap_or_default(),
+            sample_std,
         },
     ))
+}
+
+/// The header `line` without its `_std` columns, and those columns (0-based
+/// index, name). A channel's `_std` column follows its two value columns
+/// (`b1_y_re,b1_y_im,b1_y_std` or `b1_y_amp,b1_y_phase_deg,b1_y_std`); a
+/// file has them for every channel or for none.
+fn std_columns(
+    line_no: usize,
+    line: &str,
+) -> Result<(String, Vec<(usize, String)>), MeasurementError> {
+    let cols: Vec<&str> = line.split(',').map(str::trim).collect();
+    if !cols.iter().any(|c| c.ends_with("_std")) {
+        return Ok((line.to_string(), Vec::new()));
+    }
+    let bad = |reason: String| MeasurementError::Header {
+        line: line_no,
+        reason,
+    };
+    if (cols.len() - 1) % 3 != 0 {
+        return Err(bad(
+            "with `_std` columns every channel needs its two value columns and its `_std` column"
+                .into(),
+        ));
+    }
+    let mut std = Vec::new();
+    let mut kept = vec![cols[0]];
+    for (g, group) in cols[1..].chunks_exact(3).enumerate() {
+        let first = group[0];
+        let channel = first
+            .strip_suffix("_re")
+            .or_else(|| first.strip_suffix("_amp"))
+            .unwrap_or(first);
+        let want = format!("{channel}_std");
+        if group[2] != want {
+            return Err(bad(format!(
+                "column {} must be `{want}` (a file has `_std` columns for every channel or for none), found `{}`",
+                2 + 3 * g + 2,
+                clip(group[2])
+            )));
+        }
+        kept.extend_from_slice(&group[..2]);
+        std.push((1 + 3 * g + 2, want));
+    }
+    Ok((kept.join(","), std))
 }
 
 /// Reads a measurement file.
