@@ -4,12 +4,21 @@
 //! parts of the fit: one prediction pass with the Jacobian and normal
 //! equations, and the model-free noise level.
 //!
+//! Beside them, the fit under the probe noise model of SPEC section 7 (the
+//! paper rotor at balance grade G6.3, 0.5 % relative noise plus a 0.5 um
+//! floor, 5 um of runout on every channel, 3000 speeds): floor and relative
+//! part estimated and refined, outliers sought, with and without runout
+//! unknowns.
+//!
 //! `cargo bench --bench output_error -- --warm-up-time 1 --measurement-time 5`
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rotorid::core::parametrization::Structure;
 use rotorid::estimate::noise::relative_noise_level;
-use rotorid::estimate::output_error::{fisher_information, fit_output_error, OutputErrorOptions};
+use rotorid::estimate::noise::estimate_noise;
+use rotorid::estimate::output_error::{
+    fisher_information, fit_output_error, fit_output_error_with, FitNoise, OutputErrorOptions,
+};
 use rotorid::estimate::predictor::{Predictor, Terms};
 use rotorid::estimate::{auto_scaling, identify_with, Options, Parametrization};
 use rotorid::fe::assembly::FeModel;
@@ -29,17 +38,36 @@ struct Setup {
 }
 
 fn setup() -> Setup {
-    let model = RotorModel::paper();
-    let meas = simulate(
+    setup_of(RotorModel::paper(), 0.01, 0.0, 0.0)
+}
+
+/// The paper rotor at G6.3 with 0.5 % + 0.5 um noise and 5 um of runout.
+fn setup_real() -> Setup {
+    let model = rotorid::simulate::at_balance_grade(
+        &RotorModel::paper(),
+        6.3,
+        rotorid::units::rpm_to_rad_s(15000.0),
+    )
+    .expect("unbalance");
+    setup_of(model, 0.005, 5e-7, 5e-6)
+}
+
+fn setup_of(model: RotorModel, noise: f64, floor: f64, runout: f64) -> Setup {
+    let mut effects = rotorid::model::extension::Effects::default();
+    if runout > 0.0 {
+        effects.runout = rotorid::simulate::random_runout(2, runout, 7);
+    }
+    let mut meas = simulate(
         &model,
         &SimOptions {
             speeds_rpm: uniform_rpm(5.0, 15000.0, 5.0).expect("grid"),
-            noise: 0.01,
+            noise,
             seed: 1,
-            effects: Default::default(),
+            effects,
         },
     )
     .expect("simulate");
+    rotorid::simulate::add_floor_noise(&mut meas, floor, 1).expect("floor");
     let fe = FeModel::new(&model).expect("model");
     let reducer = Reducer::new(&fe, &model).expect("reducer");
     let terms: Vec<Terms> = meas
@@ -119,7 +147,64 @@ fn bench(c: &mut Criterion) {
     g.bench_function("noise level without the model", |b| {
         b.iter(|| black_box(relative_noise_level(&s.meas.samples)))
     });
+    // The probe noise model: the same fit on realistic data.
+    let r = setup_real();
+    let reference = estimate_noise(&r.meas.samples, None);
+    let runout = rotorid::estimate::slow_roll_estimate(&r.meas.samples).expect("slow roll");
+    let mut shifted = r.meas.clone();
+    for smp in &mut shifted.samples {
+        for (q, z) in smp.q.iter_mut().zip(&runout.runout) {
+            *q -= z;
+        }
+    }
+    let start_real = rls(&Setup {
+        meas: shifted,
+        ..setup_of_clone(&r)
+    })
+    .scaled_weights;
+    let composite = |with_runout: bool| FitNoise {
+        model: reference.clone(),
+        refine: true,
+        outliers: true,
+        runout: with_runout.then(|| runout.runout.clone()),
+        reference: reference.clone(),
+        ..Default::default()
+    };
+    for (name, with_runout) in [
+        ("output-error fit, probe noise model", false),
+        ("output-error fit, probe noise model and runout", true),
+    ] {
+        let noise = composite(with_runout);
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                black_box(
+                    fit_output_error_with(
+                        &r.predictor,
+                        &r.meas.samples,
+                        &r.terms,
+                        &start_real,
+                        &OutputErrorOptions::default(),
+                        &noise,
+                    )
+                    .expect("fit"),
+                )
+            })
+        });
+    }
+    g.bench_function("probe noise model without the model", |b| {
+        b.iter(|| black_box(estimate_noise(&r.meas.samples, None)))
+    });
     g.finish();
+}
+
+fn setup_of_clone(s: &Setup) -> Setup {
+    Setup {
+        model: s.model.clone(),
+        meas: s.meas.clone(),
+        terms: s.terms.clone(),
+        predictor: s.predictor.clone(),
+        options: s.options,
+    }
 }
 
 criterion_group!(benches, bench);
