@@ -54,21 +54,20 @@
 //! (`N = NB` or `2 NB` rows of constant cost) where the dense one grows with
 //! `NB^3`.
 //!
-//! Two kernels compute it: [`BlockMut::update_rows`] on slices, for a
-//! layout known at run time, and [`BlockFactor::update_rows`] with `NB`,
-//! `W`, `S` known at compile time (the update of [`BlockQrdRls`] and of the
-//! block-structured identifiers), whose pivots are written out one by one
-//! so that every index and loop bound is a constant: the working row lives
-//! in registers and each rotation runs over the fixed range right of its
-//! pivot, unrolled and vectorised by the compiler. The benchmark report of
-//! the README compares both with the dense filter and the baselines.
+//! The kernel, [`BlockFactor::update_rows`], has `NB`, `W`, `S` known at
+//! compile time (the update of [`BlockQrdRls`] and of the Givens block
+//! identifiers); its pivots are written out one by one so that every index
+//! and loop bound is a constant: the working row lives in registers and
+//! each rotation runs over the fixed range right of its pivot, unrolled and
+//! vectorised by the compiler. `docs/benchmarks.md` compares it with the
+//! dense filter and the baselines.
 //!
 //! # Same numbers as the dense filter
 //!
-//! Every stored entry meets the same rotations, computed by the same
-//! [`rotation_real_pivot`] from the same values (in the fixed-size kernel
-//! its form for a pivot known to be non-negative, which gives the same
-//! bits), in the same order as in
+//! Every stored entry meets the same rotations, computed from the same
+//! values by [`rotation_nonneg_pivot`] (the dense filter's rotation for a
+//! pivot known to be non-negative, which gives the same bits), in the same
+//! order as in
 //! [`crate::qrdrls::update_rows`]; the entries the dense filter adds besides
 //! are products with exact zeros. The factor, `p`, `xi_j` and `gamma_j`
 //! equal the dense filter's (tests check equality to the last bit on the
@@ -111,7 +110,7 @@
 //! # Ok::<(), rotorid_core::qrdrls::FilterError>(())
 //! ```
 
-use crate::givens::{min_normal, rotation_nonneg_pivot, rotation_real_pivot, Rotation};
+use crate::givens::{min_normal, rotation_nonneg_pivot, Rotation};
 use crate::parametrization::Structure;
 use crate::qrdrls::{self, FilterError};
 use crate::Real;
@@ -174,32 +173,10 @@ impl BlockShape {
     }
 }
 
-/// Mutable view of a block-structured state: `diag` (`NB` row-major `W x W`
-/// blocks `D_b`), `coupling` (`NB` row-major `W x S` blocks `C_b`),
+/// Read-only view of a block-structured state: `diag` (`NB` row-major
+/// `W x W` blocks `D_b`), `coupling` (`NB` row-major `W x S` blocks `C_b`),
 /// `shared` (row-major `S x S`, `R_s`), `pb` (`NB W`, the block part of
-/// `p`) and `ps` (`S`), plus working space for one row (`work_b`: `W`,
-/// `work_s`: `S` entries; zero between calls).
-#[derive(Debug)]
-pub struct BlockMut<'a, F> {
-    /// Layout.
-    pub shape: BlockShape,
-    /// Diagonal blocks `D_b`.
-    pub diag: &'a mut [F],
-    /// Coupling blocks `C_b`.
-    pub coupling: &'a mut [F],
-    /// Shared factor `R_s`.
-    pub shared: &'a mut [F],
-    /// Block part of `p`.
-    pub pb: &'a mut [F],
-    /// Shared part of `p`.
-    pub ps: &'a mut [F],
-    /// Working copy of a row's block part.
-    pub work_b: &'a mut [F],
-    /// Working copy of a row's shared part.
-    pub work_s: &'a mut [F],
-}
-
-/// Read-only view of a block-structured state (see [`BlockMut`]).
+/// `p`) and `ps` (`S`).
 #[derive(Debug, Clone, Copy)]
 pub struct BlockRef<'a, F> {
     /// Layout.
@@ -221,24 +198,6 @@ pub(crate) fn is_zero<F: ComplexField<RealField = T> + Copy, T: Real>(x: F) -> b
     x.real() == T::zero() && x.imaginary() == T::zero()
 }
 
-/// The block of row `row` (`M` entries): the block with non-zeros, `0` if
-/// there is none; `None` if two blocks have non-zeros.
-fn block_of<F: ComplexField<RealField = T> + Copy, T: Real>(
-    shape: &BlockShape,
-    row: &[F],
-) -> Option<usize> {
-    let mut found = None;
-    for (b, cols) in row.chunks_exact(shape.width).take(shape.blocks).enumerate() {
-        if cols.iter().fold(false, |nz, x| nz | !is_zero(*x)) {
-            if found.is_some() {
-                return None;
-            }
-            found = Some(b);
-        }
-    }
-    Some(found.unwrap_or(0))
-}
-
 /// Applies `rot` to the row pair `(r, y)` entry by entry:
 /// `(r_k, y_k) <- (c r_k + s y_k, -s^* r_k + c y_k)` for every
 /// `from <= k < K` (`from = 0`, a constant after inlining, gives the
@@ -256,39 +215,10 @@ where
     }
 }
 
-/// The checks of an update, all before anything is written: lengths
-/// (`u` is `N x M`, `xi` and `gamma` have `N = d.len()` entries), `lambda`
-/// in `(0, 1]`, finite entries within [`qrdrls::input_limit`], and every
-/// row non-zero in at most one block (`block` gives `None` otherwise).
-fn validate_rows<F, T>(
-    shape: &BlockShape,
-    u: &[F],
-    d: &[F],
-    lambda: T,
-    xi: &[F],
-    gamma: &[T],
-    block: impl Fn(&[F]) -> Option<usize>,
-) -> Result<(), FilterError>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    let m = shape.unknowns();
-    let n = d.len();
-    if n.checked_mul(m) != Some(u.len()) || xi.len() != n || gamma.len() != n {
-        return Err(FilterError::Dimension);
-    }
-    qrdrls::validate_lambda(lambda)?;
-    qrdrls::check_finite(u, d)?;
-    if u.chunks_exact(m).any(|row| block(row).is_none()) {
-        return Err(FilterError::Dimension);
-    }
-    Ok(())
-}
-
-/// [`block_of`] with the layout known at compile time (`row` has at least
-/// `NB W` entries), without branches on the data: the number of blocks
-/// with non-zeros and the last of them are counted over all blocks.
+/// The block of `row` (at least `NB W` entries): the block with non-zeros,
+/// `0` if there is none, `None` if two blocks have non-zeros. Without
+/// branches on the data: the number of blocks with non-zeros and the last
+/// of them are counted over all blocks.
 #[inline]
 pub(crate) fn block_of_fixed<F, T, const NB: usize, const W: usize>(row: &[F]) -> Option<usize>
 where
@@ -302,236 +232,6 @@ where
         found = if nz { b } else { found };
     }
     (count <= 1).then_some(found)
-}
-
-impl<F, T> BlockMut<'_, F>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    /// Checks the slice lengths against the shape.
-    pub fn check_lengths(&self) -> Result<(), FilterError> {
-        let s = &self.shape;
-        if !s.is_valid()
-            || self.diag.len() != s.diag_len()
-            || self.coupling.len() != s.coupling_len()
-            || self.shared.len() != s.shared_len()
-            || self.pb.len() != s.blocks * s.width
-            || self.ps.len() != s.shared
-            || self.work_b.len() != s.width
-            || self.work_s.len() != s.shared
-        {
-            return Err(FilterError::Dimension);
-        }
-        Ok(())
-    }
-
-    /// The read-only view.
-    pub fn as_ref(&self) -> BlockRef<'_, F> {
-        BlockRef {
-            shape: self.shape,
-            diag: self.diag,
-            coupling: self.coupling,
-            shared: self.shared,
-            pb: self.pb,
-            ps: self.ps,
-        }
-    }
-
-    /// Initialises the state: `R = sqrt(delta) I`, `p = R w0` (`p = 0`
-    /// without `w0`, which has `M` entries in the block-then-shared order).
-    ///
-    /// Errors (state untouched): `Dimension`, `InvalidDelta`, `NonFinite`
-    /// or `OutOfRange` (in `w0`).
-    pub fn init(&mut self, delta: T, w0: Option<&[F]>) -> Result<(), FilterError> {
-        self.check_lengths()?;
-        qrdrls::validate_delta(delta)?;
-        let (w, nbw) = (self.shape.width, self.shape.blocks * self.shape.width);
-        if let Some(w0) = w0 {
-            if w0.len() != self.shape.unknowns() {
-                return Err(FilterError::Dimension);
-            }
-            qrdrls::check_finite(w0, &[])?;
-        }
-        let sd = delta.sqrt();
-        let diag_one = |n: usize, buf: &mut [F]| {
-            for (idx, x) in buf.iter_mut().enumerate() {
-                let (i, k) = ((idx % (n * n)) / n, idx % n);
-                *x = if i == k { F::from_real(sd) } else { F::zero() };
-            }
-        };
-        diag_one(w, self.diag);
-        if self.shape.shared > 0 {
-            diag_one(self.shape.shared, self.shared);
-        }
-        self.coupling.iter_mut().for_each(|x| *x = F::zero());
-        self.work_b.iter_mut().for_each(|x| *x = F::zero());
-        self.work_s.iter_mut().for_each(|x| *x = F::zero());
-        match w0 {
-            Some(w0) => {
-                let (wb, ws) = w0.split_at(nbw);
-                for (pi, wi) in self.pb.iter_mut().zip(wb) {
-                    *pi = wi.scale(sd);
-                }
-                for (pi, wi) in self.ps.iter_mut().zip(ws) {
-                    *pi = wi.scale(sd);
-                }
-            }
-            None => {
-                self.pb.iter_mut().for_each(|x| *x = F::zero());
-                self.ps.iter_mut().for_each(|x| *x = F::zero());
-            }
-        }
-        Ok(())
-    }
-
-    /// Folds the `N` rows of `u` (`N x M` row-major, in the block-then-
-    /// shared column order; each row non-zero in at most one block) with
-    /// right-hand sides `d` into the state after scaling it by
-    /// `sqrt(lambda)`; writes the a-posteriori errors `xi_j` and the
-    /// conversion factors `gamma_j` (as [`qrdrls::update_rows`]).
-    ///
-    /// Errors (all checked before anything is written): `Dimension` (also
-    /// for a row with non-zeros in two blocks), `InvalidLambda`,
-    /// `NonFinite`, `OutOfRange`.
-    // index proven: `block_of` gives `b < blocks` (checked for every row
-    // above), so `b W + W <= blocks W`, the length of `blk`.
-    #[allow(clippy::indexing_slicing)]
-    pub fn update_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        self.check_lengths()?;
-        let shape = self.shape;
-        let m = shape.unknowns();
-        validate_rows(&shape, u, d, lambda, xi, gamma, |row| block_of(&shape, row))?;
-        if lambda != T::one() {
-            self.forget(lambda.sqrt());
-        }
-        let nbw = shape.blocks * shape.width;
-        for (((row, &dj), xj), gj) in u.chunks_exact(m).zip(d).zip(xi).zip(gamma) {
-            let b = block_of(&shape, row).unwrap_or(0);
-            let (blk, sh) = row.split_at(nbw);
-            let lo = b * shape.width;
-            self.work_b.copy_from_slice(&blk[lo..lo + shape.width]);
-            self.work_s.copy_from_slice(sh);
-            let (x, g) = self.fold_row(b, dj);
-            *xj = x;
-            *gj = g;
-        }
-        Ok(())
-    }
-
-    /// `[R p] <- s [R p]` on the stored (upper) entries.
-    fn forget(&mut self, s: T) {
-        let w = self.shape.width;
-        for blk in self.diag.chunks_exact_mut(w * w) {
-            for (i, row) in blk.chunks_exact_mut(w).enumerate() {
-                for x in row.iter_mut().skip(i) {
-                    *x = x.scale(s);
-                }
-            }
-        }
-        let sh = self.shape.shared;
-        if sh > 0 {
-            for (i, row) in self.shared.chunks_exact_mut(sh).enumerate() {
-                for x in row.iter_mut().skip(i) {
-                    *x = x.scale(s);
-                }
-            }
-        }
-        for x in self
-            .coupling
-            .iter_mut()
-            .chain(self.pb.iter_mut())
-            .chain(self.ps.iter_mut())
-        {
-            *x = x.scale(s);
-        }
-    }
-
-    /// Folds the row held in `work_b` (block `b`) and `work_s` with
-    /// right-hand side `d`; returns `(xi, gamma)`. Leaves the work rows
-    /// zero. Lengths were checked by the caller.
-    // index proven: `b < blocks` and the lengths of every buffer checked
-    // by the caller (`check_lengths`); `i < W` (or `S`) indexes rows of
-    // `W` (`S`) entries.
-    #[allow(clippy::indexing_slicing)]
-    #[inline]
-    fn fold_row(&mut self, b: usize, d: F) -> (F, T) {
-        let (w, s) = (self.shape.width, self.shape.shared);
-        let mut e = d; // ends as sqrt(gamma) alpha
-        let mut g = T::one(); // ends as sqrt(gamma)
-        let diag = &mut self.diag[b * w * w..(b + 1) * w * w];
-        let coup = &mut self.coupling[b * w * s..(b + 1) * w * s];
-        let pb = &mut self.pb[b * w..(b + 1) * w];
-        let ub = &mut *self.work_b;
-        let us = &mut *self.work_s;
-        // Block part: rotations against D_b, applied to [D_b C_b p_b].
-        for (i, (drow, pi)) in diag.chunks_exact_mut(w).zip(pb.iter_mut()).enumerate() {
-            let (head, tail) = ub.split_at_mut(i + 1);
-            let x = head[i];
-            if is_zero(x) {
-                continue;
-            }
-            head[i] = F::zero();
-            let (dii, drest) = drow[i..].split_at_mut(1);
-            let (rot, rho) = rotation_real_pivot(dii[0].real(), x);
-            dii[0] = F::from_real(rho);
-            g *= rot.c;
-            for (r, y) in drest.iter_mut().zip(tail.iter_mut()) {
-                let (nr, ny) = rot.apply(*r, *y);
-                *r = nr;
-                *y = ny;
-            }
-            if s > 0 {
-                let crow = &mut coup[i * s..(i + 1) * s];
-                for (r, y) in crow.iter_mut().zip(us.iter_mut()) {
-                    let (nr, ny) = rot.apply(*r, *y);
-                    *r = nr;
-                    *y = ny;
-                }
-            }
-            let (np, ne) = rot.apply(*pi, e);
-            *pi = np;
-            e = ne;
-        }
-        // Shared part: rotations against R_s, applied to [R_s p_s].
-        if s > 0 {
-            for (i, (srow, pi)) in self
-                .shared
-                .chunks_exact_mut(s)
-                .zip(self.ps.iter_mut())
-                .enumerate()
-            {
-                let (head, tail) = us.split_at_mut(i + 1);
-                let x = head[i];
-                if is_zero(x) {
-                    continue;
-                }
-                head[i] = F::zero();
-                let (sii, srest) = srow[i..].split_at_mut(1);
-                let (rot, rho) = rotation_real_pivot(sii[0].real(), x);
-                sii[0] = F::from_real(rho);
-                g *= rot.c;
-                for (r, y) in srest.iter_mut().zip(tail.iter_mut()) {
-                    let (nr, ny) = rot.apply(*r, *y);
-                    *r = nr;
-                    *y = ny;
-                }
-                let (np, ne) = rot.apply(*pi, e);
-                *pi = np;
-                e = ne;
-            }
-        }
-        ub.iter_mut().for_each(|x| *x = F::zero());
-        us.iter_mut().for_each(|x| *x = F::zero());
-        (e.scale(g), g * g)
-    }
 }
 
 impl<F, T> BlockRef<'_, F>
@@ -668,20 +368,18 @@ where
 }
 
 /// Inline storage of a block-structured factor with `NB` blocks of `W`
-/// columns and `S` shared columns (`M = NB W + S`): `D_b`, `C_b`, `R_s`,
-/// `p` and the working row, `NB W^2 + NB W S + S^2 + 2 (NB W + S)` entries
-/// of `F` (no heap). The paper case (`NB = 4` channels, `W = 4`, `S = 6`
-/// real unbalance unknowns, `physical` order 1, `f32`) holds 912 bytes
-/// against 2024 for the dense `M = 22` factor.
+/// columns and `S` shared columns (`M = NB W + S`): `D_b`, `C_b`, `R_s`
+/// and `p`, `NB W^2 + NB W S + S^2 + NB W + S` entries of `F` (no heap).
+/// The paper case (`NB = 4` channels, `W = 4`, `S = 6` real unbalance
+/// unknowns, `physical` order 1, `f32`) holds 872 bytes against 2024 for
+/// the dense `M = 22` factor.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BlockFactor<F, const NB: usize, const W: usize, const S: usize> {
-    diag: [[[F; W]; W]; NB],
-    coupling: [[[F; S]; W]; NB],
-    shared: [[F; S]; S],
-    pb: [[F; W]; NB],
-    ps: [F; S],
-    work_b: [F; W],
-    work_s: [F; S],
+    pub(crate) diag: [[[F; W]; W]; NB],
+    pub(crate) coupling: [[[F; S]; W]; NB],
+    pub(crate) shared: [[F; S]; S],
+    pub(crate) pb: [[F; W]; NB],
+    pub(crate) ps: [F; S],
 }
 
 impl<F, T, const NB: usize, const W: usize, const S: usize> BlockFactor<F, NB, W, S>
@@ -696,7 +394,7 @@ where
         shared: S,
     };
 
-    /// All zero (call [`BlockMut::init`] through [`Self::view_mut`]).
+    /// All zero (see [`Self::init`]).
     pub fn zeroed() -> Self {
         const { assert!(NB > 0 && W > 0, "BlockFactor: NB and W must be > 0") };
         BlockFactor {
@@ -705,23 +403,29 @@ where
             shared: [[F::zero(); S]; S],
             pb: [[F::zero(); W]; NB],
             ps: [F::zero(); S],
-            work_b: [F::zero(); W],
-            work_s: [F::zero(); S],
         }
     }
 
-    /// Mutable view.
-    pub fn view_mut(&mut self) -> BlockMut<'_, F> {
-        BlockMut {
-            shape: Self::SHAPE,
-            diag: self.diag.as_flattened_mut().as_flattened_mut(),
-            coupling: self.coupling.as_flattened_mut().as_flattened_mut(),
-            shared: self.shared.as_flattened_mut(),
-            pb: self.pb.as_flattened_mut(),
-            ps: &mut self.ps,
-            work_b: &mut self.work_b,
-            work_s: &mut self.work_s,
+    /// Initialises the state: `R = sqrt(delta) I`, `p = 0`.
+    ///
+    /// Errors (state untouched): `InvalidDelta`.
+    pub fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        qrdrls::validate_delta(delta)?;
+        let sd = F::from_real(delta.sqrt());
+        *self = Self::zeroed();
+        for blk in self.diag.iter_mut() {
+            for (i, row) in blk.iter_mut().enumerate() {
+                if let Some(x) = row.get_mut(i) {
+                    *x = sd;
+                }
+            }
         }
+        for (i, row) in self.shared.iter_mut().enumerate() {
+            if let Some(x) = row.get_mut(i) {
+                *x = sd;
+            }
+        }
+        Ok(())
     }
 
     /// Read-only view.
@@ -742,13 +446,15 @@ where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
-    /// [`BlockMut::update_rows`] with the layout known at compile time:
-    /// the same validation (all of it before anything is written), the same
-    /// rotations on the same entries in the same order (so the same numbers
-    /// to the last bit, checked by the tests), with the loops over `W` and
-    /// `S` fixed in length and the working row held in registers rather
-    /// than in the state. This is the update of [`BlockQrdRls`] and of the
-    /// block-structured identifiers.
+    /// Folds the `N` rows of `u` (`N x M` row-major, in the block-then-
+    /// shared column order; each row non-zero in at most one block) with
+    /// right-hand sides `d` into the state after scaling it by
+    /// `sqrt(lambda)`; writes the a-posteriori errors `xi_j` and the
+    /// conversion factors `gamma_j` (as [`qrdrls::update_rows`], with the
+    /// same numbers to the last bit, checked by the tests). The loops over
+    /// `W` and `S` are fixed in length and the working row is held in
+    /// registers. This is the update of [`BlockQrdRls`] and of the Givens
+    /// block identifiers.
     ///
     /// Errors (state untouched): `Dimension` (lengths, or a row with
     /// non-zeros in two blocks), `InvalidLambda`, `NonFinite`, `OutOfRange`.
@@ -782,9 +488,9 @@ where
         Ok(())
     }
 
-    /// The checks of [`validate_rows`] (same errors, same precedence:
-    /// lengths, `lambda`, non-finite or out-of-range entries, then rows
-    /// with non-zeros in two blocks) in one pass over each row, which finds
+    /// The checks of an update (in this order: lengths, `lambda`,
+    /// non-finite or out-of-range entries, then rows with non-zeros in two
+    /// blocks) in one pass over each row, which finds
     /// the row's block at the same time (into `blocks`, for the first
     /// `BLOCKS_KEPT` rows). All of it before anything is written.
     #[inline(always)]
@@ -852,7 +558,7 @@ where
     /// Folds row `row` (`M` entries, non-zero in block `b` and the shared
     /// columns only) with right-hand side `d`; returns `(xi, gamma)`.
     ///
-    /// The arithmetic of [`BlockMut::update_rows`] on every stored entry,
+    /// The arithmetic of [`qrdrls::update_rows`] on every stored entry,
     /// one-sided (each rotation touches the entries right of its pivot
     /// only, as the dense filter), with the loops over the pivots written
     /// out for the first [`UNROLL`] pivots of the block and of the shared
@@ -861,7 +567,7 @@ where
     /// ranges the compiler unrolls and vectorises, and the working row
     /// `(ub, us)` stays in registers. Pivots beyond [`UNROLL`] (layouts
     /// with `W` or `S` above it) take the same steps in a plain loop.
-    // index proven: `b < NB` (from `block_of`, checked by the caller for
+    // index proven: `b < NB` (from `block_of_fixed`, checked by the caller for
     // every row) and `row.len() = M = NB W + S` (checked by the caller).
     #[allow(clippy::indexing_slicing)]
     #[inline]
@@ -910,7 +616,7 @@ const UNROLL: usize = 16;
 
 /// Pivot `i` of the block part (nothing for `i >= W`): the rotation of row
 /// `i` of `[D_b C_b p_b]` with the working row `(ub, us, e)` that zeroes
-/// `ub[i]`, computed by [`rotation_real_pivot`] from `(D_b[i][i], ub[i])`
+/// `ub[i]`, computed by [`rotation_nonneg_pivot`] from `(D_b[i][i], ub[i])`
 /// and applied to the entries right of the pivot,
 /// `(r_k, y_k) <- (c r_k + s y_k, -s^* r_k + c y_k)`; the pivot pair
 /// becomes `(rho, 0)`, and `g <- c g`. A zero `ub[i]` is the identity
@@ -1013,7 +719,7 @@ where
             factor: BlockFactor::zeroed(),
             lambda,
         };
-        s.factor.view_mut().init(delta, None)?;
+        s.factor.init(delta)?;
         Ok(s)
     }
 
@@ -1029,7 +735,7 @@ where
 
     /// Folds in the `N` rows of `u` (`N x M` row-major) with right-hand
     /// sides `d`, using the filter's `lambda` (see
-    /// [`BlockMut::update_rows`]).
+    /// [`BlockFactor::update_rows`]).
     pub fn update_rows(
         &mut self,
         u: &[F],
@@ -1107,19 +813,9 @@ mod tests {
         let (mut xd, mut gd) = (vec![F::zero(); n], vec![T::zero(); n]);
         let mut all_u = Vec::new();
         let mut all_d = Vec::new();
-        // The run-time-shape kernel on slices, to compare with the
-        // fixed-size one of `BlockQrdRls`.
-        let mut sl = BlockFactor::<F, NB, W, S>::zeroed();
-        sl.view_mut().init(T::lit(0.1), None).unwrap();
-        let (mut xs, mut gs) = (vec![F::zero(); n], vec![T::zero(); n]);
         for _ in 0..steps {
             let (u, d) = rows(&mut rng, &shape, n, mk);
             blk.update_rows(&u, &d, &mut xb, &mut gb).unwrap();
-            sl.view_mut()
-                .update_rows(&u, &d, T::lit(lambda), &mut xs, &mut gs)
-                .unwrap();
-            assert_eq!(&sl, blk.factor(), "fixed-size against slice kernel");
-            assert_eq!((&xs, &gs), (&xb, &gb), "fixed-size against slice kernel");
             update_rows(&mut r, &mut p, &u, &d, T::lit(lambda), &mut xd, &mut gd).unwrap();
             assert_eq!(xb, xd, "xi");
             assert_eq!(gb, gd, "gamma");
@@ -1274,9 +970,7 @@ mod tests {
             Err(FilterError::Dimension)
         );
         assert_eq!(
-            f.factor
-                .view_mut()
-                .update_rows(&u, &d, 1.5, &mut xi, &mut g),
+            f.factor.update_rows(&u, &d, 1.5, &mut xi, &mut g),
             Err(FilterError::InvalidLambda)
         );
         assert_eq!(f, before);
@@ -1311,6 +1005,6 @@ mod tests {
             let s = BlockShape::of(st, 3, 2);
             assert_eq!(s.unknowns(), st.n_unknowns(3, 2));
         }
-        assert_eq!(core::mem::size_of::<BlockFactor<f32, 4, 4, 6>>(), 912);
+        assert_eq!(core::mem::size_of::<BlockFactor<f32, 4, 4, 6>>(), 872);
     }
 }

@@ -13,7 +13,7 @@
 //! Gentleman's rotations) is a third storage: fewer instructions, the same
 //! numbers to round-off, a narrower input range.
 
-use crate::blockqrd::{BlockFactor, BlockMut, BlockRef, BlockShape};
+use crate::blockqrd::{BlockFactor, BlockShape};
 use crate::qrdrls::{self, FilterError};
 use crate::Real;
 use core::fmt::Debug;
@@ -29,8 +29,6 @@ pub enum FactorMut<'a, F> {
         /// Rotated right-hand side `p`.
         p: &'a mut [F],
     },
-    /// Block-structured factor.
-    Block(BlockMut<'a, F>),
 }
 
 /// Read-only view of a filter state.
@@ -43,8 +41,6 @@ pub enum FactorRef<'a, F> {
         /// Rotated right-hand side `p`.
         p: &'a [F],
     },
-    /// Block-structured factor.
-    Block(BlockRef<'a, F>),
 }
 
 impl<F, T> FactorMut<'_, F>
@@ -56,27 +52,22 @@ where
     pub fn unknowns(&self) -> usize {
         match self {
             FactorMut::Dense { p, .. } => p.len(),
-            FactorMut::Block(b) => b.shape.unknowns(),
         }
     }
 
-    /// The block layout, `None` for the dense factor.
+    /// The block layout: `None`, the factor is dense.
     pub fn shape(&self) -> Option<BlockShape> {
-        match self {
-            FactorMut::Dense { .. } => None,
-            FactorMut::Block(b) => Some(b.shape),
-        }
+        None
     }
 
-    /// `R = sqrt(delta) I`, `p = 0` ([`qrdrls::init`], [`BlockMut::init`]).
+    /// `R = sqrt(delta) I`, `p = 0` ([`qrdrls::init`]).
     pub fn init(&mut self, delta: T) -> Result<(), FilterError> {
         match self {
             FactorMut::Dense { r, p } => qrdrls::init(r, p, delta, None),
-            FactorMut::Block(b) => b.init(delta, None),
         }
     }
 
-    /// Folds in `N` rows ([`qrdrls::update_rows`], [`BlockMut::update_rows`]);
+    /// Folds in `N` rows ([`qrdrls::update_rows`]);
     /// errors leave the state unchanged.
     pub fn update_rows(
         &mut self,
@@ -88,7 +79,6 @@ where
     ) -> Result<(), FilterError> {
         match self {
             FactorMut::Dense { r, p } => qrdrls::update_rows(r, p, u, d, lambda, xi, gamma),
-            FactorMut::Block(b) => b.update_rows(u, d, lambda, xi, gamma),
         }
     }
 
@@ -96,7 +86,6 @@ where
     pub fn as_ref(&self) -> FactorRef<'_, F> {
         match self {
             FactorMut::Dense { r, p } => FactorRef::Dense { r, p },
-            FactorMut::Block(b) => FactorRef::Block(b.as_ref()),
         }
     }
 }
@@ -110,7 +99,6 @@ where
     pub fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
         match self {
             FactorRef::Dense { r, p } => qrdrls::solve_weights(r, p, w),
-            FactorRef::Block(b) => b.solve_weights(w),
         }
     }
 
@@ -118,15 +106,13 @@ where
     pub fn diag_ratio(&self) -> Result<T, FilterError> {
         match self {
             FactorRef::Dense { r, .. } => qrdrls::r_diag_ratio(r),
-            FactorRef::Block(b) => Ok(b.diag_ratio()),
         }
     }
 }
 
 /// What the identification step needs of a filter state (implemented by
-/// the run-time dispatching [`FactorMut`] and, statically, by [`DenseMut`]
-/// and [`BlockMut`], so that a firmware build holds only the filter it
-/// uses).
+/// the dense slices [`FactorMut`] and [`DenseMut`] and the inline block
+/// storages, so that a firmware build holds only the filter it uses).
 pub trait FilterState<F: ComplexField> {
     /// Number of unknowns `M`.
     fn unknowns(&self) -> usize;
@@ -238,38 +224,6 @@ where
     }
 }
 
-impl<F, T> FilterState<F> for BlockMut<'_, F>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    fn unknowns(&self) -> usize {
-        self.shape.unknowns()
-    }
-    fn shape(&self) -> Option<BlockShape> {
-        Some(self.shape)
-    }
-    fn init(&mut self, delta: T) -> Result<(), FilterError> {
-        BlockMut::init(self, delta, None)
-    }
-    fn update_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        BlockMut::update_rows(self, u, d, lambda, xi, gamma)
-    }
-    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        self.as_ref().solve_weights(w)
-    }
-    fn diag_ratio(&self) -> Result<T, FilterError> {
-        Ok(self.as_ref().diag_ratio())
-    }
-}
-
 /// Inline storage of a filter state, owned by a const-generic identifier.
 pub trait Factor<F: ComplexField>: Clone + Debug + PartialEq {
     /// The mutable view the identification step works on.
@@ -343,8 +297,7 @@ where
 
 /// Mutable view of an inline block-structured factor with its layout
 /// known at compile time: the update runs the fixed-size kernel
-/// [`BlockFactor::update_rows`] (the same numbers as [`BlockMut`]'s, to the
-/// last bit); the rest goes through the slice view.
+/// [`BlockFactor::update_rows`]; the rest goes through the read view.
 #[derive(Debug)]
 pub struct BlockFixedMut<'a, F, const NB: usize, const W: usize, const S: usize>(
     pub &'a mut BlockFactor<F, NB, W, S>,
@@ -363,7 +316,7 @@ where
         Some(BlockFactor::<F, NB, W, S>::SHAPE)
     }
     fn init(&mut self, delta: T) -> Result<(), FilterError> {
-        self.0.view_mut().init(delta, None)
+        self.0.init(delta)
     }
     fn update_rows(
         &mut self,

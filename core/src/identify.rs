@@ -510,8 +510,8 @@ pub struct Kernel<'a, T, F, V = FactorMut<'a, F>> {
     /// Number of unbalance planes.
     pub np: usize,
     /// Filter state (factor `R` and rotated right-hand side `p`): a
-    /// [`FactorMut`] (dense or block, chosen at run time) or, statically, a
-    /// [`crate::factor::DenseMut`] or [`crate::blockqrd::BlockMut`].
+    /// [`FactorMut`] (dense, on caller slices) or a view of an inline
+    /// storage ([`crate::factor::Factor`]).
     pub factor: V,
     /// The field `F` of the filter (`Complex<T>` or `T`).
     pub field: core::marker::PhantomData<F>,

@@ -530,13 +530,11 @@ where
     // index proven: `b < NB`, `i, k < W` or `< S`.
     #[allow(clippy::indexing_slicing)]
     pub fn to_block(&self, out: &mut BlockFactor<F, NB, W, S>) -> Result<(), FilterError> {
-        let v = out.view_mut();
         for b in 0..NB {
             for i in 0..W {
                 let r = self.db[b][i].sqrt();
-                let row = b * W * W + i * W;
                 for k in 0..W {
-                    v.diag[row + k] = if k == i {
+                    out.diag[b][i][k] = if k == i {
                         F::from_real(r)
                     } else if k > i {
                         self.ub[b][i][k].scale(r)
@@ -544,17 +542,16 @@ where
                         F::zero()
                     };
                 }
-                let crow = b * W * S + i * S;
                 for k in 0..S {
-                    v.coupling[crow + k] = self.coupling[b][i][k].scale(r);
+                    out.coupling[b][i][k] = self.coupling[b][i][k].scale(r);
                 }
-                v.pb[b * W + i] = self.qb[b][i].scale(r);
+                out.pb[b][i] = self.qb[b][i].scale(r);
             }
         }
         for i in 0..S {
             let r = self.ds[i].sqrt();
             for k in 0..S {
-                v.shared[i * S + k] = if k == i {
+                out.shared[i][k] = if k == i {
                     F::from_real(r)
                 } else if k > i {
                     self.us[i][k].scale(r)
@@ -562,7 +559,7 @@ where
                     F::zero()
                 };
             }
-            v.ps[i] = self.qs[i].scale(r);
+            out.ps[i] = self.qs[i].scale(r);
         }
         let v = out.view();
         let finite = all_finite(v.diag)
