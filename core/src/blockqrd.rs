@@ -65,9 +65,9 @@
 //! # Same numbers as the dense filter
 //!
 //! Every stored entry meets the same rotations, computed from the same
-//! values by [`rotation_nonneg_pivot`] (the dense filter's rotation for a
-//! pivot known to be non-negative, which gives the same bits), in the same
-//! order as in
+//! values by the dense filter's [`crate::givens::rotation_real_pivot`] (in
+//! its form for a pivot known to be non-negative, which gives the same
+//! bits), in the same order as in
 //! [`crate::qrdrls::update_rows`]; the entries the dense filter adds besides
 //! are products with exact zeros. The factor, `p`, `xi_j` and `gamma_j`
 //! equal the dense filter's (tests check equality to the last bit on the
@@ -110,6 +110,7 @@
 //! # Ok::<(), rotorid_core::qrdrls::FilterError>(())
 //! ```
 
+use crate::factor::QrdRls;
 use crate::givens::{min_normal, rotation_nonneg_pivot, Rotation};
 use crate::parametrization::Structure;
 use crate::qrdrls::{self, FilterError};
@@ -616,7 +617,7 @@ const UNROLL: usize = 16;
 
 /// Pivot `i` of the block part (nothing for `i >= W`): the rotation of row
 /// `i` of `[D_b C_b p_b]` with the working row `(ub, us, e)` that zeroes
-/// `ub[i]`, computed by [`rotation_nonneg_pivot`] from `(D_b[i][i], ub[i])`
+/// `ub[i]`, computed by `rotation_nonneg_pivot` from `(D_b[i][i], ub[i])`
 /// and applied to the entries right of the pivot,
 /// `(r_k, y_k) <- (c r_k + s y_k, -s^* r_k + c y_k)`; the pivot pair
 /// becomes `(rho, 0)`, and `g <- c g`. A zero `ub[i]` is the identity
@@ -693,65 +694,12 @@ fn shared_step<F, T, const S: usize>(
     *e = ne;
 }
 
-/// Owning, fixed-size block-structured QRD/RLS (the counterpart of
-/// [`qrdrls::VectorQrdRls`]): `NB` blocks of `W` unknowns, `S` shared
-/// unknowns, forgetting factor `lambda`, regularisation `delta`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct BlockQrdRls<F: ComplexField, const NB: usize, const W: usize, const S: usize> {
-    factor: BlockFactor<F, NB, W, S>,
-    lambda: F::RealField,
-}
-
-impl<F, T, const NB: usize, const W: usize, const S: usize> BlockQrdRls<F, NB, W, S>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    /// Number of unknowns `M = NB W + S`.
-    pub const M: usize = NB * W + S;
-
-    /// A fresh filter: `R = sqrt(delta) I`, `p = 0`.
-    ///
-    /// Errors: `InvalidLambda`, `InvalidDelta`.
-    pub fn new(lambda: T, delta: T) -> Result<Self, FilterError> {
-        qrdrls::validate_lambda(lambda)?;
-        let mut s = BlockQrdRls {
-            factor: BlockFactor::zeroed(),
-            lambda,
-        };
-        s.factor.init(delta)?;
-        Ok(s)
-    }
-
-    /// The forgetting factor.
-    pub fn lambda(&self) -> T {
-        self.lambda
-    }
-
-    /// The stored factor.
-    pub fn factor(&self) -> &BlockFactor<F, NB, W, S> {
-        &self.factor
-    }
-
-    /// Folds in the `N` rows of `u` (`N x M` row-major) with right-hand
-    /// sides `d`, using the filter's `lambda` (see
-    /// [`BlockFactor::update_rows`]).
-    pub fn update_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        let lambda = self.lambda;
-        self.factor.update_rows(u, d, lambda, xi, gamma)
-    }
-
-    /// The weights `w = R^-1 p` into `w` (`M` entries).
-    pub fn weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        self.factor.view().solve_weights(w)
-    }
-}
+/// Owning, fixed-size Givens block QRD/RLS: `NB` blocks of `W` unknowns,
+/// `S` shared unknowns, forgetting factor `lambda`, regularisation `delta`
+/// ([`QrdRls::new`]); the counterpart of [`qrdrls::VectorQrdRls`] for the
+/// block layout.
+pub type BlockQrdRls<F, const NB: usize, const W: usize, const S: usize> =
+    QrdRls<F, BlockFactor<F, NB, W, S>>;
 
 #[cfg(test)]
 mod tests {
@@ -969,10 +917,12 @@ mod tests {
             f.update_rows(&u[..9], &d, &mut xi, &mut g),
             Err(FilterError::Dimension)
         );
+        let mut fac = f.factor().clone();
         assert_eq!(
-            f.factor.update_rows(&u, &d, 1.5, &mut xi, &mut g),
+            fac.update_rows(&u, &d, 1.5, &mut xi, &mut g),
             Err(FilterError::InvalidLambda)
         );
+        assert_eq!(&fac, f.factor());
         assert_eq!(f, before);
         assert_eq!(
             BlockQrdRls::<f32, 2, 2, 1>::new(0.0, 1.0).unwrap_err(),

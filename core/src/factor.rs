@@ -1,126 +1,44 @@
-//! The filter state of an identifier: the dense QRD/RLS factor
-//! ([`crate::qrdrls`], `M x M`) or the block-structured one
-//! ([`crate::blockqrd`], only the blocks), behind one interface.
+//! The filter state behind one interface, [`FilterState`]: what the
+//! identification step ([`crate::identify::Kernel`]) needs of a filter.
 //!
-//! [`FactorMut`] / [`FactorRef`] are views on caller storage (slices), so
-//! the same identification step ([`crate::identify::Kernel`]) runs on the
-//! firmware's inline arrays and on the desktop's vectors. [`Factor`] is the
-//! inline storage a const-generic [`crate::identify::Identifier`] owns:
-//! [`DenseFactor`] (`M^2 + M` entries) or [`BlockFactor`]
-//! (`NB W^2 + NB W S + S^2 + 2 M` entries). Both give the same numbers (see
-//! [`crate::blockqrd`]); the dense one serves any row structure. The
-//! square-root-free [`crate::sqrtfree::SqrtFreeFactor`] (the block layout,
-//! Gentleman's rotations) is a third storage: fewer instructions, the same
-//! numbers to round-off, a narrower input range.
+//! | state | filter | entries of `F` | implements |
+//! |---|---|---|---|
+//! | [`DenseFactor<F, M>`] | dense Givens ([`crate::qrdrls`]), any rows | `M^2 + M` | [`Factor`] |
+//! | [`BlockFactor<F, NB, W, S>`] | Givens block ([`crate::blockqrd`]) | `NB W^2 + NB W S + S^2 + M` | [`Factor`] |
+//! | [`SqrtFreeFactor<F, NB, W, S>`] | square-root-free block ([`crate::sqrtfree`]) | the same, the diagonal real | [`Factor`] |
+//! | [`FactorMut`] | dense Givens on caller slices (the desktop driver's run-time sizes) | `M^2 + M` | |
+//!
+//! [`Factor`] is inline storage a const-generic
+//! [`crate::identify::Identifier`] owns (the identifier's `R`); the step
+//! works on `&mut R`, so a firmware build holds only the filter it uses.
+//! [`QrdRls<F, R>`] owns one with its forgetting factor, for use without
+//! an identifier: [`crate::blockqrd::BlockQrdRls`] and
+//! [`crate::sqrtfree::SqrtFreeQrdRls`] are its aliases (the dense
+//! [`crate::qrdrls::VectorQrdRls`] has an array interface of its own:
+//! prior weights, `N` rows per step as arrays, a reset).
+//!
+//! The Givens filters give the same numbers to the last bit (see
+//! [`crate::blockqrd`]); the square-root-free one the same to round-off,
+//! with fewer instructions and a narrower input range (see
+//! [`crate::sqrtfree`]).
 
 use crate::blockqrd::{BlockFactor, BlockShape};
 use crate::qrdrls::{self, FilterError};
+use crate::sqrtfree::SqrtFreeFactor;
 use crate::Real;
 use core::fmt::Debug;
 use nalgebra::ComplexField;
 
-/// Mutable view of a filter state.
-#[derive(Debug)]
-pub enum FactorMut<'a, F> {
-    /// Dense factor: `r` row-major `M x M`, `p` (`M`).
-    Dense {
-        /// Factor `R`.
-        r: &'a mut [F],
-        /// Rotated right-hand side `p`.
-        p: &'a mut [F],
-    },
-}
-
-/// Read-only view of a filter state.
-#[derive(Debug, Clone, Copy)]
-pub enum FactorRef<'a, F> {
-    /// Dense factor: `r` row-major `M x M`, `p` (`M`).
-    Dense {
-        /// Factor `R`.
-        r: &'a [F],
-        /// Rotated right-hand side `p`.
-        p: &'a [F],
-    },
-}
-
-impl<F, T> FactorMut<'_, F>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    /// Number of unknowns `M`.
-    pub fn unknowns(&self) -> usize {
-        match self {
-            FactorMut::Dense { p, .. } => p.len(),
-        }
-    }
-
-    /// The block layout: `None`, the factor is dense.
-    pub fn shape(&self) -> Option<BlockShape> {
-        None
-    }
-
-    /// `R = sqrt(delta) I`, `p = 0` ([`qrdrls::init`]).
-    pub fn init(&mut self, delta: T) -> Result<(), FilterError> {
-        match self {
-            FactorMut::Dense { r, p } => qrdrls::init(r, p, delta, None),
-        }
-    }
-
-    /// Folds in `N` rows ([`qrdrls::update_rows`]);
-    /// errors leave the state unchanged.
-    pub fn update_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        match self {
-            FactorMut::Dense { r, p } => qrdrls::update_rows(r, p, u, d, lambda, xi, gamma),
-        }
-    }
-
-    /// The read-only view.
-    pub fn as_ref(&self) -> FactorRef<'_, F> {
-        match self {
-            FactorMut::Dense { r, p } => FactorRef::Dense { r, p },
-        }
-    }
-}
-
-impl<F, T> FactorRef<'_, F>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    /// Back-substitution `R w = p` into `w` (`M` entries).
-    pub fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        match self {
-            FactorRef::Dense { r, p } => qrdrls::solve_weights(r, p, w),
-        }
-    }
-
-    /// `min|R_ii| / max|R_ii|`.
-    pub fn diag_ratio(&self) -> Result<T, FilterError> {
-        match self {
-            FactorRef::Dense { r, .. } => qrdrls::r_diag_ratio(r),
-        }
-    }
-}
-
-/// What the identification step needs of a filter state (implemented by
-/// the dense slices [`FactorMut`] and [`DenseMut`] and the inline block
-/// storages, so that a firmware build holds only the filter it uses).
+/// What the identification step needs of a filter state.
 pub trait FilterState<F: ComplexField> {
     /// Number of unknowns `M`.
     fn unknowns(&self) -> usize;
     /// The block layout, `None` for a dense factor.
     fn shape(&self) -> Option<BlockShape>;
-    /// `R = sqrt(delta) I`, `p = 0`.
+    /// `R = sqrt(delta) I`, `p = 0` (`InvalidDelta` unless `delta` lies in
+    /// `(0, sqrt(T::MAX)]`, state untouched).
     fn init(&mut self, delta: F::RealField) -> Result<(), FilterError>;
-    /// Folds in `N` rows; errors leave the state unchanged.
+    /// Folds in `N` rows of `M` entries; errors leave the state unchanged.
     fn update_rows(
         &mut self,
         u: &[F],
@@ -151,60 +69,76 @@ pub trait FilterState<F: ComplexField> {
     fn diag_ratio(&self) -> Result<F::RealField, FilterError>;
 }
 
+/// A state the step borrows (the identifier hands its storage over as
+/// `&mut R`).
+impl<F: ComplexField, V: FilterState<F> + ?Sized> FilterState<F> for &mut V {
+    fn unknowns(&self) -> usize {
+        (**self).unknowns()
+    }
+    fn shape(&self) -> Option<BlockShape> {
+        (**self).shape()
+    }
+    fn init(&mut self, delta: F::RealField) -> Result<(), FilterError> {
+        (**self).init(delta)
+    }
+    #[inline(always)]
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: F::RealField,
+        xi: &mut [F],
+        gamma: &mut [F::RealField],
+    ) -> Result<(), FilterError> {
+        (**self).update_rows(u, d, lambda, xi, gamma)
+    }
+    #[inline(always)]
+    fn update_grouped_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: F::RealField,
+        xi: &mut [F],
+        gamma: &mut [F::RealField],
+    ) -> Result<(), FilterError> {
+        (**self).update_grouped_rows(u, d, lambda, xi, gamma)
+    }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        (**self).solve_weights(w)
+    }
+    fn diag_ratio(&self) -> Result<F::RealField, FilterError> {
+        (**self).diag_ratio()
+    }
+}
+
+/// The dense state on caller slices (the desktop driver's, sizes known at
+/// run time).
+#[derive(Debug)]
+pub enum FactorMut<'a, F> {
+    /// Dense factor: `r` row-major `M x M`, `p` (`M`).
+    Dense {
+        /// Factor `R`.
+        r: &'a mut [F],
+        /// Rotated right-hand side `p`.
+        p: &'a mut [F],
+    },
+}
+
 impl<F, T> FilterState<F> for FactorMut<'_, F>
 where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
     fn unknowns(&self) -> usize {
-        FactorMut::unknowns(self)
-    }
-    fn shape(&self) -> Option<BlockShape> {
-        FactorMut::shape(self)
-    }
-    fn init(&mut self, delta: T) -> Result<(), FilterError> {
-        FactorMut::init(self, delta)
-    }
-    fn update_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        FactorMut::update_rows(self, u, d, lambda, xi, gamma)
-    }
-    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        self.as_ref().solve_weights(w)
-    }
-    fn diag_ratio(&self) -> Result<T, FilterError> {
-        self.as_ref().diag_ratio()
-    }
-}
-
-/// Mutable view of a dense state: `r` row-major `M x M`, `p` (`M`).
-#[derive(Debug)]
-pub struct DenseMut<'a, F> {
-    /// Factor `R`.
-    pub r: &'a mut [F],
-    /// Rotated right-hand side `p`.
-    pub p: &'a mut [F],
-}
-
-impl<F, T> FilterState<F> for DenseMut<'_, F>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    fn unknowns(&self) -> usize {
-        self.p.len()
+        let FactorMut::Dense { p, .. } = self;
+        p.len()
     }
     fn shape(&self) -> Option<BlockShape> {
         None
     }
     fn init(&mut self, delta: T) -> Result<(), FilterError> {
-        qrdrls::init(self.r, self.p, delta, None)
+        let FactorMut::Dense { r, p } = self;
+        qrdrls::init(r, p, delta, None)
     }
     fn update_rows(
         &mut self,
@@ -214,30 +148,24 @@ where
         xi: &mut [F],
         gamma: &mut [T],
     ) -> Result<(), FilterError> {
-        qrdrls::update_rows(self.r, self.p, u, d, lambda, xi, gamma)
+        let FactorMut::Dense { r, p } = self;
+        qrdrls::update_rows(r, p, u, d, lambda, xi, gamma)
     }
     fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        qrdrls::solve_weights(self.r, self.p, w)
+        let FactorMut::Dense { r, p } = self;
+        qrdrls::solve_weights(r, p, w)
     }
     fn diag_ratio(&self) -> Result<T, FilterError> {
-        qrdrls::r_diag_ratio(self.r)
+        let FactorMut::Dense { r, .. } = self;
+        qrdrls::r_diag_ratio(r)
     }
 }
 
-/// Inline storage of a filter state, owned by a const-generic identifier.
-pub trait Factor<F: ComplexField>: Clone + Debug + PartialEq {
-    /// The mutable view the identification step works on.
-    type View<'a>: FilterState<F>
-    where
-        Self: 'a;
-    /// All zero (the identifier initialises it).
+/// Inline storage of a filter state, owned by a const-generic identifier
+/// or a [`QrdRls`].
+pub trait Factor<F: ComplexField>: FilterState<F> + Clone + Debug + PartialEq {
+    /// All zero (then [`FilterState::init`]).
     fn zeroed() -> Self;
-    /// Mutable view (static dispatch).
-    fn view_mut(&mut self) -> Self::View<'_>;
-    /// Back-substitution for the weights `w` (`M` entries).
-    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError>;
-    /// `min|R_ii| / max|R_ii|`.
-    fn diag_ratio(&self) -> Result<F::RealField, FilterError>;
 }
 
 /// Dense `M x M` factor and `p`: `M^2 + M` entries of `F`.
@@ -252,71 +180,21 @@ impl<F, const M: usize> DenseFactor<F, M> {
     pub fn parts(&self) -> (&[[F; M]; M], &[F; M]) {
         (&self.r, &self.p)
     }
-
-    /// Read-only view.
-    pub fn view(&self) -> FactorRef<'_, F> {
-        FactorRef::Dense {
-            r: self.r.as_flattened(),
-            p: &self.p,
-        }
-    }
 }
 
-impl<F, T, const M: usize> Factor<F> for DenseFactor<F, M>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    type View<'a>
-        = DenseMut<'a, F>
-    where
-        Self: 'a;
-
-    fn zeroed() -> Self {
-        DenseFactor {
-            r: [[F::zero(); M]; M],
-            p: [F::zero(); M],
-        }
-    }
-
-    fn view_mut(&mut self) -> DenseMut<'_, F> {
-        DenseMut {
-            r: self.r.as_flattened_mut(),
-            p: &mut self.p,
-        }
-    }
-
-    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        DenseFactor::view(self).solve_weights(w)
-    }
-
-    fn diag_ratio(&self) -> Result<T, FilterError> {
-        DenseFactor::view(self).diag_ratio()
-    }
-}
-
-/// Mutable view of an inline block-structured factor with its layout
-/// known at compile time: the update runs the fixed-size kernel
-/// [`BlockFactor::update_rows`]; the rest goes through the read view.
-#[derive(Debug)]
-pub struct BlockFixedMut<'a, F, const NB: usize, const W: usize, const S: usize>(
-    pub &'a mut BlockFactor<F, NB, W, S>,
-);
-
-impl<F, T, const NB: usize, const W: usize, const S: usize> FilterState<F>
-    for BlockFixedMut<'_, F, NB, W, S>
+impl<F, T, const M: usize> FilterState<F> for DenseFactor<F, M>
 where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
     fn unknowns(&self) -> usize {
-        BlockFactor::<F, NB, W, S>::SHAPE.unknowns()
+        M
     }
     fn shape(&self) -> Option<BlockShape> {
-        Some(BlockFactor::<F, NB, W, S>::SHAPE)
+        None
     }
     fn init(&mut self, delta: T) -> Result<(), FilterError> {
-        self.0.init(delta)
+        qrdrls::init(self.r.as_flattened_mut(), &mut self.p, delta, None)
     }
     fn update_rows(
         &mut self,
@@ -326,13 +204,61 @@ where
         xi: &mut [F],
         gamma: &mut [T],
     ) -> Result<(), FilterError> {
-        self.0.update_rows(u, d, lambda, xi, gamma)
+        let r = self.r.as_flattened_mut();
+        qrdrls::update_rows(r, &mut self.p, u, d, lambda, xi, gamma)
     }
     fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        self.0.view().solve_weights(w)
+        qrdrls::solve_weights(self.r.as_flattened(), &self.p, w)
     }
     fn diag_ratio(&self) -> Result<T, FilterError> {
-        Ok(self.0.view().diag_ratio())
+        qrdrls::r_diag_ratio(self.r.as_flattened())
+    }
+}
+
+impl<F, T, const M: usize> Factor<F> for DenseFactor<F, M>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn zeroed() -> Self {
+        DenseFactor {
+            r: [[F::zero(); M]; M],
+            p: [F::zero(); M],
+        }
+    }
+}
+
+impl<F, T, const NB: usize, const W: usize, const S: usize> FilterState<F>
+    for BlockFactor<F, NB, W, S>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn unknowns(&self) -> usize {
+        Self::SHAPE.unknowns()
+    }
+    fn shape(&self) -> Option<BlockShape> {
+        Some(Self::SHAPE)
+    }
+    fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        BlockFactor::init(self, delta)
+    }
+    #[inline(always)]
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        BlockFactor::update_rows(self, u, d, lambda, xi, gamma)
+    }
+    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        self.view().solve_weights(w)
+    }
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        Ok(self.view().diag_ratio())
     }
 }
 
@@ -341,24 +267,144 @@ where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
-    type View<'a>
-        = BlockFixedMut<'a, F, NB, W, S>
-    where
-        Self: 'a;
-
     fn zeroed() -> Self {
         BlockFactor::zeroed()
     }
+}
 
-    fn view_mut(&mut self) -> BlockFixedMut<'_, F, NB, W, S> {
-        BlockFixedMut(self)
+impl<F, T, const NB: usize, const W: usize, const S: usize> FilterState<F>
+    for SqrtFreeFactor<F, NB, W, S>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn unknowns(&self) -> usize {
+        Self::SHAPE.unknowns()
     }
-
+    fn shape(&self) -> Option<BlockShape> {
+        Some(Self::SHAPE)
+    }
+    fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        qrdrls::validate_delta(delta)?;
+        SqrtFreeFactor::init(self, delta);
+        Ok(())
+    }
+    #[inline(always)]
+    fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        SqrtFreeFactor::update_rows(self, u, d, lambda, xi, gamma)
+    }
+    #[inline(always)]
+    fn update_grouped_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        SqrtFreeFactor::update_grouped_rows(self, u, d, lambda, xi, gamma)
+    }
     fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        BlockFactor::view(self).solve_weights(w)
+        SqrtFreeFactor::solve_weights(self, w)
+    }
+    fn diag_ratio(&self) -> Result<T, FilterError> {
+        Ok(SqrtFreeFactor::diag_ratio(self))
+    }
+}
+
+impl<F, T, const NB: usize, const W: usize, const S: usize> Factor<F>
+    for SqrtFreeFactor<F, NB, W, S>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+{
+    fn zeroed() -> Self {
+        SqrtFreeFactor::new(T::zero())
+    }
+}
+
+/// An owning, fixed-size QRD/RLS filter: a state `R` ([`Factor`]) and its
+/// forgetting factor `lambda`. Aliases: [`crate::blockqrd::BlockQrdRls`]
+/// (Givens block), [`crate::sqrtfree::SqrtFreeQrdRls`] (square-root-free
+/// block).
+#[derive(Clone, Debug, PartialEq)]
+pub struct QrdRls<F: ComplexField, R> {
+    factor: R,
+    lambda: F::RealField,
+}
+
+impl<F, T, R> QrdRls<F, R>
+where
+    F: ComplexField<RealField = T> + Copy,
+    T: Real,
+    R: Factor<F>,
+{
+    /// A fresh filter: `R = sqrt(delta) I`, `p = 0`, forgetting factor
+    /// `lambda`.
+    ///
+    /// Errors: `InvalidLambda` (`lambda` not in `(0, 1]`), `InvalidDelta`
+    /// (`delta` not in `(0, sqrt(T::MAX)]`).
+    pub fn new(lambda: T, delta: T) -> Result<Self, FilterError> {
+        qrdrls::validate_lambda(lambda)?;
+        let mut factor = R::zeroed();
+        factor.init(delta)?;
+        Ok(QrdRls { factor, lambda })
     }
 
-    fn diag_ratio(&self) -> Result<T, FilterError> {
-        Ok(BlockFactor::view(self).diag_ratio())
+    /// The forgetting factor.
+    pub fn lambda(&self) -> T {
+        self.lambda
+    }
+
+    /// The stored state.
+    pub fn factor(&self) -> &R {
+        &self.factor
+    }
+
+    /// The stored state, for updates of a particular filter's own forms.
+    pub(crate) fn factor_mut(&mut self) -> &mut R {
+        &mut self.factor
+    }
+
+    /// Folds in the `N` rows of `u` (`N x M` row-major) with right-hand
+    /// sides `d`, using the filter's `lambda`; writes the a-posteriori
+    /// errors `xi` and the conversion factors `gamma` ([`FilterState::update_rows`]).
+    ///
+    /// Errors (state untouched): as the state's `update_rows`.
+    pub fn update_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        self.factor.update_rows(u, d, self.lambda, xi, gamma)
+    }
+
+    /// [`Self::update_rows`] for rows in the block layout's groups
+    /// ([`FilterState::update_grouped_rows`]: `NB` groups of `N / NB`
+    /// rows, group `b` in block `b`; the square-root-free filter reads only
+    /// each row's block and shared entries).
+    pub fn update_grouped_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        self.factor
+            .update_grouped_rows(u, d, self.lambda, xi, gamma)
+    }
+
+    /// The weights `w = R^-1 p` into `w` (`M` entries).
+    pub fn weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        self.factor.solve_weights(w)
     }
 }

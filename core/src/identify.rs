@@ -510,8 +510,8 @@ pub struct Kernel<'a, T, F, V = FactorMut<'a, F>> {
     /// Number of unbalance planes.
     pub np: usize,
     /// Filter state (factor `R` and rotated right-hand side `p`): a
-    /// [`FactorMut`] (dense, on caller slices) or a view of an inline
-    /// storage ([`crate::factor::Factor`]).
+    /// [`FactorMut`] (dense, on caller slices) or an identifier's inline
+    /// storage ([`crate::factor::Factor`]) borrowed as `&mut R`.
     pub factor: V,
     /// The field `F` of the filter (`Complex<T>` or `T`).
     pub field: core::marker::PhantomData<F>,
@@ -996,12 +996,12 @@ impl<
         Self::new(Config::new(table.structure(), table.scaling()))
     }
 
-    fn kernel(&mut self) -> Kernel<'_, T, F, R::View<'_>> {
+    fn kernel(&mut self) -> Kernel<'_, T, F, &mut R> {
         Kernel {
             config: &self.config,
             nq: NQ,
             np: NP,
-            factor: self.factor.view_mut(),
+            factor: &mut self.factor,
             guard: &mut self.guard,
             field: core::marker::PhantomData,
         }
@@ -1071,7 +1071,7 @@ impl<
     /// The scaled weights `w~` (back-substitution).
     pub fn scaled_weights(&self) -> Result<[F; M], IdentifyError> {
         let mut w = [F::zero(); M];
-        Factor::solve_weights(&self.factor, &mut w)?;
+        self.factor.solve_weights(&mut w)?;
         Ok(w)
     }
 
@@ -1084,7 +1084,7 @@ impl<
 
     /// `min|R_ii| / max|R_ii|` of the factor.
     pub fn diag_ratio(&self) -> T {
-        Factor::diag_ratio(&self.factor).unwrap_or_else(|_| T::zero())
+        self.factor.diag_ratio().unwrap_or_else(|_| T::zero())
     }
 
     /// Physical estimates, bearing coefficients evaluated at `omega` (rad/s;

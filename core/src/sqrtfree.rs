@@ -115,7 +115,7 @@
 //! ```
 
 use crate::blockqrd::{block_of_fixed, BlockFactor, BlockShape, BLOCKS_KEPT};
-use crate::factor::{Factor, FilterState};
+use crate::factor::QrdRls;
 use crate::givens::min_normal;
 use crate::qrdrls::{self, FilterError};
 use crate::Real;
@@ -781,79 +781,19 @@ where
     Some(sbar)
 }
 
-/// Owning, fixed-size square-root-free block-structured QRD/RLS:
-/// `NB` blocks of `W` unknowns, `S` shared unknowns, forgetting factor
-/// `lambda`, regularisation `delta` (`R(0) = sqrt(delta) I`). The
+/// Owning, fixed-size square-root-free block QRD/RLS: `NB` blocks of `W`
+/// unknowns, `S` shared unknowns, forgetting factor `lambda`,
+/// regularisation `delta` (`R(0) = sqrt(delta) I`, [`QrdRls::new`]); the
 /// counterpart of [`crate::blockqrd::BlockQrdRls`] with Gentleman's
 /// rotations (module documentation).
-#[derive(Clone, Debug, PartialEq)]
-pub struct SqrtFreeQrdRls<F: ComplexField, const NB: usize, const W: usize, const S: usize> {
-    factor: SqrtFreeFactor<F, NB, W, S>,
-    lambda: F::RealField,
-}
+pub type SqrtFreeQrdRls<F, const NB: usize, const W: usize, const S: usize> =
+    QrdRls<F, SqrtFreeFactor<F, NB, W, S>>;
 
-impl<F, T, const NB: usize, const W: usize, const S: usize> SqrtFreeQrdRls<F, NB, W, S>
+impl<F, T, const NB: usize, const W: usize, const S: usize> QrdRls<F, SqrtFreeFactor<F, NB, W, S>>
 where
     F: ComplexField<RealField = T> + Copy,
     T: Real,
 {
-    /// A filter with forgetting factor `lambda` in `(0, 1]` and
-    /// regularisation `delta` in `(0, sqrt(T::MAX)]` (as the Givens
-    /// filters).
-    ///
-    /// Errors: `InvalidLambda`, `InvalidDelta`.
-    pub fn new(lambda: T, delta: T) -> Result<Self, FilterError> {
-        qrdrls::validate_lambda(lambda)?;
-        qrdrls::validate_delta(delta)?;
-        Ok(SqrtFreeQrdRls {
-            factor: SqrtFreeFactor::new(delta),
-            lambda,
-        })
-    }
-
-    /// Forgetting factor.
-    pub fn lambda(&self) -> T {
-        self.lambda
-    }
-
-    /// The factor.
-    pub fn factor(&self) -> &SqrtFreeFactor<F, NB, W, S> {
-        &self.factor
-    }
-
-    /// One update with `N = d.len()` rows of `M = NB W + S` entries in `u`
-    /// (row-major), each non-zero in one block and the shared columns:
-    /// [`SqrtFreeFactor::update_rows`] with the filter's `lambda`.
-    ///
-    /// Errors (state untouched): as [`SqrtFreeFactor::update_rows`].
-    pub fn update_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        self.factor.update_rows(u, d, self.lambda, xi, gamma)
-    }
-
-    /// One update with `N = d.len()` rows of `M` entries in `NB` groups of
-    /// `N / NB`, group `b` in block `b`:
-    /// [`SqrtFreeFactor::update_grouped_rows`] with the filter's `lambda`
-    /// (entries outside each row's block and the shared columns are not
-    /// read).
-    ///
-    /// Errors (state untouched): as [`SqrtFreeFactor::update_grouped_rows`].
-    pub fn update_grouped_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        self.factor
-            .update_grouped_rows(u, d, self.lambda, xi, gamma)
-    }
-
     /// One update with `N = d.len()` rows given by their structure
     /// (block index, block entries, shared entries):
     /// [`SqrtFreeFactor::update_block_rows`] with the filter's `lambda`.
@@ -868,96 +808,9 @@ where
         xi: &mut [F],
         gamma: &mut [T],
     ) -> Result<(), FilterError> {
-        self.factor
-            .update_block_rows(blocks, a, c, d, self.lambda, xi, gamma)
-    }
-
-    /// The weights `w` (`M` entries): `U w = q`.
-    ///
-    /// Errors: as [`SqrtFreeFactor::solve_weights`].
-    pub fn weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        self.factor.solve_weights(w)
-    }
-}
-
-/// Mutable view of an inline [`SqrtFreeFactor`]: the filter state of an
-/// identifier that holds one ([`crate::identify::PhysicalSqrtFreeIdentifier`],
-/// [`crate::identify::PaperSqrtFreeIdentifier`]).
-#[derive(Debug)]
-pub struct SqrtFreeMut<'a, F: ComplexField, const NB: usize, const W: usize, const S: usize>(
-    pub &'a mut SqrtFreeFactor<F, NB, W, S>,
-);
-
-impl<F, T, const NB: usize, const W: usize, const S: usize> FilterState<F>
-    for SqrtFreeMut<'_, F, NB, W, S>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    fn unknowns(&self) -> usize {
-        SqrtFreeFactor::<F, NB, W, S>::SHAPE.unknowns()
-    }
-    fn shape(&self) -> Option<BlockShape> {
-        Some(SqrtFreeFactor::<F, NB, W, S>::SHAPE)
-    }
-    fn init(&mut self, delta: T) -> Result<(), FilterError> {
-        qrdrls::validate_delta(delta)?;
-        self.0.init(delta);
-        Ok(())
-    }
-    fn update_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        self.0.update_rows(u, d, lambda, xi, gamma)
-    }
-    fn update_grouped_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        self.0.update_grouped_rows(u, d, lambda, xi, gamma)
-    }
-    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        self.0.solve_weights(w)
-    }
-    fn diag_ratio(&self) -> Result<T, FilterError> {
-        Ok(self.0.diag_ratio())
-    }
-}
-
-impl<F, T, const NB: usize, const W: usize, const S: usize> Factor<F>
-    for SqrtFreeFactor<F, NB, W, S>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    type View<'a>
-        = SqrtFreeMut<'a, F, NB, W, S>
-    where
-        Self: 'a;
-
-    fn zeroed() -> Self {
-        SqrtFreeFactor::new(T::zero())
-    }
-
-    fn view_mut(&mut self) -> SqrtFreeMut<'_, F, NB, W, S> {
-        SqrtFreeMut(self)
-    }
-
-    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        SqrtFreeFactor::solve_weights(self, w)
-    }
-
-    fn diag_ratio(&self) -> Result<T, FilterError> {
-        Ok(SqrtFreeFactor::diag_ratio(self))
+        let lambda = self.lambda();
+        self.factor_mut()
+            .update_block_rows(blocks, a, c, d, lambda, xi, gamma)
     }
 }
 
