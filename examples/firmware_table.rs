@@ -20,7 +20,7 @@
 //!
 //! ```text
 //! let view = TableView::<f32>::parse(blob)?;
-//! let mut id = PhysicalSqrtFreeIdentifier::<f32, 4, 3, 22, 8, 4, 6>::from_table(&view)?;
+//! let mut id = PhysicalIdentifier::<f32, 4, 3, 22, 8, 4, 6>::from_table(&view)?;
 //! id.update(&view, omega, &q)?;
 //! let est = id.estimates(omega)?;
 //! ```
@@ -30,9 +30,7 @@
 
 use rotorid::io::measurement::Sample;
 use rotorid_core::factor::Factor;
-use rotorid_core::identify::{
-    IdField, Identifier, PaperSqrtFreeIdentifier, PhysicalSqrtFreeIdentifier,
-};
+use rotorid_core::identify::{IdField, Identifier, PaperIdentifier, PhysicalIdentifier};
 use rotorid_core::parametrization::Structure;
 use rotorid_core::table::{BearingTable, TableScalar, TableView, Terms};
 use rotorid_core::Complex;
@@ -92,12 +90,12 @@ fn firmware<T: TableScalar + IdField<T>>(
     // structure it was written for.
     match view.structure() {
         s if s == Structure::physical(1) => identify(
-            PhysicalSqrtFreeIdentifier::<T, NQ, NP, 22, 8, 4, 6>::from_table(&view)?,
+            PhysicalIdentifier::<T, NQ, NP, 22, 8, 4, 6>::from_table(&view)?,
             &view,
             sweep,
         ),
         s if s == Structure::paper(1) => identify(
-            PaperSqrtFreeIdentifier::<T, NQ, NP, 19, 4, 4, 3>::from_table(&view)?,
+            PaperIdentifier::<T, NQ, NP, 19, 4, 4, 3>::from_table(&view)?,
             &view,
             sweep,
         ),

@@ -14,7 +14,7 @@
 //!    figures (SVG, like Figs. 4-6) to `out/paper/`.
 
 use num_complex::Complex;
-use rotorid::core::identify::{Config, PhysicalIdentifier, SteadyPolicy};
+use rotorid::core::identify::{Config, PhysicalDenseIdentifier, SteadyPolicy};
 use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::TableView;
@@ -301,7 +301,7 @@ fn main() -> Res<()> {
         std::fs::write(out.join(file), &blob)?;
         let view = TableView::<f32>::parse(&blob)?;
         let mut fw =
-            PhysicalIdentifier::<f32, 4, 3, 22, 8>::new(config).map_err(|e| e.to_string())?;
+            PhysicalDenseIdentifier::<f32, 4, 3, 22, 8>::new(config).map_err(|e| e.to_string())?;
         for smp in &d1.samples {
             let q: [Complex<f32>; 4] =
                 core::array::from_fn(|j| Complex::new(smp.q[j].re as f32, smp.q[j].im as f32));

@@ -719,8 +719,9 @@ pub struct Estimates<T, const NQ: usize, const NP: usize> {
 
 /// The firmware identifier: `NQ = 2 N_b` channels, `NP` planes, `M`
 /// unknowns, `N` rows per update, all fixed at compile time, inline storage.
-/// `F = Complex<T>` for the paper structure ([`PaperIdentifier`]), `F = T`
-/// for the physical one ([`PhysicalIdentifier`]).
+/// `F = Complex<T>` for the paper structure, `F = T` for the physical one;
+/// `R` is the filter (see [Filter state](#filter-state); the aliases
+/// [`PhysicalIdentifier`], [`PaperIdentifier`] give the recommended one).
 ///
 /// The type determines the structure: the formulation comes from `F`, and
 /// `M = per_bearing NQ/2 + per_plane NP` fixes the order
@@ -779,101 +780,62 @@ pub struct Estimates<T, const NQ: usize, const NP: usize> {
 /// compile error, not a run-time one:
 ///
 /// ```compile_fail
-/// use rotorid_core::identify::{Config, PhysicalIdentifier};
+/// use rotorid_core::identify::{Config, PhysicalDenseIdentifier};
 /// use rotorid_core::parametrization::Structure;
 /// use rotorid_core::scaling::ColumnScaling;
 ///
 /// let config = Config::<f32>::new(Structure::physical(1), ColumnScaling::identity());
-/// let id = PhysicalIdentifier::<f32, 4, 3, 21, 8>::new(config);
+/// let id = PhysicalDenseIdentifier::<f32, 4, 3, 21, 8>::new(config);
 /// ```
 ///
 /// # Filter state
 ///
-/// `R` is the filter's storage ([`Factor`]): [`DenseFactor`] (the default
-/// of the type, `M^2 + M` entries) or the block-structured [`BlockFactor`]
-/// with `NB = NQ` blocks of `W` channel coefficients and `S` shared
-/// unbalance unknowns ([`BlockShape::of`]; the aliases
-/// [`PaperBlockIdentifier`], [`PhysicalBlockIdentifier`]), which stores
-/// only the blocks and updates in time linear in `N_b`, or its
-/// square-root-free form [`SqrtFreeFactor`] (aliases
-/// [`PaperSqrtFreeIdentifier`], [`PhysicalSqrtFreeIdentifier`]), the
-/// fastest per update. The generated `type Id` of `rotorid tables` is the
-/// square-root-free one: the same estimates as the Givens filters to
-/// round-off, but a step whose arithmetic would leave the range of `T` is
-/// refused ([`IdentifyError::Filter`] with `OutOfRange`, state untouched)
-/// where the Givens filters' bounded entries go on; with the unknowns
-/// scaled to order one ([`crate::scaling`]) that takes data far outside
-/// any machine's. A block layout that is not the structure's is
-/// [`IdentifyError::Dimension`].
+/// `R` is the filter's storage ([`Factor`]), named by the aliases:
+///
+/// | filter | physical (`F = T`) | paper (`F = Complex<T>`) | `R` |
+/// |---|---|---|---|
+/// | square-root-free block: the fastest, the generated `type Id` | [`PhysicalIdentifier`] | [`PaperIdentifier`] | [`SqrtFreeFactor`] |
+/// | Givens block: range-safe, the desktop's bits | [`PhysicalGivensIdentifier`] | [`PaperGivensIdentifier`] | [`BlockFactor`] |
+/// | dense Givens: any rows, the desktop's filter | [`PhysicalDenseIdentifier`] | [`PaperDenseIdentifier`] | [`DenseFactor`] |
+///
+/// The block filters store `NB = NQ` blocks of `W` channel coefficients
+/// and `S` shared unbalance unknowns ([`BlockShape::of`]; `W`, `S` are
+/// among the generated constants) and update in time linear in `N_b`; the
+/// dense one stores `M^2 + M` entries. All three give the same estimates
+/// to round-off, the two Givens filters to the bit. The square-root-free
+/// filter refuses a step whose arithmetic would leave the range of `T`
+/// ([`IdentifyError::Filter`] with `OutOfRange`, state untouched) where the
+/// Givens filters' bounded entries go on; with the unknowns scaled to order
+/// one ([`crate::scaling`]) that takes data far outside any machine's. A
+/// block layout that is not the structure's is [`IdentifyError::Dimension`].
 #[derive(Debug, Clone, PartialEq)]
-pub struct Identifier<
-    T,
-    F,
-    const NQ: usize,
-    const NP: usize,
-    const M: usize,
-    const N: usize,
-    R = DenseFactor<F, M>,
-> {
+pub struct Identifier<T, F, const NQ: usize, const NP: usize, const M: usize, const N: usize, R> {
     config: Config<T>,
     factor: R,
     guard: GuardState<T>,
     _field: core::marker::PhantomData<F>,
 }
 
-/// Identifier with the paper's complex unknowns (dense factor unless `R`
-/// says otherwise).
-pub type PaperIdentifier<
-    T,
-    const NQ: usize,
-    const NP: usize,
-    const M: usize,
-    const N: usize,
-    R = DenseFactor<Complex<T>, M>,
-> = Identifier<T, Complex<T>, NQ, NP, M, N, R>;
-
-/// Identifier with real K, C unknowns (dense factor unless `R` says
-/// otherwise).
+/// The recommended identifier with real K, C unknowns (`physical`
+/// structure): the square-root-free block filter ([`crate::sqrtfree`]),
+/// the fastest; `W = 4 P` coefficients per channel, `S = 2 N_p` shared
+/// unbalance unknowns ([`BlockShape::of`]). The generated `type Id` of
+/// `rotorid tables`. May refuse a step whose arithmetic would leave the
+/// range (state untouched); see [`Identifier`].
 pub type PhysicalIdentifier<
     T,
     const NQ: usize,
     const NP: usize,
     const M: usize,
     const N: usize,
-    R = DenseFactor<T, M>,
-> = Identifier<T, T, NQ, NP, M, N, R>;
-
-/// Paper-structure identifier with the block-structured filter: `W`
-/// coefficients per channel (`2 (P + 1)`), `S = N_p` shared unbalance
-/// unknowns (see [`BlockShape::of`]).
-pub type PaperBlockIdentifier<
-    T,
-    const NQ: usize,
-    const NP: usize,
-    const M: usize,
-    const N: usize,
     const W: usize,
     const S: usize,
-> = Identifier<T, Complex<T>, NQ, NP, M, N, BlockFactor<Complex<T>, NQ, W, S>>;
+> = Identifier<T, T, NQ, NP, M, N, SqrtFreeFactor<T, NQ, W, S>>;
 
-/// Physical-structure identifier with the block-structured filter: `W`
-/// coefficients per channel (`4 P`), `S = 2 N_p` shared unbalance unknowns
-/// (see [`BlockShape::of`]).
-pub type PhysicalBlockIdentifier<
-    T,
-    const NQ: usize,
-    const NP: usize,
-    const M: usize,
-    const N: usize,
-    const W: usize,
-    const S: usize,
-> = Identifier<T, T, NQ, NP, M, N, BlockFactor<T, NQ, W, S>>;
-
-/// Paper-structure identifier with the square-root-free block filter
-/// ([`crate::sqrtfree`]): the layout of [`PaperBlockIdentifier`], the same
-/// estimates to round-off, fewer instructions per update; an update whose
-/// arithmetic would leave the range is rejected (see [`crate::sqrtfree`]).
-pub type PaperSqrtFreeIdentifier<
+/// The recommended identifier with the paper's complex unknowns: the
+/// square-root-free block filter, `W = 2 (P + 1)`, `S = N_p` (as
+/// [`PhysicalIdentifier`]).
+pub type PaperIdentifier<
     T,
     const NQ: usize,
     const NP: usize,
@@ -883,12 +845,10 @@ pub type PaperSqrtFreeIdentifier<
     const S: usize,
 > = Identifier<T, Complex<T>, NQ, NP, M, N, SqrtFreeFactor<Complex<T>, NQ, W, S>>;
 
-/// Physical-structure identifier with the square-root-free block filter
-/// ([`crate::sqrtfree`]): the layout of [`PhysicalBlockIdentifier`], the
-/// same estimates to round-off, fewer instructions per update; an update
-/// whose arithmetic would leave the range is rejected (see
-/// [`crate::sqrtfree`]).
-pub type PhysicalSqrtFreeIdentifier<
+/// Physical-structure identifier with the Givens block filter
+/// ([`crate::blockqrd`]): range-safe, and the desktop driver's estimates to
+/// the bit; the layout of [`PhysicalIdentifier`].
+pub type PhysicalGivensIdentifier<
     T,
     const NQ: usize,
     const NP: usize,
@@ -896,7 +856,35 @@ pub type PhysicalSqrtFreeIdentifier<
     const N: usize,
     const W: usize,
     const S: usize,
-> = Identifier<T, T, NQ, NP, M, N, SqrtFreeFactor<T, NQ, W, S>>;
+> = Identifier<T, T, NQ, NP, M, N, BlockFactor<T, NQ, W, S>>;
+
+/// Paper-structure identifier with the Givens block filter (as
+/// [`PhysicalGivensIdentifier`]).
+pub type PaperGivensIdentifier<
+    T,
+    const NQ: usize,
+    const NP: usize,
+    const M: usize,
+    const N: usize,
+    const W: usize,
+    const S: usize,
+> = Identifier<T, Complex<T>, NQ, NP, M, N, BlockFactor<Complex<T>, NQ, W, S>>;
+
+/// Physical-structure identifier with the dense Givens filter
+/// ([`crate::qrdrls`]): any row structure, `M^2 + M` entries, the slowest;
+/// the desktop driver's filter.
+pub type PhysicalDenseIdentifier<
+    T,
+    const NQ: usize,
+    const NP: usize,
+    const M: usize,
+    const N: usize,
+> = Identifier<T, T, NQ, NP, M, N, DenseFactor<T, M>>;
+
+/// Paper-structure identifier with the dense Givens filter (as
+/// [`PhysicalDenseIdentifier`]).
+pub type PaperDenseIdentifier<T, const NQ: usize, const NP: usize, const M: usize, const N: usize> =
+    Identifier<T, Complex<T>, NQ, NP, M, N, DenseFactor<Complex<T>, M>>;
 
 /// The structure of formulation `formulation` with `m` unknowns and `n`
 /// rows for `nq` channels and `np` planes; a compile-time error (in a const
@@ -1214,9 +1202,9 @@ mod tests {
         }
     }
 
-    fn run<T: Real, F: IdField<T>, const M: usize, const N: usize>(
+    fn run<T: Real, F: IdField<T>, const M: usize, const N: usize, R: Factor<F>>(
         sys: &Synthetic,
-        id: &mut Identifier<T, F, NQ, NP, M, N>,
+        id: &mut Identifier<T, F, NQ, NP, M, N, R>,
     ) {
         for i in 1..=60 {
             let w = 25.0 * i as f64;
@@ -1255,9 +1243,12 @@ mod tests {
     #[test]
     fn paper_structure_recovers_synthetic_parameters() {
         let sys = Synthetic::new();
-        let mut id =
-            PaperIdentifier::<f64, NQ, NP, 19, 4>::new(config(Structure::paper(1), 0.999, 1e-14))
-                .unwrap();
+        let mut id = PaperDenseIdentifier::<f64, NQ, NP, 19, 4>::new(config(
+            Structure::paper(1),
+            0.999,
+            1e-14,
+        ))
+        .unwrap();
         run(&sys, &mut id);
         let e = id.estimates(1500.0).unwrap();
         let (ek, ec, ea) = max_rel_err::<f64, 19>(&sys, &e);
@@ -1269,7 +1260,7 @@ mod tests {
     #[test]
     fn physical_structure_f32_and_f64() {
         let sys = Synthetic::new();
-        let mut id = PhysicalIdentifier::<f64, NQ, NP, 22, 8>::new(config(
+        let mut id = PhysicalDenseIdentifier::<f64, NQ, NP, 22, 8>::new(config(
             Structure::physical(1),
             0.999,
             1e-14,
@@ -1278,7 +1269,7 @@ mod tests {
         run(&sys, &mut id);
         let (ek, ec, ea) = max_rel_err::<f64, 22>(&sys, &id.estimates(0.0).unwrap());
         assert!(ek < 1e-9 && ec < 1e-9 && ea < 1e-9, "{ek} {ec} {ea}");
-        let mut id = PhysicalIdentifier::<f32, NQ, NP, 22, 8>::new(config(
+        let mut id = PhysicalDenseIdentifier::<f32, NQ, NP, 22, 8>::new(config(
             Structure::physical(1),
             0.999,
             1e-14,
@@ -1289,46 +1280,74 @@ mod tests {
         assert!(ek < 1e-3 && ec < 1e-2 && ea < 1e-3, "{ek} {ec} {ea}");
     }
 
+    /// The recommended aliases (square-root-free block filter) and the
+    /// Givens block ones recover the parameters as the dense filter does;
+    /// the Givens block filter with the dense one's bits.
+    #[test]
+    fn every_filter_recovers_the_synthetic_parameters() {
+        let sys = Synthetic::new();
+        let phys = config::<f64>(Structure::physical(1), 0.999, 1e-14);
+        let paper = config::<f64>(Structure::paper(1), 0.999, 1e-14);
+        let mut sf = PhysicalIdentifier::<f64, NQ, NP, 22, 8, 4, 6>::new(phys).unwrap();
+        let mut gv = PhysicalGivensIdentifier::<f64, NQ, NP, 22, 8, 4, 6>::new(phys).unwrap();
+        let mut dense = PhysicalDenseIdentifier::<f64, NQ, NP, 22, 8>::new(phys).unwrap();
+        run(&sys, &mut sf);
+        run(&sys, &mut gv);
+        run(&sys, &mut dense);
+        let (ek, ec, ea) = max_rel_err::<f64, 22>(&sys, &sf.estimates(0.0).unwrap());
+        assert!(ek < 1e-9 && ec < 1e-9 && ea < 1e-9, "{ek} {ec} {ea}");
+        assert_eq!(gv.estimates(0.0), dense.estimates(0.0));
+        let mut sf = PaperIdentifier::<f64, NQ, NP, 19, 4, 4, 3>::new(paper).unwrap();
+        let mut gv = PaperGivensIdentifier::<f64, NQ, NP, 19, 4, 4, 3>::new(paper).unwrap();
+        let mut dense = PaperDenseIdentifier::<f64, NQ, NP, 19, 4>::new(paper).unwrap();
+        run(&sys, &mut sf);
+        run(&sys, &mut gv);
+        run(&sys, &mut dense);
+        let (ek, ec, ea) = max_rel_err::<f64, 19>(&sys, &sf.estimates(1500.0).unwrap());
+        assert!(ek < 1e-9 && ec < 1e-9 && ea < 1e-9, "{ek} {ec} {ea}");
+        assert_eq!(gv.estimates(1500.0), dense.estimates(1500.0));
+    }
+
     #[test]
     fn sizes_determine_the_structure_and_the_config_must_agree() {
         // Wrong `M`, `N` or `NQ` do not compile (see the `compile_fail`
         // doctest of `Identifier`); the type names its structure.
         assert_eq!(
-            PaperIdentifier::<f64, NQ, NP, 19, 4>::STRUCTURE,
+            PaperDenseIdentifier::<f64, NQ, NP, 19, 4>::STRUCTURE,
             Structure::paper(1)
         );
-        assert_eq!(PaperIdentifier::<f64, NQ, NP, 27, 4>::ORDER, 2);
+        assert_eq!(PaperDenseIdentifier::<f64, NQ, NP, 27, 4>::ORDER, 2);
         assert_eq!(
-            PhysicalIdentifier::<f32, NQ, NP, 54, 8>::STRUCTURE,
+            PhysicalDenseIdentifier::<f32, NQ, NP, 54, 8>::STRUCTURE,
             Structure::physical(3)
         );
-        assert_eq!(PhysicalIdentifier::<f32, 2, 0, 64, 4>::ORDER, 8);
-        assert_eq!(PaperIdentifier::<f32, 2, 0, 8, 2>::ORDER, 1);
+        assert_eq!(PhysicalDenseIdentifier::<f32, 2, 0, 64, 4>::ORDER, 8);
+        assert_eq!(PaperDenseIdentifier::<f32, 2, 0, 8, 2>::ORDER, 1);
         let c = config::<f64>(Structure::paper(1), 0.99, 1e-3);
         assert_eq!(
-            PaperIdentifier::<f64, NQ, NP, 27, 4>::new(c).err(),
+            PaperDenseIdentifier::<f64, NQ, NP, 27, 4>::new(c).err(),
             Some(IdentifyError::Structure {
                 expected: Structure::paper(2),
                 found: Structure::paper(1)
             })
         );
         assert!(matches!(
-            PhysicalIdentifier::<f64, NQ, NP, 22, 8>::new(c),
+            PhysicalDenseIdentifier::<f64, NQ, NP, 22, 8>::new(c),
             Err(IdentifyError::Structure { .. })
         ));
         let mut bad = c;
         bad.lambda = 1.5;
         assert_eq!(
-            PaperIdentifier::<f64, NQ, NP, 19, 4>::new(bad).err(),
+            PaperDenseIdentifier::<f64, NQ, NP, 19, 4>::new(bad).err(),
             Some(IdentifyError::InvalidLambda)
         );
-        assert!(PaperIdentifier::<f64, NQ, NP, 27, 4>::new(config(
+        assert!(PaperDenseIdentifier::<f64, NQ, NP, 27, 4>::new(config(
             Structure::paper(2),
             0.99,
             1e-3
         ))
         .is_ok());
-        assert!(PhysicalIdentifier::<f32, NQ, NP, 54, 8>::new(config(
+        assert!(PhysicalDenseIdentifier::<f32, NQ, NP, 54, 8>::new(config(
             Structure::physical(3),
             0.99,
             1e-3
@@ -1336,7 +1355,7 @@ mod tests {
         .is_ok());
         // The defaults of `Config::new` and `with_scaling`.
         let sc = ColumnScaling::<f32>::new(5e7, 1600.0, 1e-3).unwrap();
-        let id = PhysicalIdentifier::<f32, NQ, NP, 22, 8>::with_scaling(sc).unwrap();
+        let id = PhysicalDenseIdentifier::<f32, NQ, NP, 22, 8>::with_scaling(sc).unwrap();
         assert_eq!(
             *id.config(),
             Config {
@@ -1421,7 +1440,7 @@ mod tests {
             .with_lambda(0.99)
             .with_delta(1e-19)
             .with_steady(SteadyPolicy::off());
-        let mut id = PhysicalIdentifier::<f32, NQ, NP, 22, 8>::new(cfg).unwrap();
+        let mut id = PhysicalDenseIdentifier::<f32, NQ, NP, 22, 8>::new(cfg).unwrap();
         let t = sys.terms_arrays::<f32>(700.0);
         for q in [5.5e11f32, 5.5e3, 1e-3] {
             // Accepted or refused, never a non-finite state.
@@ -1474,9 +1493,12 @@ mod tests {
     #[test]
     fn non_finite_input_leaves_state_untouched() {
         let sys = Synthetic::new();
-        let mut id =
-            PaperIdentifier::<f64, NQ, NP, 19, 4>::new(config(Structure::paper(1), 0.99, 1e-3))
-                .unwrap();
+        let mut id = PaperDenseIdentifier::<f64, NQ, NP, 19, 4>::new(config(
+            Structure::paper(1),
+            0.99,
+            1e-3,
+        ))
+        .unwrap();
         run(&sys, &mut id);
         let before = (id.factor.clone(), id.guard);
         let t = sys.terms_arrays::<f64>(700.0);
@@ -1513,7 +1535,7 @@ mod tests {
             margin: 0.1, // above the 0.02 rad/s jitter
             ..SteadyPolicy::default_guard()
         };
-        let mut id = PaperIdentifier::<f64, NQ, NP, 19, 4>::new(c).unwrap();
+        let mut id = PaperDenseIdentifier::<f64, NQ, NP, 19, 4>::new(c).unwrap();
         run(&sys, &mut id);
         assert_eq!(id.guard().frozen, 0);
         let t = sys.terms_arrays::<f64>(1000.0);
@@ -1586,7 +1608,7 @@ mod tests {
         let mut c = config::<f64>(Structure::physical(1), 0.9, 1e-7);
         c.steady = SteadyPolicy::default_guard();
         assert_eq!(c.steady.action, SteadyAction::Skip);
-        let mut id = PhysicalIdentifier::<f64, NQ, NP, 22, 8>::new(c).unwrap();
+        let mut id = PhysicalDenseIdentifier::<f64, NQ, NP, 22, 8>::new(c).unwrap();
         run(&sys, &mut id);
         let t = sys.terms_arrays::<f64>(1000.0);
         let q = sys.q(1000.0);
@@ -1614,7 +1636,7 @@ mod tests {
             min_diag_ratio: 1e-6,
             action: SteadyAction::FreezeForgetting,
         };
-        let mut id = PaperIdentifier::<f64, NQ, NP, 19, 4>::new(c).unwrap();
+        let mut id = PaperDenseIdentifier::<f64, NQ, NP, 19, 4>::new(c).unwrap();
         let t = sys.terms_arrays::<f64>(1000.0);
         let q = sys.q(1000.0);
         let qa: [C64; NQ] = core::array::from_fn(|j| q[j]);

@@ -243,17 +243,17 @@ impl<T: Real, const NQ: usize> Prefilter<T, NQ> {
 /// [`Prefilter`].
 ///
 /// ```
-/// use rotorid_core::identify::{Config, PhysicalIdentifier};
+/// use rotorid_core::identify::Config;
 /// use rotorid_core::prefilter::PrefilteredIdentifier;
 /// # use rotorid_core::identify::IdentifyError;
 /// # mod table { include!("../../tests/data/paper_table_f32.rs"); }
-/// # use table::{SCALING, STRUCTURE, TABLE};
+/// # use table::{Id, SCALING, STRUCTURE, TABLE};
 /// # fn main() -> Result<(), IdentifyError> {
 /// # let q = [rotorid_core::Complex::new(1e-6f32, 2e-7); 4];
 /// # let sweep = [(630.0f32, q), (700.0, q), (780.0, q)];
 /// let config = Config::new(STRUCTURE, SCALING).with_lambda(1.0);
-/// // Pass 0: the plain QRD/RLS.
-/// let mut plain = PhysicalIdentifier::<f32, 4, 3, 22, 8>::new(config)?;
+/// // Pass 0: the plain identifier (here the table's `Id`).
+/// let mut plain = Id::new(config)?;
 /// for (omega, q) in &sweep {
 ///     plain.update(&TABLE, *omega, q)?;
 /// }
@@ -289,9 +289,9 @@ impl<T: Real + IdField<T>, const NQ: usize, const NP: usize, const M: usize, con
     PrefilteredIdentifier<T, NQ, NP, M, N>
 {
     /// A fresh pass with the previous scaled weights `w_prev` (e.g. of a
-    /// plain [`crate::identify::PhysicalIdentifier`] pass). `config` must be
-    /// of the physical structure with `M` unknowns and `N` rows for `NQ`,
-    /// `NP`.
+    /// plain pass of an identifier with any filter, such as
+    /// [`crate::identify::PhysicalIdentifier`]). `config` must be of the
+    /// physical structure with `M` unknowns and `N` rows for `NQ`, `NP`.
     pub fn new(config: Config<T>, w_prev: [T; M]) -> Result<Self, IdentifyError> {
         config.validate()?;
         check_sizes::<T, T>(&config.structure, NQ, NP, M, N)?;

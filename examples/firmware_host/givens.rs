@@ -3,7 +3,7 @@
 //! it.
 
 /// The identifier with the Givens block filter.
-type FwId = rotorid_core::identify::PhysicalBlockIdentifier<
+type FwId = rotorid_core::identify::PhysicalGivensIdentifier<
     f32,
     { super::table::NQ },
     { super::table::NP },

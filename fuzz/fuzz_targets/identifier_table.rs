@@ -1,4 +1,5 @@
-//! The firmware identifier against a table: arbitrary speeds, responses,
+//! The firmware identifier (the dense filter, whose state `parts()` shows
+//! bit for bit) against a table: arbitrary speeds, responses,
 //! forgetting factor and regularisation, both structures (physical and
 //! paper, order 1), f32 and f64, on the paper rotor's committed table
 //! blobs. Properties: a configuration is refused or the identifier is
@@ -13,6 +14,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
+use rotorid_core::factor::DenseFactor;
 use rotorid_core::identify::{Config, IdField, Identifier, SteadyPolicy};
 use rotorid_core::parametrization::Structure;
 use rotorid_core::table::{BearingTable, TableSetup, TableView};
@@ -38,7 +40,7 @@ fn take_u16(data: &mut &[u8]) -> Option<u16> {
 }
 
 fn bits<T: Real, F: IdField<T>, const M: usize, const N: usize>(
-    id: &Identifier<T, F, NQ, NP, M, N>,
+    id: &Identifier<T, F, NQ, NP, M, N, DenseFactor<F, M>>,
 ) -> Vec<u64> {
     let (r, p) = id.state().parts();
     r.iter()
@@ -76,7 +78,7 @@ fn run<T: Real, F: IdField<T>, const M: usize, const N: usize>(
         .with_lambda(T::lit(f64::from(lambda)))
         .with_delta(T::lit(f64::from(delta)))
         .with_steady(SteadyPolicy::off());
-    let Ok(mut id) = Identifier::<T, F, NQ, NP, M, N>::new(config) else {
+    let Ok(mut id) = Identifier::<T, F, NQ, NP, M, N, DenseFactor<F, M>>::new(config) else {
         return;
     };
     let (lo, hi) = BearingTable::<T, NQ, NP>::speed_range(&view);

@@ -13,6 +13,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use num_complex::Complex;
 use rotorid::core::blockqrd::{BlockFactor, BlockQrdRls};
+use rotorid::core::factor::DenseFactor;
 use rotorid::core::identify::{Config, IdField, Identifier, SteadyPolicy};
 use rotorid::core::parametrization::Structure;
 use rotorid::core::qrdrls::VectorQrdRls;
@@ -106,7 +107,8 @@ fn bench_one<
     };
     let mut g = c.benchmark_group(format!("identify_step_{name}"));
     g.bench_function("identifier_step", |bch| {
-        let mut id = Identifier::<T, F, NQ, NP, M, N>::new(config).expect("config");
+        let mut id =
+            Identifier::<T, F, NQ, NP, M, N, DenseFactor<F, M>>::new(config).expect("config");
         let mut i = 0;
         bch.iter(|| {
             i = (i + 1) % d.omega.len();

@@ -28,7 +28,7 @@ pub const W: usize = rotorid_core::blockqrd::BlockShape::of(STRUCTURE, NQ / 2, N
 /// Shared (unbalance) unknowns of the block layout.
 pub const S: usize = rotorid_core::blockqrd::BlockShape::of(STRUCTURE, NQ / 2, NP).shared;
 /// The firmware identifier for this table (square-root-free block filter): `Id::new(Config::new(STRUCTURE, SCALING))`.
-pub type Id = rotorid_core::identify::PhysicalSqrtFreeIdentifier<f32, NQ, NP, M, N, W, S>;
+pub type Id = rotorid_core::identify::PhysicalIdentifier<f32, NQ, NP, M, N, W, S>;
 /// A (N/m) and B (1/s^2) per speed (rad/s), with the poles (rad/s) of the reduced model.
 #[allow(clippy::approx_constant, clippy::excessive_precision, clippy::unreadable_literal)]
 pub static TABLE: rotorid_core::table::Table<f32, NQ, NP, NS> = rotorid_core::table::Table {

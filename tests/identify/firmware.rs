@@ -9,9 +9,8 @@ use crate::common::*;
 use num_complex::Complex;
 use rotorid::core::factor::Factor;
 use rotorid::core::identify::{
-    Config, IdField, Identifier, IdentifyError, PaperBlockIdentifier, PaperIdentifier,
-    PaperSqrtFreeIdentifier, PhysicalBlockIdentifier, PhysicalIdentifier,
-    PhysicalSqrtFreeIdentifier,
+    Config, IdField, Identifier, IdentifyError, PaperDenseIdentifier, PaperGivensIdentifier,
+    PaperIdentifier, PhysicalDenseIdentifier, PhysicalGivensIdentifier, PhysicalIdentifier,
 };
 use rotorid::core::parametrization::Structure;
 use rotorid::core::scaling::ColumnScaling;
@@ -130,7 +129,7 @@ fn firmware_and_desktop_paths_agree_in_f32() {
             assert_eq!(*id.config(), Config::new(structure, scaling32));
             // A blob written for another structure is refused at run time.
             assert!(matches!(
-                PaperIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view),
+                PaperDenseIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view),
                 Err(IdentifyError::Structure { .. })
             ));
             // The generated `Id` is the square-root-free filter: the same
@@ -138,15 +137,14 @@ fn firmware_and_desktop_paths_agree_in_f32() {
             let sf = firmware_run(&blob, id, &meas);
             // The Givens block filter: the desktop's kernel, bit for bit.
             let fw =
-                PhysicalBlockIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::from_table(&view).unwrap();
+                PhysicalGivensIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::from_table(&view).unwrap();
             let fw = firmware_run(&blob, fw, &meas);
             (fw, sf)
         } else {
-            let sf =
-                PaperSqrtFreeIdentifier::<f32, NQ, NP, 19, 4, 4, 3>::from_table(&view).unwrap();
-            let id = PaperBlockIdentifier::<f32, NQ, NP, 19, 4, 4, 3>::from_table(&view).unwrap();
+            let sf = PaperIdentifier::<f32, NQ, NP, 19, 4, 4, 3>::from_table(&view).unwrap();
+            let id = PaperGivensIdentifier::<f32, NQ, NP, 19, 4, 4, 3>::from_table(&view).unwrap();
             assert_eq!(id.config().structure, Structure::paper(1));
-            let dense = PaperIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view).unwrap();
+            let dense = PaperDenseIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view).unwrap();
             // Block-structured and dense filters: the same estimates.
             let fw = firmware_run(&blob, id, &meas);
             assert_eq!(fw, firmware_run(&blob, dense, &meas));
@@ -191,10 +189,9 @@ fn firmware_and_desktop_paths_agree_in_f32() {
         );
         assert!(round_sf < 1.5 * round, "{round_sf:e} against {round:e}");
     }
-    // Type aliases are the same identifiers.
-    let _ = PaperIdentifier::<f32, NQ, NP, 19, 4>::new;
+    // The generated `Id` is the recommended alias.
     let _: fn(Config<f32>) -> Result<generated::Id, IdentifyError> =
-        PhysicalSqrtFreeIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::new;
+        PhysicalIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::new;
 }
 
 /// The product paths end to end: `rotorid::tables::build` (banded
@@ -217,7 +214,7 @@ fn product_paths_agree() {
         Structure::physical(1),
         ColumnScaling::<f32>::new(scaling.stiffness, scaling.omega_ref, scaling.unbalance).unwrap(),
     );
-    let id = PhysicalIdentifier::<f32, NQ, NP, 22, 8>::new(config).unwrap();
+    let id = PhysicalDenseIdentifier::<f32, NQ, NP, 22, 8>::new(config).unwrap();
     let fw = firmware_run(&blob, id, &meas);
     let mut opts = Options::new(Structure::physical(1));
     opts.precision = Precision::F32;

@@ -5,7 +5,7 @@
 use super::output_error::{case, Case};
 use super::steady::crb;
 use num_complex::{Complex, Complex64};
-use rotorid::core::identify::{Config, IdField, PhysicalIdentifier};
+use rotorid::core::identify::{Config, IdField, PhysicalDenseIdentifier};
 use rotorid::core::parametrization::{BearingTerm, Structure, Unknown};
 use rotorid::core::prefilter::PrefilteredIdentifier;
 use rotorid::core::scaling::ColumnScaling;
@@ -50,7 +50,7 @@ fn passes<T: Real + IdField<T>>(
     let q_t = |q: &[Complex64]| -> [Complex<T>; 4] {
         core::array::from_fn(|j| Complex::new(T::lit(q[j].re), T::lit(q[j].im)))
     };
-    let mut plain = PhysicalIdentifier::<T, 4, 3, 22, 8>::new(config).unwrap();
+    let mut plain = PhysicalDenseIdentifier::<T, 4, 3, 22, 8>::new(config).unwrap();
     for (smp, (a, b)) in m.samples.iter().zip(terms) {
         plain
             .update_with_terms(T::lit(smp.omega), a, b, &q_t(&smp.q))
@@ -205,7 +205,7 @@ fn bad_input_leaves_the_prefiltered_state_untouched() {
     use rotorid::core::table::BearingTable;
     use table::{SCALING, STRUCTURE, TABLE};
     let config = Config::new(STRUCTURE, SCALING).with_lambda(1.0);
-    let mut plain = PhysicalIdentifier::<f32, 4, 3, 22, 8>::new(config).unwrap();
+    let mut plain = PhysicalDenseIdentifier::<f32, 4, 3, 22, 8>::new(config).unwrap();
     let q = |w: f32| [Complex::new(1e-6 * w / 700.0, 2e-7); 4];
     for w in [630.0, 660.0, 690.0, 720.0, 750.0, 780.0] {
         plain.update(&TABLE, w, &q(w)).unwrap();

@@ -7,7 +7,7 @@
 
 use crate::common::*;
 use num_complex::Complex;
-use rotorid::core::identify::{Config, PhysicalIdentifier, SteadyPolicy};
+use rotorid::core::identify::{Config, PhysicalDenseIdentifier, SteadyPolicy};
 use rotorid::core::parametrization::{BearingEstimate, Structure, UnbalanceEstimate};
 use rotorid::core::scaling::ColumnScaling;
 use rotorid::core::table::TableView;
@@ -33,7 +33,7 @@ fn firmware_errors(
         normalise_rows: false,
         steady: SteadyPolicy::default_guard(),
     };
-    let mut id = PhysicalIdentifier::<f32, 4, 3, 22, 8>::new(config).unwrap();
+    let mut id = PhysicalDenseIdentifier::<f32, 4, 3, 22, 8>::new(config).unwrap();
     for smp in &meas.samples {
         let q: [Complex<f32>; 4] =
             core::array::from_fn(|j| Complex::new(smp.q[j].re as f32, smp.q[j].im as f32));

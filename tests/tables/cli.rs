@@ -124,14 +124,14 @@ fn structure_and_scaling_from_the_command_line() {
         ),
         "pub const M: usize = STRUCTURE.n_unknowns(NQ / 2, NP);".to_string(),
         "pub const W: usize = rotorid_core::blockqrd::BlockShape::of(STRUCTURE, NQ / 2, NP).width;".to_string(),
-        "pub type Id = rotorid_core::identify::PaperSqrtFreeIdentifier<f64, NQ, NP, M, N, W, S>;".to_string(),
+        "pub type Id = rotorid_core::identify::PaperIdentifier<f64, NQ, NP, M, N, W, S>;".to_string(),
     ] {
         assert!(text.lines().any(|l| l == line), "missing: {line}");
     }
-    // The type the source names for paper 2 (M = 4 (P+1) N_b + N_p = 27)
-    // takes its set-up from the blob.
-    let id = PaperIdentifier::<f64, 4, 3, 27, 4>::from_table(&view).unwrap();
-    assert_eq!(PaperIdentifier::<f64, 4, 3, 27, 4>::ORDER, 2);
+    // The type the source names for paper 2 (M = 4 (P+1) N_b + N_p = 27,
+    // W = 2 (P+1) = 6, S = N_p = 3) takes its set-up from the blob.
+    let id = PaperIdentifier::<f64, 4, 3, 27, 4, 6, 3>::from_table(&view).unwrap();
+    assert_eq!(PaperIdentifier::<f64, 4, 3, 27, 4, 6, 3>::ORDER, 2);
     assert_eq!(id.config().scaling, scaling);
 }
 

@@ -41,7 +41,7 @@ pub type FwId = table::Id;
 /// filter), or with the `givens` feature the Givens block filter, or with
 /// the `dense` feature the dense filter (same structure).
 #[cfg(all(feature = "givens", not(feature = "dense")))]
-pub type FwId = rotorid_core::identify::PhysicalBlockIdentifier<
+pub type FwId = rotorid_core::identify::PhysicalGivensIdentifier<
     f32,
     { table::NQ },
     { table::NP },
@@ -53,7 +53,7 @@ pub type FwId = rotorid_core::identify::PhysicalBlockIdentifier<
 /// The identifier: the generated `type Id` (square-root-free block
 /// filter), or with the `dense` feature the dense filter (same structure).
 #[cfg(feature = "dense")]
-pub type FwId = rotorid_core::identify::PhysicalIdentifier<
+pub type FwId = rotorid_core::identify::PhysicalDenseIdentifier<
     f32,
     { table::NQ },
     { table::NP },

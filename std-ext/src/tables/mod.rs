@@ -492,7 +492,7 @@ impl ModelTable {
     /// pub const N: usize = STRUCTURE.n_rows(NQ / 2);
     /// pub const W: usize = BlockShape::of(STRUCTURE, NQ / 2, NP).width;
     /// pub const S: usize = BlockShape::of(STRUCTURE, NQ / 2, NP).shared;
-    /// pub type Id = rotorid_core::identify::PhysicalSqrtFreeIdentifier<T, NQ, NP, M, N, W, S>; // or PaperSqrtFreeIdentifier
+    /// pub type Id = rotorid_core::identify::PhysicalIdentifier<T, NQ, NP, M, N, W, S>; // or PaperIdentifier
     /// pub static TABLE: rotorid_core::table::Table<T, NQ, NP, NS> = ..;
     /// ```
     ///
@@ -569,8 +569,8 @@ impl ModelTable {
             list(&self.plane_nodes)
         );
         let (ctor, id_alias) = match self.structure.formulation {
-            Formulation::Physical => ("physical", "PhysicalSqrtFreeIdentifier"),
-            Formulation::Paper => ("paper", "PaperSqrtFreeIdentifier"),
+            Formulation::Physical => ("physical", "PhysicalIdentifier"),
+            Formulation::Paper => ("paper", "PaperIdentifier"),
         };
         let order = self.structure.order;
         let _ = writeln!(
