@@ -15,28 +15,43 @@
 //! as the paper rotor, and for the structures `physical` 1 and `paper` 1;
 //! f32 and f64 blobs are both accepted.
 //!
-//! The firmware set-up is one line, since the blob carries the model
-//! structure and the column scaling:
+//! The identifier's type comes from the four numbers of the blob's header
+//! that must be known at compile time (scalar type, structure, bearings,
+//! planes), the rest of the set-up from the blob (structure and column
+//! scaling):
 //!
 //! ```text
+//! mod table {
+//!     rotorid_core::identifier_types!(f32, physical(1), bearings: 2, planes: 3);
+//! }
 //! let view = TableView::<f32>::parse(blob)?;
-//! let mut id = PhysicalIdentifier::<f32, 4, 3, 22, 8, 4, 6>::from_table(&view)?;
+//! let mut id = table::Id::from_table(&view)?;
 //! id.update(&view, omega, &q)?;
 //! let est = id.estimates(omega)?;
 //! ```
 //!
-//! (With a generated Rust source instead of a blob, `include!` it and use
-//! `Id::new(Config::new(STRUCTURE, SCALING))`; see `rotorid_core::identify`.)
+//! (With a generated Rust source instead of a blob, `include!` it: it
+//! defines the same items and the data; see `rotorid_core::identify`.)
 
 use rotorid::io::measurement::Sample;
 use rotorid_core::factor::Factor;
-use rotorid_core::identify::{IdField, Identifier, PaperIdentifier, PhysicalIdentifier};
-use rotorid_core::parametrization::Structure;
+use rotorid_core::identify::{IdField, Identifier};
 use rotorid_core::table::{BearingTable, TableScalar, TableView, Terms};
 use rotorid_core::Complex;
 
-const NQ: usize = 4;
-const NP: usize = 3;
+/// The identifier of a `physical` 1 blob for 2 bearings and 3 planes
+/// (`Id<T>` for f32 and f64 blobs alike).
+mod physical {
+    rotorid_core::identifier_types!(<T>, physical(1), bearings: 2, planes: 3);
+}
+
+/// The same for a `paper` 1 blob.
+mod paper {
+    rotorid_core::identifier_types!(<T>, paper(1), bearings: 2, planes: 3);
+}
+
+const NQ: usize = physical::NQ;
+const NP: usize = physical::NP;
 
 type Error = Box<dyn std::error::Error>;
 
@@ -89,16 +104,10 @@ fn firmware<T: TableScalar + IdField<T>>(
     // The identifier type is fixed at compile time; the blob names the
     // structure it was written for.
     match view.structure() {
-        s if s == Structure::physical(1) => identify(
-            PhysicalIdentifier::<T, NQ, NP, 22, 8, 4, 6>::from_table(&view)?,
-            &view,
-            sweep,
-        ),
-        s if s == Structure::paper(1) => identify(
-            PaperIdentifier::<T, NQ, NP, 19, 4, 4, 3>::from_table(&view)?,
-            &view,
-            sweep,
-        ),
+        s if s == physical::STRUCTURE => {
+            identify(physical::Id::<T>::from_table(&view)?, &view, sweep)
+        }
+        s if s == paper::STRUCTURE => identify(paper::Id::<T>::from_table(&view)?, &view, sweep),
         s => {
             println!("(this example is compiled for physical 1 and paper 1, not {s:?}: no identification)");
             Ok(())

@@ -886,6 +886,92 @@ pub type PhysicalDenseIdentifier<
 pub type PaperDenseIdentifier<T, const NQ: usize, const NP: usize, const M: usize, const N: usize> =
     Identifier<T, Complex<T>, NQ, NP, M, N, DenseFactor<Complex<T>, M>>;
 
+/// The compile-time side of a table: defines, in the module where it is
+/// invoked, the items the Rust source of `rotorid tables` defines besides
+/// the data (`NQ`, `NP`, `STRUCTURE`, `M`, `N`, `W`, `S` and `type Id`, the
+/// recommended identifier [`PhysicalIdentifier`] or [`PaperIdentifier`]),
+/// from what a table blob carries in its header: the scalar type, the
+/// structure, the number of bearings and of planes.
+///
+/// A firmware that reads a blob at run time ([`crate::table::TableView`])
+/// thus spells no generic parameter:
+///
+/// ```
+/// use rotorid_core::identify::IdentifyError;
+/// use rotorid_core::table::TableView;
+/// use rotorid_core::Complex;
+///
+/// mod table {
+///     // A blob of `rotorid tables --f32` (`physical` 1) for 2 bearings and 3 planes.
+///     rotorid_core::identifier_types!(f32, physical(1), bearings: 2, planes: 3);
+/// }
+/// use table::{Id, NQ};
+///
+/// fn run(blob: &[u8], omega: f32, q: &[Complex<f32>; NQ]) -> Result<(), IdentifyError> {
+///     let view = TableView::<f32>::parse(blob).map_err(IdentifyError::Table)?;
+///     let mut id = Id::from_table(&view)?; // refused unless the blob is `physical` 1
+///     id.update(&view, omega, q)?;
+///     let est = id.estimates(omega)?;
+///     # let _ = est;
+///     Ok(())
+/// }
+/// # let _ = run;
+/// # mod generated { include!("../../tests/data/paper_table_f32.rs"); }
+/// # assert_eq!(
+/// #     (table::NQ, table::NP, table::M, table::N, table::W, table::S, table::STRUCTURE),
+/// #     (generated::NQ, generated::NP, generated::M, generated::N, generated::W, generated::S, generated::STRUCTURE)
+/// # );
+/// # let _: fn(&generated::Id) -> &table::Id = |id| id;
+/// ```
+///
+/// The formulation is `physical(P)` or `paper(P)` with the order `P`. With
+/// `<T>` in place of the scalar type, `Id<T>` is generic over it (for code
+/// that reads f32 and f64 blobs alike):
+///
+/// ```
+/// mod physical {
+///     rotorid_core::identifier_types!(<T>, physical(2), bearings: 4, planes: 5);
+/// }
+/// assert_eq!((physical::M, physical::W, physical::S), (74, 8, 10));
+/// let _ = physical::Id::<f64>::with_scaling;
+/// ```
+#[macro_export]
+macro_rules! identifier_types {
+    (@id physical, $t:ty) => {
+        $crate::identify::PhysicalIdentifier<$t, NQ, NP, M, N, W, S>
+    };
+    (@id paper, $t:ty) => {
+        $crate::identify::PaperIdentifier<$t, NQ, NP, M, N, W, S>
+    };
+    (@sizes $form:ident($order:expr), $nb:expr, $np:expr) => {
+        /// Channels `NQ = 2 N_b`.
+        pub const NQ: usize = 2 * ($nb);
+        /// Unbalance planes.
+        pub const NP: usize = $np;
+        /// The model structure the table was written for.
+        pub const STRUCTURE: $crate::parametrization::Structure =
+            $crate::parametrization::Structure::$form($order);
+        /// Unknowns `M` of the structure.
+        pub const M: usize = STRUCTURE.n_unknowns(NQ / 2, NP);
+        /// Rows `N` per update of the structure.
+        pub const N: usize = STRUCTURE.n_rows(NQ / 2);
+        /// Block layout of the filter: `W` coefficients per channel.
+        pub const W: usize = $crate::blockqrd::BlockShape::of(STRUCTURE, NQ / 2, NP).width;
+        /// Shared (unbalance) unknowns of the block layout.
+        pub const S: usize = $crate::blockqrd::BlockShape::of(STRUCTURE, NQ / 2, NP).shared;
+    };
+    (<$t:ident>, $form:ident($order:expr), bearings: $nb:expr, planes: $np:expr $(,)?) => {
+        $crate::identifier_types!(@sizes $form($order), $nb, $np);
+        /// The identifier for this table (square-root-free block filter), generic over the scalar.
+        pub type Id<$t> = $crate::identifier_types!(@id $form, $t);
+    };
+    ($t:ty, $form:ident($order:expr), bearings: $nb:expr, planes: $np:expr $(,)?) => {
+        $crate::identifier_types!(@sizes $form($order), $nb, $np);
+        /// The identifier for this table (square-root-free block filter): `Id::from_table(&view)`.
+        pub type Id = $crate::identifier_types!(@id $form, $t);
+    };
+}
+
 /// The structure of formulation `formulation` with `m` unknowns and `n`
 /// rows for `nq` channels and `np` planes; a compile-time error (in a const
 /// context) if there is none. Used by [`Identifier::STRUCTURE`].

@@ -23,6 +23,16 @@ mod paper32 {
     include!("../data/paper_table_f32.rs");
 }
 
+/// The compile-time side of a blob of the same table, from its header's
+/// scalar type, structure, bearings and planes.
+mod blob32 {
+    rotorid::core::identifier_types!(f32, physical(1), bearings: 2, planes: 3);
+}
+/// The same, generic over the scalar type.
+mod blob {
+    rotorid::core::identifier_types!(<T>, physical(1), bearings: 2, planes: 3);
+}
+
 /// The table the committed files were generated from: the paper rotor at
 /// 6000, 6500, 7000, 7500 rpm (around the poles near 6808 and 6860 rpm).
 fn fresh() -> ModelTable {
@@ -58,6 +68,66 @@ fn committed_sources_equal_the_generator_output() {
         include_str!("../data/paper_table_f32.rs"),
         &t.to_rust_source(Scalar::F32).unwrap(),
     );
+}
+
+/// A firmware that reads the blob gets the source's constants and `Id`
+/// from `identifier_types!`, and that `Id` set up from the blob is the one
+/// set up from the source's `TABLE`.
+#[test]
+fn a_blob_gets_the_constants_of_the_source() {
+    let t = fresh();
+    let bytes = t.to_blob(Scalar::F32).unwrap();
+    let view = TableView::<f32>::parse(&bytes).unwrap();
+    assert_eq!(
+        (view.structure(), view.n_channels(), view.n_planes()),
+        (blob32::STRUCTURE, blob32::NQ, blob32::NP)
+    );
+    let sizes = (
+        blob32::STRUCTURE,
+        blob32::NQ,
+        blob32::NP,
+        blob32::M,
+        blob32::N,
+        blob32::W,
+        blob32::S,
+    );
+    for source in [
+        (
+            paper32::STRUCTURE,
+            paper32::NQ,
+            paper32::NP,
+            paper32::M,
+            paper32::N,
+            paper32::W,
+            paper32::S,
+        ),
+        (
+            paper64::STRUCTURE,
+            paper64::NQ,
+            paper64::NP,
+            paper64::M,
+            paper64::N,
+            paper64::W,
+            paper64::S,
+        ),
+        (
+            blob::STRUCTURE,
+            blob::NQ,
+            blob::NP,
+            blob::M,
+            blob::N,
+            blob::W,
+            blob::S,
+        ),
+    ] {
+        assert_eq!(source, sizes);
+    }
+    // The same types.
+    let same32: fn(blob32::Id) -> paper32::Id = |id| id;
+    let _: fn(blob::Id<f64>) -> paper64::Id = |id| id;
+    let _: fn(blob::Id<f32>) -> blob32::Id = |id| id;
+    let from_blob = same32(blob32::Id::from_table(&view).unwrap());
+    assert_eq!(from_blob, paper32::Id::from_table(&paper32::TABLE).unwrap());
 }
 
 #[test]

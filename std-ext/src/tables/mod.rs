@@ -15,7 +15,10 @@
 //! written for: the model structure (formulation, order) and the column
 //! scaling ([`auto_scaling`] at the top of the grid), so that firmware sets
 //! up its identifier from the table alone (the Rust source also defines
-//! `STRUCTURE`, `SCALING` and the identifier type `Id`).
+//! `STRUCTURE`, `SCALING`, the sizes and the identifier type `Id`; a
+//! firmware that reads a blob defines the same sizes, `STRUCTURE` and `Id`
+//! with `rotorid_core::identifier_types!` from the blob's scalar type,
+//! structure, bearings and planes).
 
 pub mod grid;
 
@@ -498,6 +501,9 @@ impl ModelTable {
     ///
     /// so that the firmware's whole set-up is
     /// `Id::new(Config::new(STRUCTURE, SCALING))` (or `Id::from_table(&TABLE)`).
+    /// `rotorid_core::identifier_types!` defines the same `NQ`, `NP`,
+    /// `STRUCTURE`, `M`, `N`, `W`, `S` and `Id` for a blob of the table
+    /// (checked by `tests/tables/source.rs`).
     ///
     /// Values are written with Rust's shortest round-trip formatting of the
     /// chosen scalar type, so the included table equals the blob bit for
