@@ -369,6 +369,7 @@ where
     }
 
     /// The stored state, for updates of a particular filter's own forms.
+    #[cfg(feature = "compact-rows")]
     pub(crate) fn factor_mut(&mut self) -> &mut R {
         &mut self.factor
     }

@@ -82,11 +82,16 @@
 //!
 //! # Rows
 //!
-//! [`SqrtFreeQrdRls::update_rows`] takes rows of `M` entries as the other
-//! filters (each non-zero in one block and the shared columns);
-//! [`SqrtFreeQrdRls::update_block_rows`] takes the structure instead: the
-//! block of each row, its `W` block entries and its `S` shared entries, so
-//! that nothing scans or stores the structural zeros.
+//! [`SqrtFreeFactor::update_rows`] takes rows of `M` entries as the other
+//! filters (each non-zero in one block and the shared columns, checked);
+//! [`SqrtFreeFactor::update_grouped_rows`] rows of `M` entries in the block
+//! layout's groups (the identification's rows: each row's block and shared
+//! entries are read where they lie, nothing else is looked at). With the
+//! feature `compact-rows`, `update_block_rows` takes the structure instead:
+//! the block of each row, its `W` block entries and its `S` shared entries,
+//! so that nothing scans or stores the structural zeros (what the benches
+//! and the `sqrtfree_update` fuzz target drive; the identifier does not use
+//! it).
 //!
 //! # Example
 //!
@@ -96,18 +101,18 @@
 //! // 2 blocks of 2 unknowns and 1 shared unknown: M = 5, real field.
 //! let mut f = SqrtFreeQrdRls::<f64, 2, 2, 1>::new(1.0, 1e-12)?;
 //! let w = [1.0, -2.0, 0.5, 3.0, 4.0];
-//! // Compact rows: the block of each row, its block entries, its shared entry.
-//! let blocks = [0, 0, 1, 1, 0];
-//! let a = [1.0, 0.5, 0.0, 2.0, 1.0, 1.0, -1.0, 2.0, 0.0, 0.0];
-//! let c = [1.0, -1.0, 0.5, 2.0, 3.0];
-//! let d: Vec<f64> = (0..5)
-//!     .map(|j| {
-//!         let b = blocks[j];
-//!         a[2 * j] * w[2 * b] + a[2 * j + 1] * w[2 * b + 1] + c[j] * w[4]
-//!     })
-//!     .collect();
-//! let (mut xi, mut gamma) = ([0.0; 5], [0.0; 5]);
-//! f.update_block_rows(&blocks, &a, &c, &d, &mut xi, &mut gamma)?;
+//! // Rows grouped by block: two rows in block 0, then two in block 1,
+//! // each with the shared column.
+//! let u = [
+//!     1.0, 0.5, 0.0, 0.0, 1.0, //
+//!     0.0, 2.0, 0.0, 0.0, -1.0, //
+//!     0.0, 0.0, 1.0, 1.0, 0.5, //
+//!     0.0, 0.0, -1.0, 2.0, 2.0,
+//! ];
+//! let d: Vec<f64> = u.chunks(5).map(|r| r.iter().zip(&w).map(|(a, b)| a * b).sum()).collect();
+//! let (mut xi, mut gamma) = ([0.0; 4], [0.0; 4]);
+//! f.update_grouped_rows(&u, &d, &mut xi, &mut gamma)?;
+//! f.update_rows(&[0.0, 0.0, 0.0, 0.0, 3.0], &[12.0], &mut xi[..1], &mut gamma[..1])?;
 //! let mut est = [0.0; 5];
 //! f.weights(&mut est)?;
 //! assert!(est.iter().zip(&w).all(|(a, b)| (a - b).abs() < 1e-9));
@@ -181,7 +186,7 @@ where
     /// bound a constant, the working row in registers). Returns
     /// `(xi, gamma)`.
     ///
-    /// Not inlined into [`Self::update_block_rows`]: in its row loop the
+    /// Not inlined into `update_block_rows`: in its row loop the
     /// loop's own values take the registers of the working row, which
     /// then spills (4.59k against 3.90k instructions per update on the
     /// `f32` flight-solver problem, `(4, 4, 6)` with 8 rows).
@@ -305,6 +310,11 @@ where
     /// update whose result would not be finite at the precision). Entries
     /// are checked for finiteness after the fold, by the same check as its
     /// result (module documentation).
+    ///
+    /// Feature `compact-rows`: for callers that hold their rows in this
+    /// form (the benches and the `sqrtfree_update` fuzz target); the
+    /// identifier hands its rows to [`Self::update_grouped_rows`].
+    #[cfg(feature = "compact-rows")]
     #[allow(clippy::too_many_arguments)]
     pub fn update_block_rows(
         &mut self,
@@ -356,12 +366,12 @@ where
     /// and only each row's block entries `u[j M + b W .. j M + (b + 1) W]`
     /// and shared entries `u[j M + NB W .. (j + 1) M]` are read; the rest of
     /// the row is taken as zero without a look. The rows' compact form
-    /// ([`Self::update_block_rows`]) without copying them out: the cost of
+    /// (`update_block_rows`) without copying them out: the cost of
     /// compact rows where the caller has rows of `M` entries.
     ///
     /// Errors (state untouched): `Dimension` (lengths, or `N` not a
     /// multiple of `NB`), `InvalidLambda`, `NonFinite` (an entry read),
-    /// `OutOfRange` (as [`Self::update_block_rows`], whose finiteness check
+    /// `OutOfRange` (as `update_block_rows`, whose finiteness check
     /// this is).
     pub fn update_grouped_rows(
         &mut self,
@@ -789,6 +799,7 @@ where
 pub type SqrtFreeQrdRls<F, const NB: usize, const W: usize, const S: usize> =
     QrdRls<F, SqrtFreeFactor<F, NB, W, S>>;
 
+#[cfg(feature = "compact-rows")]
 impl<F, T, const NB: usize, const W: usize, const S: usize> QrdRls<F, SqrtFreeFactor<F, NB, W, S>>
 where
     F: ComplexField<RealField = T> + Copy,
@@ -912,25 +923,32 @@ mod tests {
         let w: [F; M] = core::array::from_fn(|_| sample(&mut rng));
         let delta = T::lit(1e-3);
         let mut sf = SqrtFreeQrdRls::<F, NB, W, S>::new(lambda, delta).unwrap();
-        let mut sf_rows = sf.clone();
+        #[cfg(feature = "compact-rows")]
+        let mut sf_compact = sf.clone();
         let mut dense = VectorQrdRls::<F, M, N>::new(lambda, delta).unwrap();
         let mut blk = BlockQrdRls::<F, NB, W, S>::new(lambda, delta).unwrap();
         let (mut worst_x, mut worst_g) = (0.0f64, 0.0f64);
         for _ in 0..steps {
             let (blocks, a, c, u, d) = rows::<F, T, NB, W, S, M>(&mut rng, N, &w, sample);
             let (mut xi, mut gamma) = ([F::zero(); N], [T::zero(); N]);
-            let (mut xi2, mut gamma2) = ([F::zero(); N], [T::zero(); N]);
             let (mut xi3, mut gamma3) = ([F::zero(); N], [T::zero(); N]);
-            sf.update_block_rows(&blocks, &a, &c, &d, &mut xi, &mut gamma)
-                .unwrap();
-            sf_rows.update_rows(&u, &d, &mut xi2, &mut gamma2).unwrap();
+            sf.update_rows(&u, &d, &mut xi, &mut gamma).unwrap();
             blk.update_rows(&u, &d, &mut xi3, &mut gamma3).unwrap();
+            // The compact row form is the same arithmetic.
+            #[cfg(feature = "compact-rows")]
+            {
+                let (mut xi2, mut gamma2) = ([F::zero(); N], [T::zero(); N]);
+                sf_compact
+                    .update_block_rows(&blocks, &a, &c, &d, &mut xi2, &mut gamma2)
+                    .unwrap();
+                assert_eq!(xi, xi2);
+                assert_eq!(gamma, gamma2);
+            }
+            #[cfg(not(feature = "compact-rows"))]
+            let _ = (blocks, a, c);
             let uu: [[F; M]; N] = core::array::from_fn(|j| core::array::from_fn(|k| u[j * M + k]));
             let dd: [F; N] = core::array::from_fn(|j| d[j]);
             let out = dense.update(&uu, &dd).unwrap();
-            // The two row forms are the same arithmetic.
-            assert_eq!(xi, xi2);
-            assert_eq!(gamma, gamma2);
             // `xi_j = d_j - u_j^T w_j` is a difference of terms of the size
             // of `d_j`: its round-off is relative to `d`.
             let dscale = d
@@ -949,7 +967,8 @@ mod tests {
             // The Givens block filter's gamma is the dense one's.
             assert_eq!(gamma3, out.gamma);
         }
-        assert_eq!(sf, sf_rows);
+        #[cfg(feature = "compact-rows")]
+        assert_eq!(sf, sf_compact);
         assert!(worst_x < tol, "xi: {worst_x:e}");
         assert!(worst_g < tol, "gamma: {worst_g:e}");
         // The factor in Givens form against the block Givens filter's.
@@ -1008,13 +1027,13 @@ mod tests {
         let (mut xi, mut gamma) = ([0.0f32; 2], [0.0f32; 2]);
         let x = 8.370_678e-21f32;
         assert_eq!(
-            f.update_block_rows(&[0, 0], &[x, x], &[], &[x, x], &mut xi, &mut gamma),
+            f.update_grouped_rows(&[x, x], &[x, x], &mut xi, &mut gamma),
             Err(FilterError::OutOfRange)
         );
         assert_eq!(f, before);
         // The same rows at order one are fine.
         assert!(f
-            .update_block_rows(&[0, 0], &[1.0, 1.0], &[], &[1.0, 1.0], &mut xi, &mut gamma)
+            .update_grouped_rows(&[1.0, 1.0], &[1.0, 1.0], &mut xi, &mut gamma)
             .is_ok());
     }
 
@@ -1047,6 +1066,7 @@ mod tests {
             assert_eq!(f.update_rows(u, d, &mut xi, &mut gamma), Err(err));
             assert_eq!(f, before);
         }
+        #[cfg(feature = "compact-rows")]
         let compact: [(&[usize], &[f64], &[f64], &[f64], FilterError); 6] = [
             (&[2], &[1.0, 0.5], &[1.0], &[1.0], FilterError::Dimension),
             (&[0], &[1.0], &[1.0], &[1.0], FilterError::Dimension),
@@ -1073,6 +1093,7 @@ mod tests {
                 FilterError::NonFinite,
             ),
         ];
+        #[cfg(feature = "compact-rows")]
         for (b, a, c, d, err) in compact {
             assert_eq!(
                 f.update_block_rows(b, a, c, d, &mut xi, &mut gamma),
@@ -1091,14 +1112,9 @@ mod tests {
         // No input bound: `1e100` squares to `1e200`, within `f64`.
         let mut f = SqrtFreeQrdRls::<f64, 2, 2, 1>::new(1.0, 1e-3).unwrap();
         let (mut xi, mut gamma) = ([0.0; 2], [0.0; 2]);
-        let rows = f.update_block_rows(
-            &[0, 1],
-            &[1e100, 1.0, 2.0, 1e100],
-            &[1.0, 1.0],
-            &[1e100, 1e100],
-            &mut xi,
-            &mut gamma,
-        );
+        // Row 0 in block 0, row 1 in block 1, each with a shared entry.
+        let u = [1e100, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 2.0, 1e100, 1.0];
+        let rows = f.update_grouped_rows(&u, &[1e100, 1e100], &mut xi, &mut gamma);
         assert_eq!(rows, Ok(()));
         assert!(xi.iter().chain(&gamma).all(|x| x.is_finite()));
     }
@@ -1178,10 +1194,8 @@ mod tests {
             &mut gamma,
         )
         .unwrap();
-        f.update_block_rows(
-            &[0, 0],
+        f.update_grouped_rows(
             &[158.00032, 195.26274],
-            &[],
             &[-2.3961028e38, -2.595487e38],
             &mut xi,
             &mut gamma,
@@ -1205,12 +1219,12 @@ mod tests {
         // every pivot is skipped, so only `xi` sees the NaN.
         let mut f = SqrtFreeQrdRls::<f32, 1, 2, 1>::new(1e-30, 1e-30).unwrap();
         let (mut xi, mut gamma) = ([0.0f32; 1], [0.0f32; 1]);
-        let zero = [0.0f32; 2];
-        f.update_block_rows(&[0], &zero, &[0.0], &[0.0], &mut xi, &mut gamma)
+        let zero = [0.0f32; 3];
+        f.update_grouped_rows(&zero, &[0.0], &mut xi, &mut gamma)
             .unwrap();
         let before = f.clone();
         assert_eq!(
-            f.update_block_rows(&[0], &zero, &[0.0], &[f32::NAN], &mut xi, &mut gamma),
+            f.update_grouped_rows(&zero, &[f32::NAN], &mut xi, &mut gamma),
             Err(FilterError::NonFinite)
         );
         assert_eq!(f, before);
@@ -1229,7 +1243,7 @@ mod tests {
         // A zero row is the identity: gamma 1, xi = d.
         let mut f = SqrtFreeQrdRls::<f64, 2, 2, 1>::new(1.0, 1.0).unwrap();
         let (mut xi, mut gamma) = ([0.0; 1], [0.0; 1]);
-        f.update_block_rows(&[1], &[0.0, 0.0], &[0.0], &[2.5], &mut xi, &mut gamma)
+        f.update_rows(&[0.0; 5], &[2.5], &mut xi, &mut gamma)
             .unwrap();
         assert_eq!((xi[0], gamma[0]), (2.5, 1.0));
     }
