@@ -717,6 +717,37 @@ pub struct Estimates<T, const NQ: usize, const NP: usize> {
     pub unbalance: [UnbalanceEstimate<T>; NP],
 }
 
+impl<T: Real, const NQ: usize, const NP: usize> Estimates<T, NQ, NP> {
+    /// The physical estimates of the scaled weights `w` ([`estimates_into`]),
+    /// bearings evaluated at `omega`.
+    pub fn from_weights<F: IdField<T>>(
+        config: &Config<T>,
+        w: &[F],
+        omega: T,
+    ) -> Result<Self, IdentifyError> {
+        let zero_b = BearingEstimate {
+            k: [T::zero(); 4],
+            c: [T::zero(); 4],
+            im_z0: None,
+            re_z1: None,
+        };
+        let mut bearings: heapless::Vec<BearingEstimate<T>, NQ> = heapless::Vec::new();
+        for _ in 0..NQ / 2 {
+            bearings
+                .push(zero_b)
+                .map_err(|_| IdentifyError::Dimension)?;
+        }
+        let zero_u = UnbalanceEstimate::from_phasor(Complex::new(T::zero(), T::zero()));
+        let mut unbalance = [zero_u; NP];
+        estimates_into(config, w, NQ, NP, omega, &mut bearings, &mut unbalance)?;
+        Ok(Estimates {
+            omega,
+            bearings,
+            unbalance,
+        })
+    }
+}
+
 /// The firmware identifier: `NQ = 2 N_b` channels, `NP` planes, `M`
 /// unknowns, `N` rows per update, all fixed at compile time, inline storage.
 /// `F = Complex<T>` for the paper structure, `F = T` for the physical one;
@@ -1164,35 +1195,7 @@ impl<
     /// Physical estimates, bearing coefficients evaluated at `omega` (rad/s;
     /// irrelevant for order 1).
     pub fn estimates(&self, omega: T) -> Result<Estimates<T, NQ, NP>, IdentifyError> {
-        let w = self.scaled_weights()?;
-        let zero_b = BearingEstimate {
-            k: [T::zero(); 4],
-            c: [T::zero(); 4],
-            im_z0: None,
-            re_z1: None,
-        };
-        let mut bearings: heapless::Vec<BearingEstimate<T>, NQ> = heapless::Vec::new();
-        for _ in 0..NQ / 2 {
-            bearings
-                .push(zero_b)
-                .map_err(|_| IdentifyError::Dimension)?;
-        }
-        let mut unbalance =
-            [UnbalanceEstimate::from_phasor(Complex::new(T::zero(), T::zero())); NP];
-        estimates_into(
-            &self.config,
-            &w,
-            NQ,
-            NP,
-            omega,
-            &mut bearings,
-            &mut unbalance,
-        )?;
-        Ok(Estimates {
-            omega,
-            bearings,
-            unbalance,
-        })
+        Estimates::from_weights(&self.config, &self.scaled_weights()?, omega)
     }
 }
 

@@ -3,6 +3,15 @@
 //! is, so that a recursive pass comes close to the maximum-likelihood
 //! estimate without the batch solve.
 //!
+//! Why it stays in the core: it is the firmware's answer to measurement
+//! noise. The desktop's output-error fit (`rotorid::estimate`) needs an
+//! allocator and the whole sweep at once; one prefiltered pass after a
+//! plain one comes within 3 % of it with inline storage. Nothing else in
+//! this repository calls it: it is for a firmware that keeps a sweep (or
+//! the previous sweep's estimate) for a second pass, and
+//! `tests/identify/prefilter.rs` checks it against the Cramér-Rao bound
+//! (the table in `docs/validation.md`).
+//!
 //! # Why the plain equations are badly weighted
 //!
 //! At speed `Omega` the bearing equation `(A + Z_B(w)) q = B a(w)` gives
@@ -53,8 +62,7 @@
 //! columns. No heap: every buffer is an inline array of the const sizes.
 
 use crate::identify::{
-    check_sizes, estimates_into, Config, Estimates, GuardState, IdField, IdentifyError,
-    SteadyAction, StepReport,
+    check_sizes, Config, Estimates, GuardState, IdField, IdentifyError, SteadyAction, StepReport,
 };
 use crate::parametrization::{
     bearing_estimate, unbalance_estimate, BearingEstimate, Formulation, UnbalanceEstimate,
@@ -457,33 +465,6 @@ impl<T: Real + IdField<T>, const NQ: usize, const NP: usize, const M: usize, con
     }
 
     fn estimates_of(&self, w: &[T; M], omega: T) -> Result<Estimates<T, NQ, NP>, IdentifyError> {
-        let zero_b = BearingEstimate {
-            k: [T::zero(); 4],
-            c: [T::zero(); 4],
-            im_z0: None,
-            re_z1: None,
-        };
-        let mut bearings: heapless::Vec<BearingEstimate<T>, NQ> = heapless::Vec::new();
-        for _ in 0..NQ / 2 {
-            bearings
-                .push(zero_b)
-                .map_err(|_| IdentifyError::Dimension)?;
-        }
-        let mut unbalance =
-            [UnbalanceEstimate::from_phasor(Complex::new(T::zero(), T::zero())); NP];
-        estimates_into(
-            &self.config,
-            w,
-            NQ,
-            NP,
-            omega,
-            &mut bearings,
-            &mut unbalance,
-        )?;
-        Ok(Estimates {
-            omega,
-            bearings,
-            unbalance,
-        })
+        Estimates::from_weights(&self.config, w, omega)
     }
 }
