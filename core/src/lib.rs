@@ -1,22 +1,4 @@
-//! # rotorid-core
-//!
-//! The firmware half of rotorid: `#![no_std]`, no heap, no `unsafe`, generic
-//! over `f32` and `f64`.
-//!
-//! * [`qrdrls`]: the vector QRD/RLS filter (Eq. 20 of the method paper),
-//!   updated row by row with complex Givens rotations ([`givens`]).
-//! * [`table`]: per-speed bearing-level model tables (the reduction of the
-//!   finite-element rotor to the bearing degrees of freedom), parsed from a
-//!   validated byte blob.
-//! * [`parametrization`]: what each unknown of the identification is, its
-//!   scale, how it enters the bearing dynamic stiffness or the forcing.
-//! * [`identify`]: bearing stiffness, damping and unbalance identification
-//!   from measured 1X responses at the bearings.
-//! * [`prefilter`]: the same recursive identification on equations weighted
-//!   as the output error (near the maximum-likelihood estimate).
-//!
-//! Everything is SI inside (m, kg, s, N, rad/s). A physical signal is
-//! `y(t) = Re{ Y exp(j Omega t) }`.
+#![doc = include_str!("../README.md")]
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
