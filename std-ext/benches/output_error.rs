@@ -14,8 +14,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rotorid::core::parametrization::Structure;
-use rotorid::estimate::noise::relative_noise_level;
 use rotorid::estimate::noise::estimate_noise;
+use rotorid::estimate::noise::relative_noise_level;
 use rotorid::estimate::output_error::{
     fisher_information, fit_output_error, fit_output_error_with, FitNoise, OutputErrorOptions,
 };
@@ -191,6 +191,23 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    g.bench_function(
+        "output-error fit, proportional weights, same data (baseline)",
+        |b| {
+            b.iter(|| {
+                black_box(
+                    fit_output_error(
+                        &r.predictor,
+                        &r.meas.samples,
+                        &r.terms,
+                        &start_real,
+                        &OutputErrorOptions::default(),
+                    )
+                    .expect("fit"),
+                )
+            })
+        },
+    );
     g.bench_function("probe noise model without the model", |b| {
         b.iter(|| black_box(estimate_noise(&r.meas.samples, None)))
     });

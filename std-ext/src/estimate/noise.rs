@@ -270,6 +270,16 @@ pub struct VarianceFit {
 /// floor, or 0); `None` fits it. `None` when there are no points or the
 /// system is singular.
 pub fn fit_variance(points: &[VariancePoint], held: &[Option<f64>]) -> Option<VarianceFit> {
+    fit_variance_from(points, held, None)
+}
+
+/// [`fit_variance`] started from `start` (`f_c^2` per channel, `s^2`), e.g.
+/// the previous fit's, instead of the medians.
+pub fn fit_variance_from(
+    points: &[VariancePoint],
+    held: &[Option<f64>],
+    start: Option<(&[f64], f64)>,
+) -> Option<VarianceFit> {
     let nq = held.len();
     if points.is_empty() || points.iter().any(|p| p.channel >= nq) {
         return None;
@@ -307,6 +317,16 @@ pub fn fit_variance(points: &[VariancePoint], held: &[Option<f64>]) -> Option<Va
             m.max(1e-6 * scale_x)
         })
         .collect();
+    if let Some((f0, s0)) = start {
+        if f0.len() == nq && s0.is_finite() && s0 > 0.0 {
+            s2 = s0;
+            for (c, f) in f2.iter_mut().enumerate() {
+                if held[c].is_none() && f0[c].is_finite() && f0[c] > 0.0 {
+                    *f = f0[c];
+                }
+            }
+        }
+    }
     let s2_free = true;
     let free: Vec<bool> = held.iter().map(Option::is_none).collect();
     let tiny = 1e-12 * scale_x;
@@ -374,7 +394,7 @@ pub fn fit_variance(points: &[VariancePoint], held: &[Option<f64>]) -> Option<Va
         if !f2.iter().chain([&s2]).all(|v| v.is_finite()) {
             return None;
         }
-        if change < 1e-10 {
+        if change < 1e-8 {
             break;
         }
     }
@@ -405,6 +425,25 @@ pub fn noise_from_points(
     nq: usize,
     given_floor: Option<f64>,
 ) -> Option<NoiseModel> {
+    noise_from_points_near(points, nq, given_floor, None)
+}
+
+/// [`noise_from_points`] with the regressions started at `near` (the
+/// previous estimate, when refining).
+pub fn noise_from_points_near(
+    points: &[VariancePoint],
+    nq: usize,
+    given_floor: Option<f64>,
+    near: Option<&NoiseModel>,
+) -> Option<NoiseModel> {
+    let start: Option<(Vec<f64>, f64)> = near.map(|m| {
+        (
+            m.floor_m.iter().map(|f| f * f).collect(),
+            m.relative * m.relative,
+        )
+    });
+    let start = start.as_ref().map(|(f, s)| (f.as_slice(), *s));
+    let fit_variance = |p: &[VariancePoint], h: &[Option<f64>]| fit_variance_from(p, h, start);
     if let Some(f) = given_floor {
         let fit = fit_variance(points, &vec![Some(f * f); nq])?;
         return Some(NoiseModel {

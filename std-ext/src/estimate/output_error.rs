@@ -62,7 +62,7 @@ use nalgebra::{DMatrix, DMatrixView, DVector};
 use num_complex::Complex64;
 use thiserror::Error;
 
-use crate::estimate::noise::{noise_from_points, NoiseModel, NoiseSource, VariancePoint};
+use crate::estimate::noise::{noise_from_points_near, NoiseModel, NoiseSource, VariancePoint};
 use crate::estimate::predictor::{Entry, PredictError, Predictor, Solve, Terms};
 use crate::io::measurement::Sample;
 
@@ -834,44 +834,53 @@ const OUTLIER_ROUNDS: usize = 5;
 /// determine the relative part of the noise: without the correction their
 /// shrunken residuals would make it far too small.
 fn residual_points(data: &Data<'_>, theta: &[f64]) -> Result<Vec<VariancePoint>, PredictError> {
+    let (p, w) = data.reweighted(theta, true)?;
+    let chol = p.normal.clone().cholesky();
     let pr = data.pr;
     let np = pr.n_params();
     let na = data.n_all();
-    let nq = 2 * pr.param.n_bearings();
+    let (nq, npl) = (2 * pr.param.n_bearings(), pr.param.n_planes());
     let runout = data.runout(theta);
-    let (p, w) = data.reweighted(theta, true)?;
-    let n_inv = p.normal.clone().cholesky().map(|c| c.inverse());
+    let mut solve = Solve::new(nq, npl);
+    let mut rows = Rows::new(nq, npl, na, false);
+    let mut v = DVector::<f64>::zeros(na);
     let mut out = Vec::with_capacity(data.samples.len() * nq);
-    let mut row = DVector::<f64>::zeros(na);
     let it = data.samples.iter().zip(data.terms).zip(&data.entries);
-    for (k, ((s, t), en)) in it.enumerate() {
-        let pred = pr.predict_with(s.omega, t, en, &theta[..np], n_inv.is_some())?;
+    for (n, ((s, t), en)) in it.enumerate() {
+        solve.run(s.omega, t, en, &theta[..np])?;
+        let wn = &w[n * nq..(n + 1) * nq];
+        if chol.is_some() {
+            rows.set_speed(&solve.h_inv, t.1.as_slice(), wn);
+            rows.columns(false, en, &solve.q);
+            rows.runout_columns(np, &data.runout_scale, wn);
+        }
         for c in 0..nq {
-            let idx = k * nq + c;
-            if data.weighting.is_excluded(idx) {
+            if data.weighting.is_excluded(n * nq + c) {
                 continue;
             }
-            let read = pred.q[c] + runout.get(c).copied().unwrap_or_default();
+            // The sample's leverage: the mean over its real and imaginary
+            // rows x_r of x_r N^-1 x_r^T = |L^-1 x_r|^2 (N = L L^T).
             let mut h = 0.0;
-            if let (Some(ni), Some(jac)) = (&n_inv, &pred.jacobian) {
+            if let Some(ch) = &chol {
+                let l = ch.l_dirty();
                 for part in 0..2 {
-                    row.fill(0.0);
-                    for i in 0..np {
-                        let z = jac[(c, i)] / w[idx];
-                        row[i] = if part == 0 { z.re } else { z.im };
+                    let k = 2 * c + part;
+                    for i in 0..na {
+                        let mut acc = rows.x[i * rows.cap + k];
+                        for j in 0..i {
+                            acc -= l[(i, j)] * v[j];
+                        }
+                        v[i] = acc / l[(i, i)];
                     }
-                    if let Some(sc) = data.runout_scale.get(c) {
-                        row[np + 2 * c + part] = sc / w[idx];
-                    }
-                    h += 0.5 * (ni * &row).dot(&row);
+                    h += 0.5 * v.norm_squared();
                 }
             }
-            let corr = 1.0 / (1.0 - h).max(1e-3);
+            let read = solve.q[c] + runout.get(c).copied().unwrap_or_default();
             out.push(VariancePoint::residual(
                 c,
                 (s.q[c] - read).norm_sqr(),
                 read.norm_sqr(),
-                corr,
+                1.0 / (1.0 - h).max(1e-3),
             ));
         }
     }
@@ -975,7 +984,15 @@ pub fn fit_output_error_with(
         });
     }
     let mut model = noise.model.clone();
-    let refine = noise.refine && noise.sample_std.is_none() && model.is_some();
+    // The variance parameters are refined where the data show a floor (or
+    // one is given, or a runout is fitted, which the model-free estimate
+    // cannot tell from a floor): with proportional noise the weights do not
+    // depend on `s`, and the fit is the proportional model's.
+    let refine = noise.refine
+        && noise.sample_std.is_none()
+        && model.as_ref().is_some_and(|m| {
+            m.has_floor() || m.source == NoiseSource::Given || noise.runout.is_some()
+        });
     // A pass keeps its result only if it explains the data better: on data
     // the start already fits to round-off, the instrumental-variable
     // equations (whose conditioning is that of the normal equations) must
@@ -1032,6 +1049,7 @@ pub fn fit_output_error_with(
     let mut outliers: Vec<Outlier> = Vec::new();
     let max_out = (MAX_OUTLIER_FRACTION * n_all as f64).floor() as usize;
     let mut too_many = false;
+    let mut settled = false;
     for round in 0..OUTLIER_ROUNDS {
         // Reweightings; with the noise model refined, until its floors in
         // relative units settle (the weights depend on them).
@@ -1060,6 +1078,9 @@ pub fn fit_output_error_with(
             converged = ok;
             k += 1;
             let settle = refine && changed > NOISE_SETTLED && k < NOISE_ROUNDS;
+            // The last refinement moved the weights by less than the
+            // tolerance: the model the last polish used is the final one.
+            settled = refine && k > 1 && changed <= NOISE_SETTLED;
             if k >= opts.reweightings.max(1) && !settle {
                 break;
             }
@@ -1103,7 +1124,7 @@ pub fn fit_output_error_with(
             });
         }
     }
-    if refine {
+    if refine && !settled {
         if let Some(m) = model.as_mut() {
             refine_noise(&data, &theta, m)?;
             data.weighting.set_noise(m);
@@ -1190,7 +1211,7 @@ fn refine_noise(
     let nq = model.floor_m.len();
     let given =
         (model.source == NoiseSource::Given).then(|| model.floor_m.first().copied().unwrap_or(0.0));
-    if let Some(m) = noise_from_points(&points, nq, given) {
+    if let Some(m) = noise_from_points_near(&points, nq, given, Some(model)) {
         *model = NoiseModel {
             source: model.source,
             ..m

@@ -161,7 +161,23 @@ impl NoiseSetup {
                     ..m
                 })
             }
-            None => estimate_noise(samples, self.floor),
+            // A runout fitted: the model-free estimate on the data less its
+            // start, so that the relative part reads the shaft's vibration
+            // (a constant runout would otherwise pass for a relative part
+            // as large as floor / runout).
+            None => match &self.runout {
+                Some(r0) => {
+                    let shifted: Vec<Sample> = samples
+                        .iter()
+                        .map(|s| Sample {
+                            omega: s.omega,
+                            q: s.q.iter().zip(r0).map(|(q, r)| q - r).collect(),
+                        })
+                        .collect();
+                    estimate_noise(&shifted, self.floor)
+                }
+                None => estimate_noise(samples, self.floor),
+            },
         }
     }
 }
