@@ -328,7 +328,7 @@ fn confusion_matrix() {
 /// `none` named as an effect at most 5 %.
 #[test]
 #[ignore]
-fn confusion_matrix_realistic() {
+fn realistic_confusion_matrix() {
     let m = rotorid::simulate::at_balance_grade(&RotorModel::paper(), 6.3, rpm_to_rad_s(15000.0))
         .unwrap();
     let n: u64 = std::env::var("ROTORID_CASES")
