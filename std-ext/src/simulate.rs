@@ -141,16 +141,34 @@ pub fn add_noise(m: &mut Measurements, s: f64, seed: u64) -> Result<(), Simulate
     if s == 0.0 {
         return Ok(());
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let h = std::f64::consts::FRAC_1_SQRT_2;
-    for sample in &mut m.samples {
-        for q in &mut sample.q {
-            let n1: f64 = StandardNormal.sample(&mut rng);
-            let n2: f64 = StandardNormal.sample(&mut rng);
-            *q += Complex64::new(n1 * h, n2 * h) * (s * q.norm());
-        }
-    }
+    add_gaussian(
+        m.samples.iter_mut().flat_map(|x| x.q.iter_mut()),
+        seed,
+        0,
+        |q| s * q.norm(),
+    );
     Ok(())
+}
+
+/// Adds `scale(q) eps` to every phasor `q` of `phasors` in order, `eps =
+/// (n1 + j n2) / sqrt(2)`, `n1, n2 ~ N(0, 1)` (real part drawn first) from
+/// stream `stream` of ChaCha8 seeded with `seed`.
+fn add_gaussian<'a>(
+    phasors: impl Iterator<Item = &'a mut Complex64>,
+    seed: u64,
+    stream: u64,
+    scale: impl Fn(Complex64) -> f64,
+) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    if stream != 0 {
+        rng.set_stream(stream);
+    }
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    for q in phasors {
+        let n1: f64 = StandardNormal.sample(&mut rng);
+        let n2: f64 = StandardNormal.sample(&mut rng);
+        *q += Complex64::new(n1 * h, n2 * h) * scale(*q);
+    }
 }
 
 /// Stream of the ChaCha8 generator (seeded with the same seed) that draws
@@ -181,16 +199,12 @@ pub fn add_floor_noise(m: &mut Measurements, floor: f64, seed: u64) -> Result<()
     if floor == 0.0 {
         return Ok(());
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    rng.set_stream(FLOOR_NOISE_STREAM);
-    let h = std::f64::consts::FRAC_1_SQRT_2;
-    for sample in &mut m.samples {
-        for q in &mut sample.q {
-            let n1: f64 = StandardNormal.sample(&mut rng);
-            let n2: f64 = StandardNormal.sample(&mut rng);
-            *q += Complex64::new(n1 * h, n2 * h) * floor;
-        }
-    }
+    add_gaussian(
+        m.samples.iter_mut().flat_map(|x| x.q.iter_mut()),
+        seed,
+        FLOOR_NOISE_STREAM,
+        |_| floor,
+    );
     Ok(())
 }
 
@@ -210,14 +224,9 @@ pub fn add_floor_noise_nodes(
     if floor == 0.0 {
         return Ok(());
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    rng.set_stream(NODE_FLOOR_STREAM);
-    let h = std::f64::consts::FRAC_1_SQRT_2;
-    for q in node_q.iter_mut().flatten() {
-        let n1: f64 = StandardNormal.sample(&mut rng);
-        let n2: f64 = StandardNormal.sample(&mut rng);
-        *q += Complex64::new(n1 * h, n2 * h) * floor;
-    }
+    add_gaussian(node_q.iter_mut().flatten(), seed, NODE_FLOOR_STREAM, |_| {
+        floor
+    });
     Ok(())
 }
 
@@ -410,14 +419,12 @@ pub fn simulate_at_nodes(
         return Err(SimulateError::ResponseShape);
     }
     if opts.noise > 0.0 {
-        let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-        rng.set_stream(NODE_NOISE_STREAM);
-        let h = std::f64::consts::FRAC_1_SQRT_2;
-        for q in q_nodes.iter_mut().flatten() {
-            let n1: f64 = StandardNormal.sample(&mut rng);
-            let n2: f64 = StandardNormal.sample(&mut rng);
-            *q += Complex64::new(n1 * h, n2 * h) * (opts.noise * q.norm());
-        }
+        add_gaussian(
+            q_nodes.iter_mut().flatten(),
+            opts.seed,
+            NODE_NOISE_STREAM,
+            |q| opts.noise * q.norm(),
+        );
     }
     Ok((measured, q_nodes))
 }

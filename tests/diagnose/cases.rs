@@ -265,72 +265,25 @@ fn second_rotor_every_effect() {
 #[test]
 #[ignore]
 fn confusion_matrix() {
-    let m = RotorModel::paper();
-    let n: u64 = std::env::var("ROTORID_CASES")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(50);
-    let mut table: BTreeMap<(Effect, Effect), usize> = BTreeMap::new();
-    let (mut right, mut total, mut none_named) = (0, 0, 0);
-    let all: Vec<Effect> = std::iter::once(Effect::None).chain(Effect::BANK).collect();
-    for &effect in &all {
-        for seed in 0..n {
-            let (_, _, o) = run_case(
-                &m,
-                &speeds(),
-                effect,
-                1_000_003 * (effect as u64 + 1) + seed,
-                None,
-            );
-            println!(
-                "{} seed {seed}: named {}{}",
-                effect.name(),
-                o.named.name(),
-                if o.observable {
-                    ""
-                } else {
-                    " (not observable)"
-                }
-            );
-            *table.entry((effect, o.named)).or_default() += 1;
-            if o.observable {
-                total += 1;
-                right += usize::from(o.named == effect || o.equivalent);
-            }
-            if effect == Effect::None && o.named != Effect::None {
-                none_named += 1;
-            }
-        }
-    }
-    let named: Vec<Effect> = all.iter().copied().chain([Effect::Unexplained]).collect();
-    print!("| hidden \\ named |");
-    for e in &named {
-        print!(" {} |", e.name());
-    }
-    println!();
-    for &h in &all {
-        print!("| {} |", h.name());
-        for &e in &named {
-            print!(" {} |", table.get(&(h, e)).copied().unwrap_or(0));
-        }
-        println!();
-    }
-    let acc = right as f64 / total.max(1) as f64;
-    println!("accuracy on observable cases: {right}/{total} = {acc:.3}; none named as an effect: {none_named}/{n}");
-    assert!(acc >= 0.95);
-    assert!(none_named as f64 <= 0.05 * n as f64);
+    confusion(&RotorModel::paper(), None, 0.0);
 }
 
 /// The confusion matrix on data as machines give them: the paper rotor at
 /// balance grade G6.3 (the generator draws each plane's unbalance around
-/// it), 0.5 % relative noise plus a 0.5 um probe floor; 50 cases per
-/// effect (`ROTORID_CASES`), asserted at 95 % right where observable and
-/// `none` named as an effect at most 5 %.
+/// it), 0.5 % relative noise plus a 0.5 um probe floor.
 #[test]
 #[ignore]
 fn realistic_confusion_matrix() {
     let m = rotorid::simulate::at_balance_grade(&RotorModel::paper(), 6.3, rpm_to_rad_s(15000.0))
         .unwrap();
+    confusion(&m, Some(0.005), 5e-7);
+}
+
+/// `ROTORID_CASES` (default 50) cases per effect of `m` with relative
+/// noise `noise` (`None`: drawn) and probe floor `floor` (m); the table
+/// printed, at least 95 % named right where observable and `none` named as
+/// an effect at most 5 % asserted.
+fn confusion(m: &RotorModel, noise: Option<f64>, floor: f64) {
     let n: u64 = std::env::var("ROTORID_CASES")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -341,12 +294,12 @@ fn realistic_confusion_matrix() {
     for &effect in &all {
         for seed in 0..n {
             let (_, _, o) = run_case_with_floor(
-                &m,
+                m,
                 &speeds(),
                 effect,
                 1_000_003 * (effect as u64 + 1) + seed,
-                Some(0.005),
-                5e-7,
+                noise,
+                floor,
             );
             println!(
                 "{} seed {seed}: named {}{}",

@@ -4,7 +4,7 @@
 //! would gain.
 //!
 //! With `F = sum_n F_n` the Fisher information per unit noise of the
-//! output-error fit ([`fisher_information`]; `F_n` the contribution of
+//! output-error fit ([`crate::estimate::output_error::fisher_information`]; `F_n` the contribution of
 //! speed `n`) and `s` the relative noise level, the Cramér-Rao bound of
 //! parameter `i` is `s sqrt((F^-1)_ii)`. Each parameter's information
 //! `(F_n)_ii` is accumulated over the speeds sorted by speed; the band

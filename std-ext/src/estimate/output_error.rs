@@ -777,7 +777,7 @@ pub struct FitNoise {
     /// The noise model the fit weights with (`None`: proportional).
     pub model: Option<NoiseModel>,
     /// Refine `model`'s variance parameters by maximum likelihood from the
-    /// fit's residuals between the reweightings ([`noise_from_points`]: a
+    /// fit's residuals between the reweightings ([`crate::estimate::noise::noise_from_points`]: a
     /// given floor stays, an estimated one is refitted).
     pub refine: bool,
     /// Per-sample standard deviations (m) at `n * nq + c` (the measurement
@@ -1201,7 +1201,7 @@ pub fn fit_output_error_with(
 }
 
 /// `model` refitted by maximum likelihood to the residuals at `theta`
-/// ([`noise_from_points`]; a given floor is held).
+/// ([`crate::estimate::noise::noise_from_points`]; a given floor is held).
 fn refine_noise(
     data: &Data<'_>,
     theta: &[f64],
