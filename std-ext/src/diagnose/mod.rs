@@ -1295,6 +1295,19 @@ fn oe_start(
     )?;
     let pr = Predictor::new(id.param.clone());
     let oe_terms: Vec<Terms> = terms.iter().map(|t| (t.a.clone(), t.b.clone())).collect();
+    let proportional = || {
+        fit_output_error(
+            &pr,
+            samples,
+            &oe_terms,
+            &id.scaled_weights,
+            &OutputErrorOptions::default(),
+        )
+    };
+    // With a floor, the fit under the noise model; where it cannot be
+    // done (a model far from the data can make its weighted normal
+    // equations singular), the proportional fit, and the noise model as
+    // estimated without the model.
     let oe = match noise.filter(|m| m.has_floor()) {
         Some(m) => crate::estimate::output_error::fit_output_error_with(
             &pr,
@@ -1307,14 +1320,9 @@ fn oe_start(
                 refine: true,
                 ..Default::default()
             },
-        )?,
-        None => fit_output_error(
-            &pr,
-            samples,
-            &oe_terms,
-            &id.scaled_weights,
-            &OutputErrorOptions::default(),
-        )?,
+        )
+        .or_else(|_| proportional())?,
+        None => proportional()?,
     };
     Ok((pr, oe.theta, oe.noise))
 }

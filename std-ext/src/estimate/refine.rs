@@ -296,7 +296,24 @@ pub fn refine(
         runout: setup.runout.clone(),
         reference: reference.clone(),
     };
-    let fit = fit_output_error_with(&pr, samples, terms, &id.scaled_weights, &opts, &noise)?;
+    // Where the fit under the noise model cannot be done (its weighted
+    // normal equations singular), the proportional fit, with a warning.
+    let (fit, fallback) =
+        match fit_output_error_with(&pr, samples, terms, &id.scaled_weights, &opts, &noise) {
+            Ok(f) => (f, None),
+            Err(e @ (OutputErrorError::Singular | OutputErrorError::Predict(_)))
+                if noise.model.as_ref().is_some_and(|m| m.has_floor()) =>
+            {
+                let plain = FitNoise {
+                    outliers: setup.outliers,
+                    ..FitNoise::default()
+                };
+                let f =
+                    fit_output_error_with(&pr, samples, terms, &id.scaled_weights, &opts, &plain)?;
+                (f, Some(e))
+            }
+            Err(e) => return Err(e),
+        };
     let noise_level = fitted_noise_level(samples, reference.as_ref(), fit.noise.as_ref());
     let chi2 = if setup.sample_std.is_some() {
         Some(fit.residual_noise * fit.residual_noise)
@@ -338,6 +355,11 @@ pub fn refine(
             fit.outliers.len(),
             n_all,
             100.0 * fit.outliers.len() as f64 / n_all.max(1) as f64
+        ));
+    }
+    if let Some(e) = fallback {
+        check.warnings.push(format!(
+            "the fit under the probe noise model could not be done ({e}): the estimate is the proportional-noise fit's, and its standard deviations ignore the floor"
         ));
     }
     if !fit.converged {
