@@ -35,10 +35,41 @@ pub const WINDOW: usize = 7;
 /// with fewer than [`WINDOW`] samples of distinct speed or no signal.
 pub fn relative_noise_level(samples: &[Sample]) -> Option<f64> {
     let nq = samples.first()?.q.len();
+    let mut ratios = Vec::with_capacity(samples.len() * nq);
+    for_each_window(samples, |idx, coef_of, h| {
+        for c in 0..nq {
+            let qc = samples[idx[WINDOW / 2]].q[c];
+            let mag2 = qc.norm_sqr();
+            if mag2.is_nan() || mag2 <= 0.0 || h >= 1.0 {
+                continue;
+            }
+            let fit: num_complex::Complex64 = idx
+                .iter()
+                .zip(coef_of)
+                .map(|(&i, &l)| samples[i].q[c] * l)
+                .sum();
+            let e = qc - fit;
+            ratios.push(e.norm_sqr() / ((1.0 - h) * mag2));
+        }
+    });
+    if ratios.is_empty() {
+        return None;
+    }
+    let mid = ratios.len() / 2;
+    let (_, median, _) = ratios.select_nth_unstable_by(mid, f64::total_cmp);
+    let s2 = *median / core::f64::consts::LN_2;
+    s2.is_finite().then_some(s2.sqrt())
+}
+
+/// Calls `f(idx, l, h)` for every window of [`WINDOW`] consecutive
+/// samples in speed order (`idx` the samples' indices, the centre at
+/// `WINDOW / 2`) whose speeds span a positive range, with the smoother
+/// weights `l` of a quadratic in `Omega` at the centre and its leverage `h`
+/// ([`centre_smoother`]).
+fn for_each_window(samples: &[Sample], mut f: impl FnMut(&[usize], &[f64], f64)) {
     let mut order: Vec<usize> = (0..samples.len()).collect();
     order.sort_by(|&i, &j| samples[i].omega.total_cmp(&samples[j].omega));
     let half = WINDOW / 2;
-    let mut ratios = Vec::with_capacity(samples.len() * nq);
     for centre in half..order.len().saturating_sub(half) {
         let idx = &order[centre - half..=centre + half];
         let w0 = samples[order[centre]].omega;
@@ -51,31 +82,10 @@ pub fn relative_noise_level(samples: &[Sample]) -> Option<f64> {
             .iter()
             .map(|&i| (samples[i].omega - w0) / span)
             .collect();
-        let Some((coef_of, h)) = centre_smoother(&x, half) else {
-            continue;
-        };
-        for c in 0..nq {
-            let qc = samples[order[centre]].q[c];
-            let mag2 = qc.norm_sqr();
-            if mag2.is_nan() || mag2 <= 0.0 || h >= 1.0 {
-                continue;
-            }
-            let fit: num_complex::Complex64 = idx
-                .iter()
-                .zip(&coef_of)
-                .map(|(&i, &l)| samples[i].q[c] * l)
-                .sum();
-            let e = qc - fit;
-            ratios.push(e.norm_sqr() / ((1.0 - h) * mag2));
+        if let Some((coef_of, h)) = centre_smoother(&x, half) {
+            f(idx, &coef_of, h);
         }
     }
-    if ratios.is_empty() {
-        return None;
-    }
-    let mid = ratios.len() / 2;
-    let (_, median, _) = ratios.select_nth_unstable_by(mid, f64::total_cmp);
-    let s2 = *median / core::f64::consts::LN_2;
-    s2.is_finite().then_some(s2.sqrt())
 }
 
 /// The weights `l` with `fit(centre) = sum_i l_i y_i` of a least-squares
@@ -495,26 +505,11 @@ pub fn local_points(samples: &[Sample], floor: &[f64]) -> Vec<VariancePoint> {
     let Some(nq) = samples.first().map(|s| s.q.len()) else {
         return Vec::new();
     };
-    let mut order: Vec<usize> = (0..samples.len()).collect();
-    order.sort_by(|&i, &j| samples[i].omega.total_cmp(&samples[j].omega));
     let half = WINDOW / 2;
     let mut out = Vec::with_capacity(samples.len() * nq);
-    for centre in half..order.len().saturating_sub(half) {
-        let idx = &order[centre - half..=centre + half];
-        let w0 = samples[order[centre]].omega;
-        let span = samples[idx[WINDOW - 1]].omega - samples[idx[0]].omega;
-        if span.is_nan() || span <= 0.0 {
-            continue;
-        }
-        let x: Vec<f64> = idx
-            .iter()
-            .map(|&i| (samples[i].omega - w0) / span)
-            .collect();
-        let Some((coef_of, h)) = centre_smoother(&x, half) else {
-            continue;
-        };
+    for_each_window(samples, |idx, coef_of, h| {
         if h >= 1.0 {
-            continue;
+            return;
         }
         let d: Vec<f64> = coef_of
             .iter()
@@ -524,7 +519,7 @@ pub fn local_points(samples: &[Sample], floor: &[f64]) -> Vec<VariancePoint> {
         for c in 0..nq {
             let fit: num_complex::Complex64 = idx
                 .iter()
-                .zip(&coef_of)
+                .zip(coef_of)
                 .map(|(&i, &l)| samples[i].q[c] * l)
                 .sum();
             let f = floor.get(c).copied().unwrap_or(0.0);
@@ -543,7 +538,7 @@ pub fn local_points(samples: &[Sample], floor: &[f64]) -> Vec<VariancePoint> {
                     b: d.iter().zip(&q2).map(|(di, v)| di * di / v).sum(),
                 }
             } else {
-                let e = samples[order[centre]].q[c] - fit;
+                let e = samples[idx[half]].q[c] - fit;
                 VariancePoint {
                     channel: c,
                     x: e.norm_sqr(),
@@ -555,7 +550,7 @@ pub fn local_points(samples: &[Sample], floor: &[f64]) -> Vec<VariancePoint> {
                 out.push(p);
             }
         }
-    }
+    });
     out
 }
 

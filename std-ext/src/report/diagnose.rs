@@ -140,8 +140,20 @@ fn what(effect: Effect) -> &'static str {
     }
 }
 
-/// Per speed, the RMS over channels of the weighted residual of `pred`.
-fn residual_by_speed(samples: &[Sample], pred: &[Vec<num_complex::Complex64>]) -> Vec<f64> {
+/// Per speed, the RMS over channels of the weighted residual of `pred`,
+/// with the fits' weights (`max(|y|, floor)`, or with a probe noise floor
+/// `sqrt(|y|^2 + (f_c / s)^2)`, [`crate::diagnose::fit::FitData::with_floors`]).
+fn residual_by_speed(
+    d: &Diagnosis,
+    samples: &[Sample],
+    pred: &[Vec<num_complex::Complex64>],
+) -> Vec<f64> {
+    let phi: Vec<f64> = d
+        .noise
+        .as_ref()
+        .filter(|m| m.has_floor())
+        .map(|m| m.relative_floor())
+        .unwrap_or_default();
     let nq = samples.first().map_or(0, |s| s.q.len());
     let floor: Vec<f64> = (0..nq)
         .map(|c| {
@@ -155,7 +167,13 @@ fn residual_by_speed(samples: &[Sample], pred: &[Vec<num_complex::Complex64>]) -
         .zip(pred)
         .map(|(s, y)| {
             let v: f64 = (0..nq)
-                .map(|c| (s.q[c] - y[c]).norm_sqr() / s.q[c].norm().max(floor[c]).powi(2))
+                .map(|c| {
+                    let w = match phi.get(c) {
+                        Some(&p) if p > 0.0 => s.q[c].norm().hypot(p),
+                        _ => s.q[c].norm().max(floor[c]),
+                    };
+                    (s.q[c] - y[c]).norm_sqr() / (w * w)
+                })
                 .sum::<f64>()
                 / nq.max(1) as f64;
             v.sqrt()
@@ -225,7 +243,7 @@ pub fn text(
         );
     }
     if let Some(n) = noise {
-        let res = residual_by_speed(samples, nominal_pred);
+        let res = residual_by_speed(d, samples, nominal_pred);
         let bands = misfit_bands(samples, &res, n);
         if bands.is_empty() {
             let _ = writeln!(
@@ -384,8 +402,8 @@ pub fn write_plots(
 ) -> Result<Vec<PathBuf>, PlotError> {
     let rpm: Vec<f64> = samples.iter().map(|s| rad_s_to_rpm(s.omega)).collect();
     let mut files = Vec::new();
-    let rn = residual_by_speed(samples, nominal);
-    let re = residual_by_speed(samples, extended);
+    let rn = residual_by_speed(d, samples, nominal);
+    let re = residual_by_speed(d, samples, extended);
     let mut series = vec![
         Series::line("nominal model", rpm.clone(), rn).color((214, 39, 40)),
         Series::line(format!("extended ({})", d.effect.name()), rpm.clone(), re)
