@@ -47,7 +47,19 @@
 //! implementation, the `levenberg-marquardt` crate (a MINPACK port), builds
 //! on nalgebra 0.34 while rotorid uses 0.35, and it factors the full
 //! Jacobian at every step; the iteration here is short and checked against
-//! the known optimum in the tests.
+//! the known optimum in the tests. It stops when the next step would move
+//! the estimate by less than a thousandth of its standard deviation.
+//!
+//! # Probe noise: refinement without predictions
+//!
+//! Under the probe noise model (`E|e|^2 = f_c^2 + s^2 |q|^2`, SPEC
+//! section 7) the weights depend on the variance parameters, which are
+//! refitted from the residuals between polishes (the first time at the
+//! instrumental-variable estimate). The passes keep their weighted rows
+//! `[X y]`: the leverages of the residuals are a product of them with
+//! `L^-T` (`N = L L^T`), and the normal equations under the new weights
+//! at the same `theta` a product of the rows rescaled by `w / w_new`, so a
+//! refinement costs no prediction.
 //!
 //! # Uncertainty
 //!
@@ -159,6 +171,7 @@ pub struct OutputErrorFit {
 }
 
 /// Accumulated normal equations of one pass at fixed weights.
+#[derive(Clone)]
 struct Pass {
     /// `Re(J^H J)`.
     normal: DMatrix<f64>,
@@ -166,6 +179,21 @@ struct Pass {
     gradient: DVector<f64>,
     /// `S`.
     cost: f64,
+    /// `|q_meas - q|` of every sample at `n * nq + c` (m).
+    error: Vec<f64>,
+    /// `|q|`, the predicted reading, at `n * nq + c` (m).
+    read: Vec<f64>,
+    /// The weighted rows `[X y]` when the data keep them
+    /// ([`Data::keep_rows`]), in order of samples.
+    rows: Vec<Block>,
+}
+
+/// The weighted rows `[X y]` of a block of speeds, `k x (na + 1)`,
+/// column-major: real rows `2 i` and `2 i + 1` of the block's sample `i`.
+#[derive(Clone)]
+struct Block {
+    k: usize,
+    x: Vec<f64>,
 }
 
 /// The parameters' entries at every sample's speed.
@@ -271,6 +299,12 @@ struct Data<'a> {
     entries: Vec<Vec<Entry>>,
     weighting: Weighting,
     runout_scale: Vec<f64>,
+    /// Passes with the Jacobian keep their weighted rows (for the
+    /// leverages and a reweighting without predictions).
+    keep_rows: bool,
+    /// The instrumental-variable passes solve for the runout too (else
+    /// they hold it).
+    iv_runout: bool,
 }
 
 impl<'a> Data<'a> {
@@ -292,6 +326,8 @@ impl<'a> Data<'a> {
             entries: speed_entries(pr, samples),
             weighting,
             runout_scale: Vec::new(),
+            keep_rows: false,
+            iv_runout: true,
         }
     }
 
@@ -393,6 +429,8 @@ struct Rows {
     y: Vec<Complex64>,
     /// `Z^T [X y]`, `lw x rw` (the first `np x (np + 1)` wanted).
     out: DMatrix<f64>,
+    /// The blocks of `[X y]` kept, if asked for.
+    store: Option<Vec<Block>>,
 }
 
 /// Multiple to which [`Rows`] pads its columns (the tile of the widest
@@ -419,6 +457,7 @@ impl Rows {
             },
             y: vec![Complex64::new(0.0, 0.0); nq * (nq + npl)],
             out: DMatrix::zeros(lw, rw),
+            store: None,
         }
     }
 
@@ -471,12 +510,20 @@ impl Rows {
     /// = scale_c`, `/ d Im r_c = j scale_c`, each over `w_c`.
     fn runout_columns(&mut self, np0: usize, scale: &[f64], w: &[f64]) {
         let (cap, row0, nq) = (self.cap, self.filled, self.nq);
+        let with_z = !self.z.is_empty();
         for (c, sc) in scale.iter().enumerate() {
             for part in 0..2 {
                 let i = np0 + 2 * c + part;
                 let out = &mut self.x[i * cap + row0..i * cap + row0 + 2 * nq];
                 out.fill(0.0);
                 out[2 * c + part] = sc / w[c];
+                // Their instruments are the same columns: the readings are
+                // linear in the runout.
+                if with_z {
+                    let z = &mut self.z[i * cap + row0..i * cap + row0 + 2 * nq];
+                    z.fill(0.0);
+                    z[2 * c + part] = sc / w[c];
+                }
             }
         }
     }
@@ -509,14 +556,25 @@ impl Rows {
         let zt = DMatrixView::from_slice_with_strides(left, self.lw, k, cap, 1);
         let xy = DMatrixView::from_slice_with_strides(&self.x, k, self.rw, 1, cap);
         self.out.gemm(1.0, &zt, &xy, 1.0);
+        if let Some(store) = self.store.as_mut() {
+            let mut x = Vec::with_capacity(k * (self.np + 1));
+            for j in 0..=self.np {
+                x.extend_from_slice(&self.x[j * cap..j * cap + k]);
+            }
+            store.push(Block { k, x });
+        }
         self.filled = 0;
     }
 
-    /// `Z^T [X y]` over every speed (`np x (np + 1)`).
-    fn finish(mut self) -> DMatrix<f64> {
+    /// `Z^T [X y]` over every speed (`np x (np + 1)`), and the blocks
+    /// kept.
+    fn finish(mut self) -> (DMatrix<f64>, Vec<Block>) {
         self.flush();
         debug_assert_eq!(self.y.len(), self.nq * (self.nq + self.npl));
-        self.out.view((0, 0), (self.np, self.np + 1)).into_owned()
+        (
+            self.out.view((0, 0), (self.np, self.np + 1)).into_owned(),
+            self.store.unwrap_or_default(),
+        )
     }
 }
 
@@ -545,11 +603,19 @@ fn pass(
     }
     let runout = data.runout(theta);
     let mut solve = Solve::new(nq, npl);
-    let mut rows = jacobian.then(|| Rows::new(nq, npl, na, false));
+    let mut rows = jacobian.then(|| {
+        let mut r = Rows::new(nq, npl, na, false);
+        if data.keep_rows {
+            r.store = Some(Vec::new());
+        }
+        r
+    });
     let mut r = vec![Complex64::new(0.0, 0.0); nq];
     let mut read = vec![Complex64::new(0.0, 0.0); nq];
     let mut cost = 0.0;
     let mut used = Vec::with_capacity(data.samples.len() * nq);
+    let mut error = Vec::with_capacity(data.samples.len() * nq);
+    let mut read_abs = Vec::with_capacity(data.samples.len() * nq);
     let it = data.samples.iter().zip(data.terms).zip(&data.entries);
     for (n, ((s, t), en)) in it.enumerate() {
         solve.run(s.omega, t, en, &theta[..np])?;
@@ -572,6 +638,8 @@ fn pass(
             let ec = s.q[c] - read[c];
             cost += ec.norm_sqr() * d2;
             *rc = ec / wn[c];
+            error.push(ec.norm());
+            read_abs.push(read[c].norm());
         }
         if let Some(rows) = rows.as_mut() {
             rows.set_speed(&solve.h_inv, t.1.as_slice(), wn);
@@ -581,9 +649,11 @@ fn pass(
             rows.advance();
         }
     }
+    let mut kept = Vec::new();
     let (normal, gradient) = match rows {
         Some(rows) => {
-            let out = rows.finish();
+            let (out, blocks) = rows.finish();
+            kept = blocks;
             let mut normal = out.columns(0, na).into_owned();
             for i in 0..na {
                 for k in 0..i {
@@ -599,6 +669,9 @@ fn pass(
             normal,
             gradient,
             cost,
+            error,
+            read: read_abs,
+            rows: kept,
         },
         used,
     ))
@@ -607,22 +680,41 @@ fn pass(
 /// The equations of one refined-instrumental-variable pass at `theta`
 /// (see the module documentation), `Re(Z^H X) theta' = Re(Z^H y_0)` with
 /// the weighted instruments `Z` and regressors `X` of [`Rows`] and
-/// `y_0 = D H^-1 A q_meas` (`np x (np + 1)`: `[Re(Z^H X), Re(Z^H y_0)]`),
+/// `y_0 = D H^-1 A q_meas` (`na x (na + 1)`: `[Re(Z^H X), Re(Z^H y_0)]`),
 /// and `S` at `theta` with the weights of this prediction (the same
 /// number as [`Data::reweighted`]'s: the pass that checks one step's
 /// result sets up the next step).
+///
+/// With a runout `r` per channel the shaft's motion is `q_meas - r`, and
+/// the equation error, filtered as above, is linearised in `r` about the
+/// previous runout `r_0` (`H(theta_prev)^-1 H(theta) ~ 1` on it):
+///
+/// ```text
+///     r(theta, r) = D H^-1 (H(theta) (q_meas - r_0) - B a(theta)) - D (r - r_0),
+/// ```
+///
+/// linear in both, equal to the weighted output error at
+/// `(theta_prev, r_0)`; the runout's columns are `D` times its scale, the
+/// same in `Z` and `X` (the readings are linear in it), and `y_0` gains
+/// `D r_0`. A fixed point is a stationary point of the output error.
 fn iv_system(data: &Data<'_>, theta: &[f64]) -> Result<(f64, DMatrix<f64>), PredictError> {
     let pr = data.pr;
     let np = pr.n_params();
+    let na = data.n_all();
     let (nq, npl) = (2 * pr.param.n_bearings(), pr.param.n_planes());
-    if theta.len() != data.n_all() {
+    if theta.len() != na {
         return Err(PredictError::Dimension);
     }
-    // The runout is held: the shaft's motion is the reading less it.
+    // The shaft's motion is the reading less the runout.
     let runout = data.runout(theta);
+    let (unknowns, scale) = if data.iv_runout {
+        (na, data.runout_scale.as_slice())
+    } else {
+        (np, &[][..])
+    };
     let mut cost = 0.0;
     let mut solve = Solve::new(nq, npl);
-    let mut rows = Rows::new(nq, npl, np, true);
+    let mut rows = Rows::new(nq, npl, unknowns, true);
     let zero = Complex64::new(0.0, 0.0);
     let (mut w, mut aq, mut y0) = (vec![0.0; nq], vec![zero; nq], vec![zero; nq]);
     let mut shaft = vec![zero; nq];
@@ -658,13 +750,18 @@ fn iv_system(data: &Data<'_>, theta: &[f64]) -> Result<(f64, DMatrix<f64>), Pred
                 *o += hic * ac;
             }
         }
-        for (yc, wc) in y0.iter_mut().zip(&w) {
-            *yc /= wc;
+        for (c, (yc, wc)) in y0.iter_mut().zip(&w).enumerate() {
+            let r0 = match data.iv_runout {
+                true => runout.get(c).copied().unwrap_or_default(),
+                false => zero,
+            };
+            *yc = (*yc + r0) / wc;
         }
+        rows.runout_columns(np, scale, &w);
         rows.extra(&y0);
         rows.advance();
     }
-    Ok((cost, rows.finish()))
+    Ok((cost, rows.finish().0))
 }
 
 /// The solution of [`iv_system`]'s equations.
@@ -683,38 +780,90 @@ fn solve_iv(out: DMatrix<f64>) -> Result<Vec<f64>, OutputErrorError> {
     }
 }
 
-/// Levenberg-Marquardt at fixed weights; returns the new `theta`, the
-/// iterations and whether the tolerance was met.
+/// A step shorter than this many standard deviations of the estimate ends
+/// the polish: nothing a further step changes is visible in the result.
+const STEP_STDS: f64 = 1e-3;
+
+/// Within this many standard deviations of the quadratic model's optimum
+/// the polish takes the undamped Gauss-Newton step (quadratic convergence
+/// where the model is exact to far below the noise); farther, the damped
+/// one, which keeps a model that cannot fit from running off.
+const NEAR_STDS: f64 = 0.1;
+
+/// What a Levenberg-Marquardt polish returns: the new `theta`, the
+/// iterations, whether the tolerance was met, and the pass at `theta`
+/// (its normal equations) when the polish formed it.
+type Polished = (Vec<f64>, usize, bool, Option<Pass>);
+
+/// Levenberg-Marquardt at fixed weights.
+///
+/// It ends when `S` or the scaled step change by less than the tolerance,
+/// or when the next step (undamped) would move the estimate by less than
+/// [`STEP_STDS`] standard deviations: then without trying it.
 fn levenberg_marquardt(
     data: &Data<'_>,
     w: &[f64],
     start: (Vec<f64>, Pass),
     opts: &OutputErrorOptions,
-) -> Result<(Vec<f64>, usize, bool), OutputErrorError> {
+) -> Result<Polished, OutputErrorError> {
     let np = data.n_all();
     let (mut theta, mut cur) = start;
     let n = data.n_counted();
     if cur.cost <= PERFECT * n as f64 {
-        return Ok((theta, 0, true));
+        return Ok((theta, 0, true, Some(cur)));
     }
     let max_diag = (0..np).map(|i| cur.normal[(i, i)]).fold(0.0, f64::max);
     if max_diag.is_nan() || max_diag <= 0.0 {
         return Err(OutputErrorError::Singular);
     }
+    // Marquardt's scaling, `mu diag(N)`, with `mu` starting at `1e-6`
+    // times the largest diagonal element: a strong damping at first, which
+    // keeps a model that cannot fit the data from running off to a
+    // degenerate optimum.
     let mut mu = 1e-6 * max_diag;
     let mut nu = 2.0;
+    // Undamped steps are tried near the optimum until one fails.
+    let mut undamped = true;
     for it in 1..=opts.max_iterations {
-        // (N + mu D) delta = -G with D = diag(N) (floored).
-        let mut lhs = cur.normal.clone();
-        for i in 0..np {
-            lhs[(i, i)] += mu * cur.normal[(i, i)].max(1e-12 * max_diag);
+        // The Gauss-Newton step `N delta = -G` and its length in standard
+        // deviations: `delta^T N delta` over the variance of a real part,
+        // `S / (2 n)`.
+        let variance = cur.cost / (2 * n) as f64;
+        let gauss_newton = cur
+            .normal
+            .clone()
+            .cholesky()
+            .map(|ch| ch.solve(&(-&cur.gradient)))
+            .filter(|d| d.iter().all(|x| x.is_finite()));
+        // (None where `N` is numerically indefinite: a step of negative
+        // length says nothing.)
+        let dist2 = gauss_newton
+            .as_ref()
+            .map(|d| -cur.gradient.dot(d) / variance.max(f64::MIN_POSITIVE))
+            .filter(|d2| *d2 >= 0.0);
+        if dist2.is_some_and(|d2| d2 < STEP_STDS * STEP_STDS) {
+            return Ok((theta, it - 1, true, Some(cur)));
         }
-        let Some(chol) = lhs.cholesky() else {
-            mu *= nu;
-            nu *= 2.0;
-            continue;
+        let near = undamped && dist2.is_some_and(|d2| d2 < NEAR_STDS * NEAR_STDS);
+        let delta = match gauss_newton.filter(|_| near) {
+            Some(d) => d,
+            None => {
+                // (N + mu D) delta = -G with D = diag(N) (floored).
+                let mut lhs = cur.normal.clone();
+                for i in 0..np {
+                    lhs[(i, i)] += mu * cur.normal[(i, i)].max(1e-12 * max_diag);
+                }
+                let Some(chol) = lhs.cholesky() else {
+                    mu *= nu;
+                    nu *= 2.0;
+                    continue;
+                };
+                chol.solve(&(-&cur.gradient))
+            }
         };
-        let delta = chol.solve(&(-&cur.gradient));
+        // Predicted reduction of S/2: -G.delta - delta.N.delta/2.
+        let nd = &cur.normal * &delta;
+        let predicted = -cur.gradient.dot(&delta) - 0.5 * delta.dot(&nd);
         let trial: Vec<f64> = theta.iter().zip(delta.iter()).map(|(t, d)| t + d).collect();
         // The trial's cost decides; its normal equations are formed only
         // when the iteration goes on from it.
@@ -726,9 +875,6 @@ fn levenberg_marquardt(
                 continue;
             }
         };
-        // Predicted reduction of S/2: -G.delta - delta.N.delta/2.
-        let nd = &cur.normal * &delta;
-        let predicted = -cur.gradient.dot(&delta) - 0.5 * delta.dot(&nd);
         let actual = 0.5 * (cur.cost - next);
         let rho = if predicted > 0.0 {
             actual / predicted
@@ -740,20 +886,26 @@ fn levenberg_marquardt(
             let rel = (cur.cost - next) / cur.cost.max(f64::MIN_POSITIVE);
             theta = trial;
             if rel < opts.tolerance || step < opts.tolerance {
-                return Ok((theta, it, true));
+                return Ok((theta, it, true, None));
             }
             cur = data.pass(WeightsFrom::Given(w), &theta, true)?.0;
             mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
             nu = 2.0;
         } else {
-            mu *= nu;
-            nu *= 2.0;
+            if near {
+                // The quadratic model failed where it was trusted: damped
+                // steps from here on.
+                undamped = false;
+            } else {
+                mu *= nu;
+                nu *= 2.0;
+            }
             if step < opts.tolerance {
-                return Ok((theta, it, true));
+                return Ok((theta, it, true, Some(cur)));
             }
         }
     }
-    Ok((theta, opts.max_iterations, false))
+    Ok((theta, opts.max_iterations, false, Some(cur)))
 }
 
 /// The output-error fit of `samples` (with their reduced `terms`, one per
@@ -825,91 +977,120 @@ const NOISE_ROUNDS: usize = 8;
 /// Rounds of outlier exclusion and refit at most.
 const OUTLIER_ROUNDS: usize = 5;
 
-/// Variance points of the residuals at `theta`, excluded samples left
-/// out. Each residual is corrected for the fit's leverage:
-/// `x = |e|^2 / (1 - h)`, `h` the mean leverage of the sample's real and
-/// imaginary rows in the weighted Jacobian (`h = x_r N^-1 x_r^T`,
-/// `N = X^T X`). The few speeds near the critical speeds carry most of the
-/// information and most of the leverage, and they are the ones that
-/// determine the relative part of the noise: without the correction their
-/// shrunken residuals would make it far too small.
-fn residual_points(data: &Data<'_>, theta: &[f64]) -> Result<Vec<VariancePoint>, PredictError> {
-    let (p, w) = data.reweighted(theta, true)?;
-    let chol = p.normal.clone().cholesky();
-    let pr = data.pr;
-    let np = pr.n_params();
+/// Variance points of a pass's residuals, excluded samples left out.
+/// Each residual is corrected for the fit's leverage: `x = |e|^2 / (1 - h)`,
+/// `h` the mean leverage of the sample's real and imaginary rows in the
+/// weighted Jacobian (`h = x_r N^-1 x_r^T`, `N = X^T X`). The few speeds
+/// near the critical speeds carry most of the information and most of the
+/// leverage, and they are the ones that determine the relative part of the
+/// noise: without the correction their shrunken residuals would make it
+/// far too small.
+///
+/// The leverages of a block of kept rows are one matrix product:
+/// `h_r = |x_r L^-T|^2` with `N = L L^T` (none if `N` is singular: no
+/// correction).
+fn residual_points(data: &Data<'_>, pass: &Pass) -> Vec<VariancePoint> {
     let na = data.n_all();
-    let (nq, npl) = (2 * pr.param.n_bearings(), pr.param.n_planes());
-    let runout = data.runout(theta);
-    let mut solve = Solve::new(nq, npl);
-    let mut rows = Rows::new(nq, npl, na, false);
-    let mut v = DVector::<f64>::zeros(na);
-    let mut out = Vec::with_capacity(data.samples.len() * nq);
-    let it = data.samples.iter().zip(data.terms).zip(&data.entries);
-    for (n, ((s, t), en)) in it.enumerate() {
-        solve.run(s.omega, t, en, &theta[..np])?;
-        let wn = &w[n * nq..(n + 1) * nq];
-        if chol.is_some() {
-            rows.set_speed(&solve.h_inv, t.1.as_slice(), wn);
-            rows.columns(false, en, &solve.q);
-            rows.runout_columns(np, &data.runout_scale, wn);
-        }
-        for c in 0..nq {
-            if data.weighting.is_excluded(n * nq + c) {
-                continue;
-            }
-            // The sample's leverage: the mean over its real and imaginary
-            // rows x_r of x_r N^-1 x_r^T = |L^-1 x_r|^2 (N = L L^T).
-            let mut h = 0.0;
-            if let Some(ch) = &chol {
-                let l = ch.l_dirty();
-                for part in 0..2 {
-                    let k = 2 * c + part;
-                    for i in 0..na {
-                        let mut acc = rows.x[i * rows.cap + k];
-                        for j in 0..i {
-                            acc -= l[(i, j)] * v[j];
-                        }
-                        v[i] = acc / l[(i, i)];
-                    }
-                    h += 0.5 * v.norm_squared();
-                }
-            }
-            let read = solve.q[c] + runout.get(c).copied().unwrap_or_default();
-            out.push(VariancePoint::residual(
-                c,
-                (s.q[c] - read).norm_sqr(),
-                read.norm_sqr(),
-                1.0 / (1.0 - h).max(1e-3),
-            ));
+    let nq = data.samples.first().map_or(0, |s| s.q.len());
+    let l_inv_t = pass.normal.clone().cholesky().and_then(|ch| {
+        ch.l()
+            .solve_lower_triangular(&DMatrix::identity(na, na))
+            .map(|m| m.transpose())
+    });
+    let mut h = Vec::with_capacity(2 * pass.error.len());
+    if let Some(lt) = &l_inv_t {
+        for b in &pass.rows {
+            let x = DMatrixView::from_slice(&b.x, b.k, na + 1);
+            let v = x.columns(0, na) * lt;
+            h.extend(v.row_iter().map(|r| r.norm_squared()));
         }
     }
-    Ok(out)
+    (0..pass.error.len())
+        .filter(|i| !data.weighting.is_excluded(*i))
+        .map(|i| {
+            // Mean of the real and imaginary rows' leverages.
+            let hi = match (h.get(2 * i), h.get(2 * i + 1)) {
+                (Some(a), Some(b)) => 0.5 * (a + b),
+                _ => 0.0,
+            };
+            VariancePoint::residual(
+                i % nq,
+                pass.error[i] * pass.error[i],
+                pass.read[i] * pass.read[i],
+                1.0 / (1.0 - hi).max(1e-3),
+            )
+        })
+        .collect()
 }
 
-/// Standardised residuals `|e| / (w s_0)` at `theta` with the pass's
-/// weights `w`, `s_0` a robust scale (`median(|e|^2 / w^2) / ln 2`), at
-/// `n * nq + c`; excluded samples 0.
-fn standardised(data: &Data<'_>, theta: &[f64], w: &[f64]) -> Result<Vec<f64>, PredictError> {
-    let pr = data.pr;
-    let np = pr.n_params();
-    let (nq, npl) = (2 * pr.param.n_bearings(), pr.param.n_planes());
-    let runout = data.runout(theta);
-    let mut solve = Solve::new(nq, npl);
-    let mut z = Vec::with_capacity(w.len());
-    let it = data.samples.iter().zip(data.terms).zip(&data.entries);
-    for (k, ((s, t), en)) in it.enumerate() {
-        solve.run(s.omega, t, en, &theta[..np])?;
-        for c in 0..nq {
-            let read = solve.q[c] + runout.get(c).copied().unwrap_or_default();
-            let wk = w[k * nq + c];
-            z.push(if wk.is_finite() {
-                (s.q[c] - read).norm() / wk
+/// The pass `pass` (at some `theta`, with weights `w`) under the weights
+/// `w_new` at the same `theta`: the weighted rows and residual of sample
+/// `i` are linear in `1 / w_i`, so each of its kept rows scales by
+/// `w_i / w_new_i` and the normal equations are one product of the kept
+/// rows, no prediction.
+fn reweigh(pass: Pass, w: &[f64], w_new: &[f64], na: usize) -> Pass {
+    let ratio: Vec<f64> = w
+        .iter()
+        .zip(w_new)
+        .map(|(a, b)| {
+            if a.is_finite() && b.is_finite() {
+                a / b
             } else {
                 0.0
-            });
+            }
+        })
+        .collect();
+    let mut out = DMatrix::<f64>::zeros(na + 1, na + 1);
+    let mut rows = pass.rows;
+    let mut g0 = 0;
+    for b in &mut rows {
+        let k = b.k;
+        // Rows 2 i and 2 i + 1 belong to sample i.
+        let ratio_b = ratio.get(g0 / 2..).unwrap_or_default();
+        for col in b.x.chunks_exact_mut(k) {
+            for (pair, r) in col.chunks_exact_mut(2).zip(ratio_b) {
+                pair[0] *= r;
+                pair[1] *= r;
+            }
         }
+        // [X y]^T [X y] with the transpose as a strided view (one
+        // matrix-multiply kernel call).
+        let xt = DMatrixView::from_slice_with_strides(&b.x, na + 1, k, k, 1);
+        let xv = DMatrixView::from_slice(&b.x, k, na + 1);
+        out.gemm(1.0, &xt, &xv, 1.0);
+        g0 += k;
     }
+    let cost = pass
+        .error
+        .iter()
+        .zip(w_new)
+        .map(|(e, wn)| {
+            if wn.is_finite() {
+                (e / wn).powi(2)
+            } else {
+                0.0
+            }
+        })
+        .sum();
+    Pass {
+        normal: out.view((0, 0), (na, na)).into_owned(),
+        gradient: -out.view((0, na), (na, 1)).column(0).into_owned(),
+        cost,
+        error: pass.error,
+        read: pass.read,
+        rows,
+    }
+}
+
+/// Standardised residuals `|e| / (w s_0)` from a pass's `|e|` and
+/// weights `w` (excluded samples 0), `s_0` a robust scale
+/// (`median(|e|^2 / w^2) / ln 2`) over the samples that count.
+fn standardised(data: &Data<'_>, error: &[f64], w: &[f64]) -> Vec<f64> {
+    let mut z: Vec<f64> = error
+        .iter()
+        .zip(w)
+        .map(|(e, wk)| if wk.is_finite() { e / wk } else { 0.0 })
+        .collect();
     let mut sq: Vec<f64> = z
         .iter()
         .enumerate()
@@ -917,7 +1098,7 @@ fn standardised(data: &Data<'_>, theta: &[f64], w: &[f64]) -> Result<Vec<f64>, P
         .map(|(_, x)| x * x)
         .collect();
     if sq.is_empty() {
-        return Ok(z);
+        return z;
     }
     let mid = sq.len() / 2;
     let (_, med, _) = sq.select_nth_unstable_by(mid, f64::total_cmp);
@@ -927,13 +1108,19 @@ fn standardised(data: &Data<'_>, theta: &[f64], w: &[f64]) -> Result<Vec<f64>, P
             *x /= s0;
         }
     }
-    Ok(z)
+    z
 }
 
 /// The output-error fit of `samples` (with their reduced `terms`, one per
 /// sample) from the start `start` (scaled weights, e.g. the QRD/RLS
 /// estimate), with the noise treatment `noise` (see the module
 /// documentation and [`FitNoise`]).
+///
+/// With a runout fitted, the instrumental-variable passes solve for it
+/// with the model; where that start leads to singular normal equations
+/// (a model that cannot fit the data, whose runout and model parameters
+/// then trade off), the fit is repeated with the runout held at its start
+/// during those passes.
 pub fn fit_output_error_with(
     pr: &Predictor,
     samples: &[Sample],
@@ -941,6 +1128,25 @@ pub fn fit_output_error_with(
     start: &[Complex64],
     opts: &OutputErrorOptions,
     noise: &FitNoise,
+) -> Result<OutputErrorFit, OutputErrorError> {
+    match fit_from(pr, samples, terms, start, opts, noise, true) {
+        Err(OutputErrorError::Singular) if noise.runout.is_some() && opts.iv_passes > 0 => {
+            fit_from(pr, samples, terms, start, opts, noise, false)
+        }
+        r => r,
+    }
+}
+
+/// [`fit_output_error_with`], the runout solved for (`iv_runout`) or held
+/// in the instrumental-variable passes.
+fn fit_from(
+    pr: &Predictor,
+    samples: &[Sample],
+    terms: &[Terms],
+    start: &[Complex64],
+    opts: &OutputErrorOptions,
+    noise: &FitNoise,
+    iv_runout: bool,
 ) -> Result<OutputErrorFit, OutputErrorError> {
     let nq = 2 * pr.param.n_bearings();
     if samples.len() != terms.len() || samples.iter().any(|s| s.q.len() != nq) {
@@ -959,6 +1165,7 @@ pub fn fit_output_error_with(
         (None, None) => Weighting::proportional(samples, opts.floor),
     };
     let mut data = Data::weighted(pr, samples, terms, weighting);
+    data.iv_runout = iv_runout;
     let mut theta = pr.theta(start);
     if let Some(r0) = &noise.runout {
         if r0.len() != nq {
@@ -993,6 +1200,8 @@ pub fn fit_output_error_with(
         && model.as_ref().is_some_and(|m| {
             m.has_floor() || m.source == NoiseSource::Given || noise.runout.is_some()
         });
+    // Refinements read the leverages from, and reweigh, the kept rows.
+    data.keep_rows = refine;
     // A pass keeps its result only if it explains the data better: on data
     // the start already fits to round-off, the instrumental-variable
     // equations (whose conditioning is that of the normal equations) must
@@ -1009,18 +1218,17 @@ pub fn fit_output_error_with(
         (data.reweighted(&theta, false)?.0.cost, None)
     };
     let mut fresh = None;
-    let with_runout = |t: Vec<f64>, theta: &[f64]| -> Vec<f64> {
-        let mut t = t;
-        t.extend_from_slice(&theta[np..]);
-        t
-    };
     for k in 0..opts.iv_passes {
         if cost <= PERFECT * n_all as f64 {
             break;
         }
         let Some(sys) = system.take() else { break };
         let t = match solve_iv(sys) {
-            Ok(t) => with_runout(t, &theta),
+            // Held runout parameters stay as they are.
+            Ok(mut t) => {
+                t.extend_from_slice(&theta[t.len()..]);
+                t
+            }
             Err(OutputErrorError::Predict(_)) | Err(OutputErrorError::Singular) => break,
             Err(e) => return Err(e),
         };
@@ -1050,30 +1258,45 @@ pub fn fit_output_error_with(
     let max_out = (MAX_OUTLIER_FRACTION * n_all as f64).floor() as usize;
     let mut too_many = false;
     let mut settled = false;
-    for round in 0..OUTLIER_ROUNDS {
+    // The pass at `theta` and its weights, when at hand (the
+    // instrumental-variable stage's or the last polish's), and whether its
+    // weights are the prediction's at `theta` (a reweighting).
+    let mut at: Option<(Pass, Vec<f64>)> = fresh;
+    let mut reweighted = at.is_some();
+    for _ in 0..OUTLIER_ROUNDS {
         // Reweightings; with the noise model refined, until its floors in
-        // relative units settle (the weights depend on them).
+        // relative units settle (the weights depend on them). The first
+        // refinement is at the instrumental-variable estimate, before any
+        // polish (consistent: as good a place to read the noise as the
+        // optimum).
         let mut k = 0;
         loop {
             let mut changed = 0.0f64;
-            if refine && (k > 0 || round > 0) {
+            if refine {
                 if let Some(m) = model.as_mut() {
                     let before = m.relative_floor();
-                    refine_noise(&data, &theta, m)?;
-                    data.weighting.set_noise(m);
-                    fresh = None;
+                    let cur = match at.take() {
+                        Some(a) => a,
+                        None => data.reweighted(&theta, true)?,
+                    };
+                    at = Some(refine_noise(&mut data, &theta, cur, m)?);
+                    reweighted = true;
                     for (a, b) in before.iter().zip(m.relative_floor()) {
                         let d = (a - b).abs() / a.max(b).max(f64::MIN_POSITIVE);
                         changed = changed.max(d);
                     }
                 }
             }
-            let (cur, w) = match fresh.take() {
-                Some(f) => f,
-                None => data.reweighted(&theta, true)?,
+            let (cur, w) = match at.take() {
+                Some(a) if reweighted => a,
+                _ => data.reweighted(&theta, true)?,
             };
-            let (t, it, ok) = levenberg_marquardt(&data, &w, (theta, cur), opts)?;
+            let start_theta = theta.clone();
+            let (t, it, ok, p) = levenberg_marquardt(&data, &w, (theta, cur), opts)?;
             theta = t;
+            // Unmoved, the polish's pass is the prediction's at `theta`.
+            reweighted = p.is_some() && theta == start_theta;
+            at = p.map(|p| (p, w));
             iterations += it;
             converged = ok;
             k += 1;
@@ -1088,8 +1311,15 @@ pub fn fit_output_error_with(
         if !noise.outliers || too_many {
             break;
         }
-        let (_, w) = data.reweighted(&theta, false)?;
-        let z = standardised(&data, &theta, &w)?;
+        // The pass that looks for outliers is the final one if it finds
+        // none.
+        let (p, w) = match at.take() {
+            Some(a) if reweighted => a,
+            _ => data.reweighted(&theta, true)?,
+        };
+        let z = standardised(&data, &p.error, &w);
+        at = Some((p, w));
+        reweighted = true;
         let limit = (data.n_counted().max(1) as f64 / OUTLIER_FALSE_ALARM)
             .ln()
             .sqrt();
@@ -1123,16 +1353,24 @@ pub fn fit_output_error_with(
                 sigmas: x,
             });
         }
+        at = None;
     }
     if refine && !settled {
         if let Some(m) = model.as_mut() {
-            refine_noise(&data, &theta, m)?;
-            data.weighting.set_noise(m);
+            let cur = match at.take() {
+                Some(a) => a,
+                None => data.reweighted(&theta, true)?,
+            };
+            at = Some(refine_noise(&mut data, &theta, cur, m)?);
+            reweighted = true;
         }
     }
     outliers.sort_by_key(|o| (o.sample, o.channel));
     let n = data.n_counted();
-    let (fin, _) = data.reweighted(&theta, true)?;
+    let fin = match at {
+        Some((p, _)) if reweighted => p,
+        _ => data.reweighted(&theta, true)?.0,
+    };
     let dof = n as f64 - na as f64 / 2.0;
     let residual_noise = (fin.cost / dof).sqrt();
     let inv = fin
@@ -1169,16 +1407,20 @@ pub fn fit_output_error_with(
     });
     let chi2_per_dof = match &reference {
         Some(r) if r.relative > 0.0 => {
-            let mut d = Data::weighted(
-                pr,
-                samples,
-                terms,
-                Weighting::of_noise(samples, opts.floor, r),
-            );
-            d.runout_scale = data.runout_scale.clone();
-            d.weighting.excluded = data.weighting.excluded.clone();
-            let (p, _) = d.reweighted(&theta, false)?;
-            Some(p.cost / dof / (r.relative * r.relative))
+            // The final pass's residuals weighted by the reference.
+            let mut wr = Weighting::of_noise(samples, opts.floor, r);
+            wr.excluded = data.weighting.excluded.clone();
+            let cost: f64 = (0..n_all)
+                .map(|i| {
+                    let w = wr.weight(i, i % nq, Complex64::new(fin.read[i], 0.0));
+                    if w.is_finite() {
+                        (fin.error[i] / w).powi(2)
+                    } else {
+                        0.0
+                    }
+                })
+                .sum();
+            Some(cost / dof / (r.relative * r.relative))
         }
         _ => None,
     };
@@ -1200,14 +1442,27 @@ pub fn fit_output_error_with(
     })
 }
 
-/// `model` refitted by maximum likelihood to the residuals at `theta`
-/// ([`crate::estimate::noise::noise_from_points`]; a given floor is held).
+/// `model` refitted by maximum likelihood to the residuals of `at` (the
+/// pass at `theta` and its weights; [`crate::estimate::noise::noise_from_points`]; a
+/// given floor is held), the data's weighting set to it, and the pass at
+/// `theta` under the new weights ([`reweigh`]).
 fn refine_noise(
-    data: &Data<'_>,
+    data: &mut Data<'_>,
     theta: &[f64],
+    at: (Pass, Vec<f64>),
     model: &mut NoiseModel,
-) -> Result<(), PredictError> {
-    let points = residual_points(data, theta)?;
+) -> Result<(Pass, Vec<f64>), PredictError> {
+    let (pass, w) = if at.0.rows.is_empty() {
+        // Rows not kept: one pass keeps them.
+        let keep = data.keep_rows;
+        data.keep_rows = true;
+        let p = data.pass(WeightsFrom::Given(&at.1), theta, true);
+        data.keep_rows = keep;
+        (p?.0, at.1)
+    } else {
+        at
+    };
+    let points = residual_points(data, &pass);
     let nq = model.floor_m.len();
     let given =
         (model.source == NoiseSource::Given).then(|| model.floor_m.first().copied().unwrap_or(0.0));
@@ -1217,7 +1472,15 @@ fn refine_noise(
             ..m
         };
     }
-    Ok(())
+    data.weighting.set_noise(model);
+    let w_new: Vec<f64> = pass
+        .read
+        .iter()
+        .enumerate()
+        .map(|(i, r)| data.weighting.weight(i, i % nq, Complex64::new(*r, 0.0)))
+        .collect();
+    let next = reweigh(pass, &w, &w_new, data.n_all());
+    Ok((next, w_new))
 }
 
 /// The Fisher information of `theta` per unit noise, `2 Re(J^H J)` with
@@ -1336,47 +1599,54 @@ mod tests {
     use rotorid_core::parametrization::Structure;
     use rotorid_core::scaling::ColumnScaling;
 
+    /// A synthetic problem: `2 BLOCK + 7` speeds (more than a block of
+    /// rows holds, the last block part-filled), readings 1-2 % off the
+    /// prediction at `theta`.
+    fn problem(st: Structure) -> (Predictor, Vec<f64>, Vec<Sample>, Vec<Terms>) {
+        let pr = Predictor::new(Parametrization {
+            structure: st,
+            scaling: ColumnScaling::new(3e7, 1500.0, 1e-3).unwrap(),
+            bearing_nodes: vec![0, 10],
+            plane_nodes: vec![3, 6, 8],
+        });
+        let theta: Vec<f64> = (0..pr.n_params())
+            .map(|i| 0.7 + 0.05 * (i % 7) as f64)
+            .collect();
+        let mut samples = Vec::new();
+        let mut terms = Vec::new();
+        for n in 1..=(2 * BLOCK + 7) {
+            let omega = 10.0 * n as f64;
+
+            let a = DMatrix::from_fn(4, 4, |i, j| {
+                Complex64::new(
+                    2e7 * ((i * 3 + j) as f64 * 0.41).cos()
+                        - 3.0 * omega * omega * (i == j) as u8 as f64,
+                    50.0 * omega * ((i + j) as f64).sin(),
+                )
+            });
+            let b = DMatrix::from_fn(4, 3, |i, k| {
+                Complex64::new(
+                    omega * omega * (0.3 + 0.1 * ((3 * i + 5 * k) as f64 * 0.7).cos()),
+                    0.05 * omega * omega,
+                )
+            });
+            let t = (a, b);
+            let q = pr.predict(omega, &t, &theta, false).unwrap().q;
+            let qm: Vec<Complex64> = q
+                .iter()
+                .enumerate()
+                .map(|(c, z)| z * Complex64::new(1.0 + 0.01 * c as f64, -0.02))
+                .collect();
+            samples.push(Sample { omega, q: qm });
+            terms.push(t);
+        }
+        (pr, theta, samples, terms)
+    }
+
     #[test]
     fn normal_equations_equal_those_of_the_jacobian() {
         for st in [Structure::physical(2), Structure::paper(1)] {
-            let pr = Predictor::new(Parametrization {
-                structure: st,
-                scaling: ColumnScaling::new(3e7, 1500.0, 1e-3).unwrap(),
-                bearing_nodes: vec![0, 10],
-                plane_nodes: vec![3, 6, 8],
-            });
-            let theta: Vec<f64> = (0..pr.n_params())
-                .map(|i| 0.7 + 0.05 * (i % 7) as f64)
-                .collect();
-            let mut samples = Vec::new();
-            let mut terms = Vec::new();
-            // More speeds than a block of rows holds, the last block part-filled.
-            for n in 1..=(2 * BLOCK + 7) {
-                let omega = 10.0 * n as f64;
-
-                let a = DMatrix::from_fn(4, 4, |i, j| {
-                    Complex64::new(
-                        2e7 * ((i * 3 + j) as f64 * 0.41).cos()
-                            - 3.0 * omega * omega * (i == j) as u8 as f64,
-                        50.0 * omega * ((i + j) as f64).sin(),
-                    )
-                });
-                let b = DMatrix::from_fn(4, 3, |i, k| {
-                    Complex64::new(
-                        omega * omega * (0.3 + 0.1 * (i + k) as f64),
-                        0.05 * omega * omega,
-                    )
-                });
-                let t = (a, b);
-                let q = pr.predict(omega, &t, &theta, false).unwrap().q;
-                let qm: Vec<Complex64> = q
-                    .iter()
-                    .enumerate()
-                    .map(|(c, z)| z * Complex64::new(1.0 + 0.01 * c as f64, -0.02))
-                    .collect();
-                samples.push(Sample { omega, q: qm });
-                terms.push(t);
-            }
+            let (pr, theta, samples, terms) = problem(st);
             let data = Data::new(&pr, &samples, &terms, 1e-6);
             let (fast, w) = pass(&data, WeightsFrom::Prediction, &theta, true).unwrap();
             // Reference: explicit Jacobian rows -J / w.
@@ -1404,5 +1674,67 @@ mod tests {
                 "{st:?}"
             );
         }
+    }
+
+    /// The kept rows reweighed to other weights give the pass under those
+    /// weights, and their leverages are the diagonal of the hat matrix
+    /// `X (X^T X)^-1 X^T` formed densely.
+    #[test]
+    fn kept_rows_reweigh_and_give_the_leverages() {
+        let (pr, theta, samples, terms) = problem(Structure::physical(1));
+        let nq = 4;
+        let n_all = samples.len() * nq;
+        let mut data = Data::new(&pr, &samples, &terms, 1e-6);
+        data.keep_rows = true;
+        let (p, w) = data.reweighted(&theta, true).unwrap();
+        // Other weights: a floor in relative units on every channel.
+        let noise = NoiseModel {
+            floor_m: vec![3e-7; nq],
+            relative: 0.01,
+            source: NoiseSource::Given,
+        };
+        data.weighting.set_noise(&noise);
+        let w_new: Vec<f64> = (0..n_all)
+            .map(|i| {
+                data.weighting
+                    .weight(i, i % nq, Complex64::new(p.read[i], 0.0))
+            })
+            .collect();
+        let (direct, w_direct) = data.reweighted(&theta, true).unwrap();
+        for (a, b) in w_new.iter().zip(&w_direct) {
+            assert!((a - b).abs() <= 1e-14 * b, "{a} {b}");
+        }
+        let rows = p.rows.clone();
+        let re = reweigh(p, &w, &w_new, pr.n_params());
+        let scale = direct.normal.amax();
+        assert!((&re.normal - &direct.normal).amax() <= 1e-12 * scale);
+        assert!((&re.gradient - &direct.gradient).amax() <= 1e-12 * direct.gradient.amax());
+        assert!((re.cost - direct.cost).abs() <= 1e-12 * direct.cost);
+        // Leverages against the dense hat matrix of the original rows.
+        let na = pr.n_params();
+        let mut x = DMatrix::<f64>::zeros(2 * n_all, na);
+        let mut r0 = 0;
+        for b in &rows {
+            let v = DMatrixView::from_slice(&b.x, b.k, na + 1);
+            x.view_mut((r0, 0), (b.k, na)).copy_from(&v.columns(0, na));
+            r0 += b.k;
+        }
+        assert_eq!(r0, 2 * n_all);
+        // Hat diagonal from a thin QR (orthogonal, unlike an inverse of
+        // the normal equations): row norms of Q.
+        let q = x.qr().q();
+        let (p2, _) = data.pass(WeightsFrom::Given(&w), &theta, true).unwrap();
+        let points = residual_points(&data, &p2);
+        assert_eq!(points.len(), n_all);
+        let mut total = 0.0;
+        for (i, pt) in points.iter().enumerate() {
+            let h = 0.5 * (q.row(2 * i).norm_squared() + q.row(2 * i + 1).norm_squared());
+            let expect = p2.error[i].powi(2) / (1.0 - h).max(1e-3);
+            assert!((pt.x - expect).abs() <= 1e-9 * expect.max(1e-300), "{i}");
+            assert_eq!(pt.b, p2.read[i].powi(2));
+            total += 2.0 * h;
+        }
+        // The leverages add up to the number of parameters.
+        assert!((total - na as f64).abs() < 1e-8 * na as f64, "{total}");
     }
 }
