@@ -108,7 +108,9 @@ pub enum IdentifyError {
     InvalidOrder,
     /// Negative speed.
     InvalidSpeed,
-    /// Guard thresholds out of range (negative or not finite).
+    /// Guard thresholds, or the prefilter's noise floor
+    /// ([`crate::prefilter::NoiseFloor`]), out of range (negative or not
+    /// finite).
     InvalidConfig,
     /// Forgetting factor outside `[MIN_LAMBDA, 1]` (see [`MIN_LAMBDA`]).
     InvalidLambda,
@@ -138,9 +140,9 @@ impl fmt::Display for IdentifyError {
             ),
             IdentifyError::InvalidOrder => f.write_str("polynomial order out of range"),
             IdentifyError::InvalidSpeed => f.write_str("speed must be >= 0"),
-            IdentifyError::InvalidConfig => {
-                f.write_str("steady-running guard thresholds must be finite and >= 0")
-            }
+            IdentifyError::InvalidConfig => f.write_str(
+                "steady-running guard thresholds and noise floors must be finite and >= 0",
+            ),
             IdentifyError::InvalidLambda => f.write_str(
                 "forgetting factor lambda must lie in [0.368, 1] (a memory of at least one update)",
             ),

@@ -22,7 +22,7 @@ pub(crate) fn g63_paper() -> RotorModel {
 }
 
 /// Relative noise of every sweep here.
-const S: f64 = 5e-3;
+pub(super) const S: f64 = 5e-3;
 
 /// How the noise is handed to the identification.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,7 +55,7 @@ fn options(c: &Case, floor: Option<f64>) -> Options {
 
 /// The Cramér-Rao bound (standard deviations of the scaled parameters) of
 /// `c` under floor `f` and relative noise `s`.
-fn crb(c: &Case, f: f64, s: f64) -> Vec<f64> {
+pub(super) fn crb(c: &Case, f: f64, s: f64) -> Vec<f64> {
     let nq = c.clean.samples[0].q.len();
     let noise = NoiseModel {
         floor_m: vec![f; nq],
@@ -70,7 +70,8 @@ fn crb(c: &Case, f: f64, s: f64) -> Vec<f64> {
     (0..c.truth.len()).map(|i| cov[(i, i)].sqrt()).collect()
 }
 
-fn noisy(c: &Case, f: f64, seed: u64) -> Measurements {
+/// The clean sweep of `c` with relative noise `S` and floor `f` (m).
+pub(super) fn noisy(c: &Case, f: f64, seed: u64) -> Measurements {
     let mut m = c.clean.clone();
     add_noise(&mut m, S, seed).unwrap();
     add_floor_noise(&mut m, f, seed).unwrap();
@@ -166,7 +167,8 @@ fn assert_at_the_bound(label: &str, st: &Stats) {
     }
 }
 
-fn g63_case() -> Case {
+/// The G6.3 paper rotor, physical 1, 300 speeds 50..15000 rpm.
+pub(super) fn g63_case() -> Case {
     case(g63_paper(), 1, uniform_rpm(50.0, 15000.0, 50.0).unwrap())
 }
 
