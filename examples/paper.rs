@@ -89,7 +89,7 @@ fn run(
     if raw {
         opts.scaling = Some(ColumnScaling::identity());
     }
-    Ok(identify(model, meas, &opts, None)?)
+    Ok(identify(model, meas, &opts)?)
 }
 
 fn row(label: &str, paper: &str, e: (f64, f64, f64, f64)) {
@@ -427,7 +427,7 @@ fn real_machine(out: &Path) -> Res<Vec<std::path::PathBuf>> {
         estimator: Estimator::OutputError,
         ..Options::new(Structure::physical(1))
     };
-    let id = identify(&model, &real, &opts, None)?;
+    let id = identify(&model, &real, &opts)?;
     let std = id.std().ok_or("no covariance")?;
     println!("| bearing | entry | true K (N/m) | identified K +- 1.96 std | true C (N s/m) | identified C +- 1.96 std |");
     println!("|---|---|---|---|---|---|");

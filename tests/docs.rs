@@ -263,20 +263,9 @@ fn the_link_checker_finds_what_is_broken() {
 /// library offers.
 #[allow(dead_code)]
 fn readme_library_snippet() -> Result<(), Box<dyn std::error::Error>> {
-    use rotorid::core::Structure;
-    use rotorid::estimate::{identify, Estimator, Options};
-
     let model = rotorid::io::model_file::model_by_name_or_path("paper")?;
     let meas = rotorid::io::measurement::read_csv("sweep.csv")?;
-    let id = identify(
-        &model,
-        &meas,
-        &Options {
-            estimator: Estimator::OutputError,
-            ..Options::new(Structure::physical(1))
-        },
-        None,
-    )?;
+    let id = rotorid::identify(&model, &meas, &rotorid::IdentifyOptions::default())?;
     let b1 = &id.last.bearings[0]; // K (N/m), C (N s/m) as [yy, yz, zy, zz]
     println!(
         "K {:?} C {:?} m e {} kg m",
@@ -291,7 +280,7 @@ fn readme_shows_the_compiled_library_snippet() {
     for line in [
         "let model = rotorid::io::model_file::model_by_name_or_path(\"paper\")?;",
         "let meas = rotorid::io::measurement::read_csv(\"sweep.csv\")?;",
-        "let id = identify(&model, &meas, &Options { estimator: Estimator::OutputError, ..Options::new(Structure::physical(1)) }, None)?;",
+        "let id = rotorid::identify(&model, &meas, &rotorid::IdentifyOptions::default())?;",
     ] {
         assert!(readme.contains(line), "README.md lacks the line {line:?}");
     }

@@ -39,7 +39,7 @@ fn bench(c: &mut Criterion) {
             let mut o = Options::new(rotorid::core::parametrization::Structure::physical(1));
             o.estimator = Estimator::OutputError;
             g.bench_function("baseline_identify_oe", |b| {
-                b.iter(|| black_box(identify(&model, &case.meas, &o, None).expect("identify")))
+                b.iter(|| black_box(identify(&model, &case.meas, &o).expect("identify")))
             });
         }
     }

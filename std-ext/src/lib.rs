@@ -14,8 +14,8 @@
 //! ```
 //!
 //! The top-level modules form layers, lowest first: [`units`], [`model`],
-//! [`io`], [`fe`], [`reduce`], [`tables`], [`simulate`], [`estimate`],
-//! [`report`], [`cli`]. A module may use the ones before it, never one
+//! [`io`], [`fe`], [`reduce`], [`tables`], [`mod@simulate`], [`estimate`],
+//! [`mod@diagnose`], [`report`], [`cli`]. A module may use the ones before it, never one
 //! after it (`tests/architecture.rs` checks this on the source), so there
 //! are no import cycles and each stage can be read and tested on its own.
 //!
@@ -24,9 +24,35 @@
 //! nodes 0-based in code and 1-based in files, reports and the CLI, phasors
 //! `y(t) = Re{ Y exp(j Omega t) }`, bearing coefficients in the order
 //! `yy, yz, zy, zz`.
+//!
+//! # The front door
+//!
+//! The jobs of the `rotorid` command, each a function of the model, the
+//! measurements and an options struct whose `Default` is the command's
+//! default: [`identify`] ([`IdentifyOptions`]), [`diagnose()`]
+//! ([`DiagnoseOptions`]), [`simulate()`] ([`SimOptions`]); a measurement
+//! file is read for its model by [`read_for_model`].
+//!
+//! ```no_run
+//! let file = rotorid::io::model_file::model_file_by_name_or_path("paper")?;
+//! let read = rotorid::read_for_model("sweep.csv".as_ref(), &file)?;
+//! let id = rotorid::identify(&file.model, &read.measurements, &Default::default())?;
+//! println!("{}", serde_json::to_string_pretty(&id.result())?);
+//! let d = rotorid::diagnose(&file.model, &read.measurements, &Default::default())?;
+//! println!("{}", d.effect.name());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! `examples/library.rs` runs it on the built-in reference rotor.
 #![warn(missing_docs)]
 
 pub use rotorid_core as core;
+
+pub use diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+pub use estimate::{identify, Identification, IdentifyError, Options as IdentifyOptions, Progress};
+pub use io::measurement::{read_for_model, Measurements, ModelMeasurements};
+pub use model::RotorModel;
+pub use simulate::{simulate, SimOptions};
 
 pub mod units;
 

@@ -112,6 +112,19 @@ pub struct SimOptions {
     pub effects: Effects,
 }
 
+impl Default for SimOptions {
+    /// `rotorid simulate`'s defaults: 50..15000 rpm in steps of 50 rpm,
+    /// noise-free, seed 1, no effects.
+    fn default() -> Self {
+        SimOptions {
+            speeds_rpm: (1..=300).map(|k| 50.0 * k as f64).collect(),
+            noise: 0.0,
+            seed: 1,
+            effects: Effects::default(),
+        }
+    }
+}
+
 /// Adds each runout phasor to its channel at every sample.
 pub fn add_runout(m: &mut Measurements, runout: &[Runout]) -> Result<(), SimulateError> {
     for r in runout {

@@ -3,6 +3,7 @@
 
 mod campbell;
 mod errors;
+mod front_door;
 mod responses;
 mod robust;
 mod simulate;

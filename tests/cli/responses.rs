@@ -405,22 +405,19 @@ fn identify_plots_have_one_entry_per_kind_and_the_model_under_the_estimate() {
     let legend_x = |l: &Vec<(f64, f64)>| l.iter().all(|p| p.0 > 700.0);
     assert!(black.iter().filter(|l| legend_x(l)).count() >= 2);
     // Unbalance: per plane the model as a pale wide band drawn first, the
-    // estimate over it in the full colour; every label once in the legend.
+    // QRD/RLS path over it in the full colour, the reported estimate with
+    // its 95 % band; every label once in the legend.
     let me = std::fs::read_to_string(dir.join("unbalance_me.svg")).unwrap();
     let t = texts(&me);
-    for label in [
-        "node 5",
-        "node 5 model",
-        "node 11",
-        "node 11 model",
-        "node 21",
-        "node 21 model",
-    ] {
-        assert_eq!(
-            t.iter().filter(|x| *x == label).count(),
-            1,
-            "{label}: {t:?}"
-        );
+    for node in [5, 11, 21] {
+        for kind in ["QRD/RLS path", "model", "reported", "reported, 95 %"] {
+            let label = format!("node {node} {kind}");
+            assert_eq!(
+                t.iter().filter(|x| **x == label).count(),
+                1,
+                "{label}: {t:?}"
+            );
+        }
     }
     let band_at = me.find("stroke-width=\"8\"").unwrap();
     let line_at = me.find("stroke=\"#1F77B4\" stroke-width=\"2\"").unwrap();

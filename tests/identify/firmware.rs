@@ -218,14 +218,14 @@ fn product_paths_agree() {
     let fw = firmware_run(&blob, id, &meas);
     let mut opts = Options::new(Structure::physical(1));
     opts.precision = Precision::F32;
-    let desk = rotorid::estimate::identify(&model, &meas, &opts, None).unwrap();
+    let desk = rotorid::estimate::identify(&model, &meas, &opts).unwrap();
     let diff = max_rel_diff(&fw, &desk.last);
     println!("tables::build blob (firmware) vs identify() (desktop), f32: {diff:.2e}");
     assert!(diff < 1e-4, "{diff}");
     // Banded (product) against dense (test) reduction, f64.
     let mut opts = Options::new(Structure::paper(1));
     opts.scaling = Some(scaling);
-    let banded = rotorid::estimate::identify(&model, &meas, &opts, None).unwrap();
+    let banded = rotorid::estimate::identify(&model, &meas, &opts).unwrap();
     let red = DenseReduction::new(&model);
     let mut src = red.source();
     let dense = identify_with(

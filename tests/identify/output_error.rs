@@ -397,7 +397,7 @@ fn a_model_that_does_not_fit_is_reported() {
         let mut opts = Options::new(Structure::physical(order));
         opts.estimator = Estimator::OutputError;
         opts.record_history = false;
-        let id = identify(&model, &m, &opts, None).unwrap();
+        let id = identify(&model, &m, &opts).unwrap();
         let check = id.check.as_ref().unwrap();
         let chi2 = check.chi2_per_dof.unwrap();
         println!(
@@ -515,7 +515,7 @@ fn identify_names_the_parameters_the_data_leave_undetermined() {
     let mut opts = Options::new(Structure::physical(1));
     opts.estimator = Estimator::OutputError;
     opts.record_history = false;
-    let id = identify(&model, &m, &opts, None).unwrap();
+    let id = identify(&model, &m, &opts).unwrap();
     let design = id
         .refinement
         .as_ref()

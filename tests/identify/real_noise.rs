@@ -88,7 +88,7 @@ fn monte_carlo(c: &Case, f: f64, floor: Floor, seeds: std::ops::Range<u64>) -> S
     for seed in seeds {
         let m = noisy(c, f, seed);
         let given = (floor == Floor::Given).then_some(f);
-        let id = identify(&c.model, &m, &options(c, given), None).unwrap();
+        let id = identify(&c.model, &m, &options(c, given)).unwrap();
         let theta = pr.theta(&id.scaled_weights);
         let cov = id.covariance.as_ref().unwrap();
         for i in 0..np {
@@ -194,7 +194,7 @@ fn glitches_are_found_and_move_nothing() {
     let nq = c.clean.samples[0].q.len();
     for seed in [1u64, 2] {
         let m = noisy(&c, f, seed);
-        let clean_id = identify(&c.model, &m, &options(&c, None), None).unwrap();
+        let clean_id = identify(&c.model, &m, &options(&c, None)).unwrap();
         let clean_theta = pr.theta(&clean_id.scaled_weights);
         let cov = clean_id.covariance.as_ref().unwrap();
         // Three glitches where the response stands above the floor (one
@@ -212,7 +212,7 @@ fn glitches_are_found_and_move_nothing() {
             glitched.push((n, 0));
         }
         let drawn = add_glitches(&mut spoilt, 3, seed).unwrap();
-        let id = identify(&c.model, &spoilt, &options(&c, None), None).unwrap();
+        let id = identify(&c.model, &spoilt, &options(&c, None)).unwrap();
         let theta = pr.theta(&id.scaled_weights);
         for i in 0..pr.n_params() {
             let sd = cov[(i, i)].re.sqrt();
@@ -295,7 +295,7 @@ fn runout_is_fitted_at_the_bound() {
         add_floor_noise(&mut m, f, seed).unwrap();
         let mut o = options(&c, None);
         o.runout = RunoutHandling::Auto;
-        let id = identify(&c.model, &m, &o, None).unwrap();
+        let id = identify(&c.model, &m, &o).unwrap();
         let theta = pr.theta(&id.scaled_weights);
         for i in 0..np {
             sq[i] += (theta[i] - c.truth[i]).powi(2) / n;
@@ -312,7 +312,7 @@ fn runout_is_fitted_at_the_bound() {
         // The trade's practice beside it: slow-roll subtraction below
         // 300 rpm.
         o.runout = RunoutHandling::SlowRoll(rpm_to_rad_s(300.0));
-        let sr = identify(&c.model, &m, &o, None).unwrap();
+        let sr = identify(&c.model, &m, &o).unwrap();
         let t2 = pr.theta(&sr.scaled_weights);
         for i in 0..np {
             subtracted[i] += (t2[i] - c.truth[i]).powi(2) / n;
@@ -353,12 +353,12 @@ fn proportional_noise_leaves_no_runout_and_no_floor() {
     add_noise(&mut m, S, 3).unwrap();
     let mut o = options(&c, None);
     o.runout = RunoutHandling::Auto;
-    let id = identify(&c.model, &m, &o, None).unwrap();
+    let id = identify(&c.model, &m, &o).unwrap();
     let check = id.check.as_ref().unwrap();
     assert!(!check.noise.as_ref().unwrap().has_floor());
     assert!(id.refinement.as_ref().unwrap().runout.is_empty());
     o.runout = RunoutHandling::None;
-    let plain = identify(&c.model, &m, &o, None).unwrap();
+    let plain = identify(&c.model, &m, &o).unwrap();
     assert_eq!(plain.scaled_weights, id.scaled_weights);
 }
 

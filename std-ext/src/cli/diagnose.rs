@@ -49,10 +49,7 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         ],
     )?;
     let model_file = super::load_model(&args.model)?;
-    let (mut meas, _, probe_readings) = super::read_measurements(&args.measurements, &model_file)?;
-    if probe_readings {
-        crate::io::measurement::probes_to_yz(&mut meas, &model_file.probes);
-    }
+    let meas = super::read_measurements(&args.measurements, &model_file)?.measurements;
     let model = model_file.model;
     if meas.samples.len() < 8 {
         return Err(CliError::new(format!(

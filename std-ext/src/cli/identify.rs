@@ -5,15 +5,7 @@ use clap::{Args, ValueEnum};
 
 use super::{CliError, Io};
 use crate::estimate::IdentifyError;
-use crate::io::clip;
-use crate::io::measurement::{CsvLocations, Measurements};
 use rotorid_core::identify::{delta_range, MIN_LAMBDA};
-
-/// Largest magnitude (m) of a measured response component `identify`
-/// accepts: a 1X bearing vibration beyond a metre is not a measurement
-/// (values are in metres), and larger values would overflow the
-/// identification's products in single precision.
-pub const MAX_RESPONSE_M: f64 = 1.0;
 
 /// `x` for a message: plain for ordinary magnitudes, scientific otherwise
 /// (so `1e-300` is not printed with 300 zeros).
@@ -23,64 +15,6 @@ fn short_number(x: f64) -> String {
     } else {
         format!("{x:e}")
     }
-}
-
-/// Refuses a response component beyond [`MAX_RESPONSE_M`], naming its line
-/// and column.
-fn check_response_range(meas: &Measurements, located: &CsvLocations) -> Result<(), String> {
-    for (i, s) in meas.samples.iter().enumerate() {
-        for (ch, z) in s.q.iter().enumerate() {
-            let over = |v: f64| v.abs() > MAX_RESPONSE_M;
-            let (re_col, name) = located.channel_column(ch);
-            let (col, name, v) = match located.layout {
-                crate::io::measurement::CsvLayout::Complex if over(z.re) => (re_col, name, z.re),
-                crate::io::measurement::CsvLayout::Complex if over(z.im) => {
-                    (re_col + 1, name.replace("_re", "_im"), z.im)
-                }
-                crate::io::measurement::CsvLayout::AmplitudePhase if over(z.norm()) => {
-                    (re_col, name, z.norm())
-                }
-                _ => continue,
-            };
-            let line = located.lines.get(i).copied().unwrap_or(0);
-            return Err(format!(
-                "line {line}, column {col} ({name}): {} m is beyond {MAX_RESPONSE_M} m, not a bearing vibration in metres",
-                clip(&format!("{v:e}"))
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// The text of the ROSS rotor file `--ross-out` writes: `model` with its
-/// bearing laws replaced by the identified ones
-/// ([`crate::estimate::Identification::identified_model`]; unbalance is not
-/// part of a ROSS rotor file). Constant laws (physical structure, order 1)
-/// are written as constants; laws that change with speed (physical order
-/// P > 1, `K(Omega) = sum_p K_p Omega^p`; the paper structure,
-/// `Z_B = sum_p Omega^p Z_p`) as PCHIP tables of
-/// [`crate::io::ross::ROSS_TABLE_POINTS`] speeds spread evenly over the
-/// measured speed range, which is where the law was fitted.
-fn identified_ross_file(
-    id: &crate::estimate::Identification,
-    model: &crate::model::RotorModel,
-    meas: &Measurements,
-) -> Result<String, CliError> {
-    let omega_min = meas
-        .samples
-        .iter()
-        .map(|s| s.omega)
-        .fold(f64::INFINITY, f64::min);
-    let omega_max = crate::estimate::max_speed(&meas.samples);
-    let identified = id.identified_model(model);
-    let tabulated = crate::io::ross::tabulate_for_ross(
-        &identified,
-        omega_min,
-        omega_max,
-        crate::io::ross::ROSS_TABLE_POINTS,
-    )
-    .map_err(|e| CliError::new(format!("--ross-out: {e}")))?;
-    crate::io::ross::to_ross_toml(&tabulated).map_err(|e| CliError::new(format!("--ross-out: {e}")))
 }
 
 /// Model structure of the identification.
@@ -235,32 +169,18 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     )?;
     let model_file = super::load_model(&args.model)?;
     let file = args.measurements.display().to_string();
-    let (mut meas, located, probe_readings) =
-        super::read_measurements(&args.measurements, &model_file)?;
-    check_response_range(&meas, &located).map_err(|e| CliError::new(format!("{file}: {e}")))?;
-    if probe_readings {
-        crate::io::measurement::probes_to_yz(&mut meas, &model_file.probes);
-    }
-    // The file's standard deviations; for a probe pair at an angle each of
-    // y, z takes the pair's mean variance (exact for orthogonal probes of
-    // equal noise).
-    let mut sample_std = located.sample_std.clone();
-    if probe_readings {
-        for row in &mut sample_std {
-            for (b, p) in model_file.probes.iter().enumerate() {
-                if let (Some(_), Some(pair)) = (p, row.get_mut(2 * b..2 * b + 2)) {
-                    let v = (0.5 * (pair[0] * pair[0] + pair[1] * pair[1])).sqrt();
-                    pair.fill(v);
-                }
-            }
-        }
-    }
+    let read = super::read_measurements(&args.measurements, &model_file)?;
+    let (meas, located, sample_std) = (read.measurements, read.located, read.sample_std);
     let model = model_file.model;
     let structure = match args.formulation {
         Formulation::Physical => Structure::physical(args.order),
         Formulation::Paper => Structure::paper(args.order),
     };
-    let mut opts = Options::new(structure);
+    // The library's defaults, then the arguments.
+    let mut opts = Options {
+        structure,
+        ..Options::default()
+    };
     opts.lambda = args.lambda;
     opts.delta = args.delta;
     opts.precision = if args.f32 {
@@ -312,13 +232,13 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     } else {
         None
     };
-    let tick = |done: usize| {
-        if let Some(pb) = &bar {
-            pb.set_position(done as u64);
-        }
-    };
+    if let Some(pb) = bar.clone() {
+        opts.progress = Some(crate::estimate::Progress::new(move |done| {
+            pb.set_position(done as u64)
+        }));
+    }
     let std_rows = (!sample_std.is_empty()).then_some(sample_std.as_slice());
-    let result = crate::estimate::identify_with_std(&model, &meas, std_rows, &opts, Some(&tick));
+    let result = crate::estimate::identify_with_std(&model, &meas, std_rows, &opts);
     if let Some(pb) = &bar {
         pb.finish_and_clear();
     }
@@ -341,7 +261,9 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         crate::io::output::write_atomic(path, (text + "\n").as_bytes())?;
     }
     if let Some(path) = &args.ross_out {
-        let text = identified_ross_file(&id, &model, &meas)?;
+        let text = id
+            .ross_toml(&model, &meas)
+            .map_err(|e| CliError::new(format!("--ross-out: {e}")))?;
         crate::io::output::write_atomic(path, text.as_bytes())
             .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
         writeln!(io.err, "wrote {}", path.display())?;

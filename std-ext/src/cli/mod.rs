@@ -327,41 +327,13 @@ pub fn measurement_error(
     }
 }
 
-/// Reads the measurement file `path` for the model `file`. Without declared
-/// probes this is [`crate::io::measurement::read_csv_located`] (the SPEC
-/// header). With probes ([`crate::model::ProbePair`]) the bearing columns
-/// are named by channel ([`crate::io::measurement::model_channel_names`]:
-/// probe names, `bK_y`, `bK_z` for bearings without); a file with the
-/// SPEC's `y`, `z` header is also accepted. Returns the values as they
-/// stand in the file and whether they are probe readings, which
-/// [`crate::io::measurement::probes_to_yz`] turns into `y`, `z`.
+/// [`crate::io::measurement::read_for_model`] with the error as one line
+/// ([`measurement_error`]).
 pub fn read_measurements(
     path: &std::path::Path,
     file: &crate::io::model_file::ModelFile,
-) -> Result<
-    (
-        crate::io::measurement::Measurements,
-        crate::io::measurement::CsvLocations,
-        bool,
-    ),
-    CliError,
-> {
-    use crate::io::measurement::{
-        model_channel_names, read_csv_channels, read_csv_located, MeasurementError,
-    };
-    if !file.has_probes() {
-        let (m, l) = read_csv_located(path).map_err(|e| measurement_error(path, e))?;
-        return Ok((m, l, false));
-    }
-    let names = model_channel_names(&file.probes);
-    match read_csv_channels(path, Some(&names)) {
-        Ok((m, l)) => Ok((m, l, true)),
-        Err(named @ MeasurementError::Header { .. }) => match read_csv_located(path) {
-            Ok((m, l)) => Ok((m, l, false)),
-            Err(_) => Err(measurement_error(path, named)),
-        },
-        Err(e) => Err(measurement_error(path, e)),
-    }
+) -> Result<crate::io::measurement::ModelMeasurements, CliError> {
+    crate::io::measurement::read_for_model(path, file).map_err(|e| measurement_error(path, e))
 }
 
 /// `--noise-floor M`: finite and >= 0 metres.

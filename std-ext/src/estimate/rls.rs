@@ -139,8 +139,12 @@ pub enum Precision {
     F32,
 }
 
-/// Identification options.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Identification options. [`Options::default`] is what `rotorid
+/// identify` does without options (physical structure of order 1, the
+/// output-error estimate, the probe noise model estimated from the data,
+/// runout fitted when the low speeds show one); [`Options::new`] is the
+/// paper's method (the QRD/RLS estimate alone, its path recorded).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Options {
     /// Model structure (formulation, order).
     pub structure: Structure,
@@ -172,6 +176,44 @@ pub struct Options {
     pub outliers: bool,
     /// What is done about the probes' runout.
     pub runout: RunoutHandling,
+    /// Called with the number of samples done as the sweep goes on.
+    pub progress: Option<Progress>,
+}
+
+/// A progress callback: called with the number of samples done.
+#[derive(Clone)]
+pub struct Progress(pub std::sync::Arc<dyn Fn(usize) + Send + Sync>);
+
+impl Progress {
+    /// The callback `f`.
+    pub fn new(f: impl Fn(usize) + Send + Sync + 'static) -> Self {
+        Progress(std::sync::Arc::new(f))
+    }
+}
+
+impl std::fmt::Debug for Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Progress(..)")
+    }
+}
+
+/// Two callbacks are equal when they are the same one.
+impl PartialEq for Progress {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+impl Default for Options {
+    /// `rotorid identify`'s defaults: [`Options::new`] on the physical
+    /// structure of order 1 with the output-error estimate and no history.
+    fn default() -> Self {
+        Options {
+            estimator: Estimator::OutputError,
+            record_history: false,
+            ..Options::new(Structure::physical(1))
+        }
+    }
 }
 
 /// What the identification does about probe runout: a constant phasor on
@@ -224,6 +266,7 @@ impl Options {
             noise_floor: None,
             outliers: true,
             runout: RunoutHandling::Auto,
+            progress: None,
         }
     }
 }
@@ -293,15 +336,22 @@ pub use crate::tables::auto_scaling;
 pub type TermsAt = (DMatrix<Complex64>, DMatrix<Complex64>);
 
 /// Identification over `model`'s shaft and planes: builds the FE model,
-/// reduces it at every measured speed and runs [`identify_with`].
-/// `progress` is called with the number of samples done.
+/// reduces it at every measured speed and runs [`identify_with`], then
+/// (by default) the output-error fit ([`Options`]).
+///
+/// ```no_run
+/// let model = rotorid::RotorModel::paper();
+/// let meas = rotorid::io::measurement::read_csv("sweep.csv")?;
+/// let id = rotorid::identify(&model, &meas, &rotorid::IdentifyOptions::default())?;
+/// println!("{}", rotorid::report::identify::report_table(&id, Some(&model)));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn identify(
     model: &RotorModel,
     meas: &Measurements,
     options: &Options,
-    progress: Option<&dyn Fn(usize)>,
 ) -> Result<Identification, IdentifyError> {
-    identify_with_std(model, meas, None, options, progress)
+    identify_with_std(model, meas, None, options)
 }
 
 /// [`identify`] with per-sample standard deviations `std[n][c]` (m) of
@@ -312,7 +362,6 @@ pub fn identify_with_std(
     meas: &Measurements,
     std: Option<&[Vec<f64>]>,
     options: &Options,
-    progress: Option<&dyn Fn(usize)>,
 ) -> Result<Identification, IdentifyError> {
     let fe = crate::fe::assembly::FeModel::new(model)?;
     let banded = crate::reduce::Reducer::new(&fe, model)?;
@@ -327,7 +376,7 @@ pub fn identify_with_std(
         Some(s) => s,
         None => auto_scaling(model, max_speed(&meas.samples)),
     };
-    let mut opts = *options;
+    let mut opts = options.clone();
     opts.scaling = Some(scaling);
     let sample_std = match std {
         Some(s) => Some(flatten_std(s, meas)?),
@@ -365,7 +414,7 @@ pub fn identify_with_std(
         seen,
         &opts,
         &mut terms,
-        progress,
+        options.progress.as_ref().map(|p| &*p.0 as &dyn Fn(usize)),
     )?;
     let setup = crate::estimate::refine::NoiseSetup {
         floor: options.noise_floor,
@@ -863,7 +912,7 @@ fn run<T: Real, F: IdField<T> + Widen>(
         .map_err(IdentifyError::Estimates)?;
     let scaled_weights = st.w.iter().map(|x| F::widen(*x)).collect();
     let covariance = st.covariance();
-    let mut opts = *options;
+    let mut opts = options.clone();
     opts.scaling = Some(scaling);
     Ok(Identification {
         options: opts,
@@ -880,6 +929,35 @@ fn run<T: Real, F: IdField<T> + Widen>(
 }
 
 impl Identification {
+    /// The text of a ROSS rotor file (format 3.x): `model` with its
+    /// bearing laws replaced by the identified ones
+    /// ([`Identification::identified_model`]; unbalance is not part of a
+    /// ROSS rotor file). Constant laws (physical structure, order 1) are
+    /// written as constants; laws that change with speed (physical order
+    /// P > 1, `K(Omega) = sum_p K_p Omega^p`; the paper structure,
+    /// `Z_B = sum_p Omega^p Z_p`) as PCHIP tables of
+    /// [`crate::io::ross::ROSS_TABLE_POINTS`] speeds spread evenly over the
+    /// speed range of `meas`, which is where the law was fitted.
+    pub fn ross_toml(
+        &self,
+        model: &RotorModel,
+        meas: &Measurements,
+    ) -> Result<String, crate::io::ross::RossError> {
+        let omega_min = meas
+            .samples
+            .iter()
+            .map(|s| s.omega)
+            .fold(f64::INFINITY, f64::min);
+        let identified = self.identified_model(model);
+        let tabulated = crate::io::ross::tabulate_for_ross(
+            &identified,
+            omega_min,
+            max_speed(&meas.samples),
+            crate::io::ross::ROSS_TABLE_POINTS,
+        )?;
+        crate::io::ross::to_ross_toml(&tabulated)
+    }
+
     /// The identified bearing laws, exactly the `Z_B(Omega)` the structure
     /// fitted ([`Parametrization::bearing_laws`]).
     pub fn bearing_laws(&self) -> Vec<BearingLaw> {

@@ -127,9 +127,15 @@ impl Identification {
     /// [`Self::covariance`] (see the module documentation); `None` without
     /// a covariance.
     pub fn std(&self) -> Option<StdSet> {
+        self.std_at(self.last.omega)
+    }
+
+    /// [`Self::std`] of the identified laws at the speed `omega` (rad/s):
+    /// a bearing law of order `P > 1` changes with speed, and so does its
+    /// uncertainty (the unbalance does not).
+    pub fn std_at(&self, omega: f64) -> Option<StdSet> {
         let cov = self.covariance.as_ref()?;
         let p = &self.param;
-        let omega = self.last.omega;
         let complex = p.structure.formulation == Formulation::Paper;
         let half = if complex { 0.5 } else { 1.0 };
         let bearings = (0..p.n_bearings())

@@ -601,6 +601,106 @@ pub fn read_csv(path: impl AsRef<Path>) -> Result<Measurements, MeasurementError
     read_csv_located(path).map(|(m, _)| m)
 }
 
+/// Largest magnitude (m) of a measured response component a measurement
+/// file may hold: a 1X bearing vibration beyond a metre is not a
+/// measurement (values are in metres), and larger values would overflow
+/// the identification's products in single precision.
+pub const MAX_RESPONSE_M: f64 = 1.0;
+
+/// A measurement file read for a model ([`read_for_model`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelMeasurements {
+    /// The samples, in the shaft's `y`, `z` at every bearing (probe
+    /// readings turned by [`probes_to_yz`]).
+    pub measurements: Measurements,
+    /// The file's per-sample standard deviations in the same channels (m;
+    /// a probe pair at an angle gives each of `y`, `z` the pair's mean
+    /// variance, exact for orthogonal probes of equal noise); empty when
+    /// the file has none.
+    pub sample_std: Vec<Vec<f64>>,
+    /// Where every value stood in the file (for messages).
+    pub located: CsvLocations,
+    /// Whether the file held probe readings (named by probe).
+    pub probe_readings: bool,
+}
+
+/// Reads the measurement file `path` for the model `file`. Without declared
+/// probes this is [`read_csv_located`] (the SPEC header). With probes
+/// ([`crate::model::ProbePair`]) the bearing columns are named by channel
+/// ([`model_channel_names`]: probe names, `bK_y`, `bK_z` for bearings
+/// without); a file with the SPEC's `y`, `z` header is also accepted.
+/// Probe readings are turned into the shaft's `y`, `z`
+/// ([`probes_to_yz`]). A response component beyond [`MAX_RESPONSE_M`] is
+/// refused with its line and column.
+pub fn read_for_model(
+    path: &std::path::Path,
+    file: &crate::io::model_file::ModelFile,
+) -> Result<ModelMeasurements, MeasurementError> {
+    let (mut measurements, located, probe_readings) = if !file.has_probes() {
+        let (m, l) = read_csv_located(path)?;
+        (m, l, false)
+    } else {
+        let names = model_channel_names(&file.probes);
+        match read_csv_channels(path, Some(&names)) {
+            Ok((m, l)) => (m, l, true),
+            Err(named @ MeasurementError::Header { .. }) => match read_csv_located(path) {
+                Ok((m, l)) => (m, l, false),
+                Err(_) => return Err(named),
+            },
+            Err(e) => return Err(e),
+        }
+    };
+    check_response_range(&measurements, &located)?;
+    let mut sample_std = located.sample_std.clone();
+    if probe_readings {
+        probes_to_yz(&mut measurements, &file.probes);
+        for row in &mut sample_std {
+            for (b, p) in file.probes.iter().enumerate() {
+                if let (Some(_), Some(pair)) = (p, row.get_mut(2 * b..2 * b + 2)) {
+                    let v = (0.5 * (pair[0] * pair[0] + pair[1] * pair[1])).sqrt();
+                    pair.fill(v);
+                }
+            }
+        }
+    }
+    Ok(ModelMeasurements {
+        measurements,
+        sample_std,
+        located,
+        probe_readings,
+    })
+}
+
+/// Refuses a response component beyond [`MAX_RESPONSE_M`], naming its line
+/// and column.
+pub fn check_response_range(
+    meas: &Measurements,
+    located: &CsvLocations,
+) -> Result<(), MeasurementError> {
+    for (i, s) in meas.samples.iter().enumerate() {
+        for (ch, z) in s.q.iter().enumerate() {
+            let over = |v: f64| v.abs() > MAX_RESPONSE_M;
+            let (re_col, name) = located.channel_column(ch);
+            let (index, column, v) = match located.layout {
+                CsvLayout::Complex if over(z.re) => (re_col, name, z.re),
+                CsvLayout::Complex if over(z.im) => (re_col + 1, name.replace("_re", "_im"), z.im),
+                CsvLayout::AmplitudePhase if over(z.norm()) => (re_col, name, z.norm()),
+                _ => continue,
+            };
+            return Err(MeasurementError::Field {
+                line: located.lines.get(i).copied().unwrap_or(0),
+                index,
+                column,
+                reason: format!(
+                    "{} m is beyond {MAX_RESPONSE_M} m, not a bearing vibration in metres",
+                    clip(&format!("{v:e}"))
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// [`read_csv`], also returning where every sample came from.
 pub fn read_csv_located(
     path: impl AsRef<Path>,

@@ -6,7 +6,7 @@
 use crate::estimate::noise::NoiseSource;
 use thiserror::Error;
 
-use crate::estimate::Identification;
+use crate::estimate::{Identification, StdSet};
 use crate::model::RotorModel;
 use rotorid_core::parametrization::Formulation;
 
@@ -303,6 +303,41 @@ pub fn model_band(
         .width(8)
 }
 
+/// The reported estimate along the speeds `rpm` (`value`), a dashed line,
+/// and with its standard deviations `std` its 95 % band (`+-1.96 std`), two
+/// dotted lines of one legend entry.
+fn reported_series(
+    label: &str,
+    rpm: &[f64],
+    value: impl Iterator<Item = f64>,
+    std: Option<Vec<f64>>,
+    color: (u8, u8, u8),
+) -> Vec<crate::report::plot::Series> {
+    use crate::report::plot::{pale, Series};
+    let v: Vec<f64> = value.collect();
+    let mut out = vec![
+        Series::line(format!("{label} reported"), rpm.to_vec(), v.clone())
+            .color(color)
+            .dash_pattern(10, 4)
+            .width(2),
+    ];
+    if let Some(sd) = std {
+        for sign in [1.0, -1.0] {
+            let y = v
+                .iter()
+                .zip(&sd)
+                .map(|(a, s)| a + sign * 1.96 * s)
+                .collect();
+            out.push(
+                Series::line(format!("{label} reported, 95 %"), rpm.to_vec(), y)
+                    .color(pale(color, 0.3))
+                    .dash_pattern(2, 3),
+            );
+        }
+    }
+    out
+}
+
 /// Errors of [`write_plots`].
 #[derive(Debug, Error)]
 pub enum ReportError {
@@ -355,6 +390,10 @@ pub fn write_plots(
     })?;
     let mut files = Vec::new();
     let rpm: Vec<f64> = id.history.iter().map(|h| rad_s_to_rpm(h.omega)).collect();
+    // The reported estimate (the output-error one by default; the path is
+    // the QRD/RLS's) and its standard deviations along the speeds.
+    let laws = id.bearing_laws();
+    let stds: Option<Vec<StdSet>> = id.history.iter().map(|h| id.std_at(h.omega)).collect();
     for (m, _) in id.last.bearings.iter().enumerate() {
         for (what, unit, pick) in [("stiffness", "N/m", 0usize), ("damping", "N s/m", 1usize)] {
             let mut series = Vec::new();
@@ -396,7 +435,37 @@ pub fn write_plots(
                         color,
                     ));
                 }
-                series.push(Series::line(format!("{letter}{name}"), rpm.clone(), y).color(color));
+                series.push(
+                    Series::line(format!("{letter}{name} QRD/RLS path"), rpm.clone(), y)
+                        .color(color),
+                );
+                if let Some(law) = laws.get(m) {
+                    series.extend(reported_series(
+                        &format!("{letter}{name}"),
+                        &rpm,
+                        id.history.iter().map(|h| {
+                            let c = law.at(h.omega);
+                            if pick == 0 {
+                                c.k[e]
+                            } else {
+                                c.c[e]
+                            }
+                        }),
+                        stds.as_ref().map(|sd| {
+                            sd.iter()
+                                .map(|s| {
+                                    let (k, c) = s.bearings[m];
+                                    if pick == 0 {
+                                        k[e]
+                                    } else {
+                                        c[e]
+                                    }
+                                })
+                                .collect()
+                        }),
+                        color,
+                    ));
+                }
             }
             let path = dir.join(format!("{prefix}bearing{}_{what}.svg", m + 1));
             let node = id
@@ -417,6 +486,13 @@ pub fn write_plots(
                     for v in if pick == 0 { c.k } else { c.c } {
                         lo = lo.min(v);
                         hi = hi.max(v);
+                    }
+                }
+                // ... and on the reported estimate with its band.
+                for sr in series.iter().filter(|sr| sr.label.contains("reported")) {
+                    for v in sr.y.iter().filter(|v| v.is_finite()) {
+                        lo = lo.min(*v);
+                        hi = hi.max(*v);
                     }
                 }
                 let span = (hi - lo).max(hi.abs().max(lo.abs()) * 0.1).max(1e-12);
@@ -457,7 +533,30 @@ pub fn write_plots(
                     color,
                 ));
             }
-            series.push(Series::line(format!("node {}", node + 1), rpm.clone(), y).color(color));
+            series.push(
+                Series::line(format!("node {} QRD/RLS path", node + 1), rpm.clone(), y)
+                    .color(color),
+            );
+            let u = &id.last.unbalance[k];
+            let v = if what == "me" { u.me } else { u.phase_deg() };
+            series.extend(reported_series(
+                &format!("node {}", node + 1),
+                &rpm,
+                std::iter::repeat_n(v, rpm.len()),
+                stds.as_ref().map(|sd| {
+                    sd.iter()
+                        .map(|s| {
+                            let (me, ph) = s.unbalance[k];
+                            if what == "me" {
+                                me
+                            } else {
+                                ph
+                            }
+                        })
+                        .collect()
+                }),
+                color,
+            ));
         }
         let path = dir.join(format!("{prefix}unbalance_{what}.svg"));
         let mut opts = PlotOptions::default();
