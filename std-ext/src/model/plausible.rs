@@ -30,15 +30,18 @@ pub const DIAMETER: Range = Range {
     hi: 1e2,
     unit: "m",
 };
-/// Young's modulus: 100 kPa (soft rubber) to 10 TPa.
+/// Young's modulus: any positive value up to 10 TPa. A tiny modulus is
+/// how ROSS models carry the mass of an impeller or a sleeve on the shaft
+/// (a layer of a material of, e.g., 6.9 kPa, as in ROSS's compressor
+/// example): valid, not a typing error.
 pub const YOUNG: Range = Range {
-    lo: 1e5,
+    lo: f64::MIN_POSITIVE,
     hi: 1e13,
     unit: "Pa",
 };
-/// Shear modulus: 10 kPa to 10 TPa.
+/// Shear modulus: any positive value up to 10 TPa (as [`YOUNG`]).
 pub const SHEAR: Range = Range {
-    lo: 1e4,
+    lo: f64::MIN_POSITIVE,
     hi: 1e13,
     unit: "Pa",
 };
@@ -69,6 +72,11 @@ pub const DAMPING_MAX: f64 = 1e10;
 pub fn check(v: f64, range: Range) -> Result<f64, String> {
     if v >= range.lo && v <= range.hi {
         Ok(v)
+    } else if range.lo <= f64::MIN_POSITIVE {
+        Err(format!(
+            "{v:e} {} is not positive or beyond the physically plausible {:e} {}",
+            range.unit, range.hi, range.unit
+        ))
     } else {
         Err(format!(
             "{v:e} {} is outside the physically plausible range {:e}..={:e} {}",
@@ -101,7 +109,14 @@ mod tests {
             assert!(check(v, LENGTH).is_err());
         }
         let m = check(1e300, YOUNG).unwrap_err();
-        assert!(m.contains("1e300 Pa") && m.contains("1e5..=1e13"), "{m}");
+        assert!(m.contains("1e300 Pa") && m.contains("1e13 Pa"), "{m}");
+        // A tiny modulus (ROSS's mass-carrying layers) is accepted; zero,
+        // negative and non-finite values are not.
+        assert!(check(6.89475e3, YOUNG).is_ok());
+        assert!(check(1e-3, SHEAR).is_ok());
+        for v in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(check(v, YOUNG).is_err());
+        }
         assert!(check_magnitude(-5e7, STIFFNESS_MAX, "N/m").is_ok());
         assert!(check_magnitude(1e300, STIFFNESS_MAX, "N/m").is_err());
         assert!(check_magnitude(f64::NAN, STIFFNESS_MAX, "N/m").is_err());
