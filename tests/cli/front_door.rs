@@ -30,43 +30,37 @@ fn realistic_csv() -> std::path::PathBuf {
     csv
 }
 
+/// The JSON `rotorid CMD --model paper --measurements CSV --json ...`
+/// writes.
+fn command_json(cmd: &str, csv: &std::path::Path) -> String {
+    let json = tmp(&format!("{cmd}.json"));
+    let out = cli([
+        cmd,
+        "--model",
+        "paper",
+        "--measurements",
+        csv.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.success(), "{}", out.stderr);
+    std::fs::read_to_string(&json).unwrap()
+}
+
 #[test]
 fn library_and_command_write_the_same_json() {
     let csv = realistic_csv();
     let file = rotorid::io::model_file::model_file_by_name_or_path("paper").unwrap();
     let read = rotorid::read_for_model(&csv, &file).unwrap();
 
-    // identify
-    let json = tmp("identify.json");
-    let out = cli([
-        "identify",
-        "--model",
-        "paper",
-        "--measurements",
-        csv.to_str().unwrap(),
-        "--json",
-        json.to_str().unwrap(),
-    ]);
-    assert!(out.success(), "{}", out.stderr);
     let id = rotorid::identify(&file.model, &read.measurements, &Default::default()).unwrap();
     let lib = serde_json::to_string_pretty(&id.result()).unwrap() + "\n";
-    assert_eq!(std::fs::read_to_string(&json).unwrap(), lib);
-    // The runout was found and fitted (the default handles it).
-    assert!(lib.contains("\"runout\""), "{lib}");
+    assert_eq!(command_json("identify", &csv), lib);
+    // The runout was found and fitted on every channel (the default
+    // handles it).
+    assert_eq!(id.result().runout.len(), 4, "{lib}");
 
-    // diagnose
-    let json = tmp("diagnose.json");
-    let out = cli([
-        "diagnose",
-        "--model",
-        "paper",
-        "--measurements",
-        csv.to_str().unwrap(),
-        "--json",
-        json.to_str().unwrap(),
-    ]);
-    assert!(out.success(), "{}", out.stderr);
     let d = rotorid::diagnose(&file.model, &read.measurements, &Default::default()).unwrap();
     let lib = serde_json::to_string_pretty(&rotorid::report::diagnose::json(&d)).unwrap() + "\n";
-    assert_eq!(std::fs::read_to_string(&json).unwrap(), lib);
+    assert_eq!(command_json("diagnose", &csv), lib);
 }
