@@ -4,8 +4,10 @@
 //! * [`parametrization`]: what the unknowns are (the core's description
 //!   bound to a rotor's nodes and a scaling); every reading of weights
 //!   goes through it.
-//! * [`rls`]: the equation-error QRD/RLS driver (the paper's method, the
-//!   firmware's kernel on `Vec` buffers).
+//! * [`sweep`]: the identification of a speed sweep: the equation-error
+//!   QRD/RLS pass (the paper's method, the firmware's kernel on `Vec`
+//!   buffers), the runout handling and, by default, the output-error fit
+//!   after it ([`identify`], [`Options`], [`Identification`]).
 //! * [`uncertainty`]: covariance of the weights and standard deviations.
 //! * [`predictor`], [`output_error`], [`noise`]: the output-error
 //!   (maximum-likelihood) fit of the predicted bearing responses to the
@@ -21,10 +23,10 @@ pub mod parametrization;
 pub mod predictor;
 pub mod refine;
 pub mod results;
-pub mod rls;
+pub mod sweep;
 pub mod uncertainty;
 
 pub use parametrization::Parametrization;
 pub use results::IdentifyResult;
-pub use rls::*;
+pub use sweep::*;
 pub use uncertainty::StdSet;
