@@ -39,9 +39,19 @@
 //!   channel ([`model_channel_names`], [`parse_csv_channels`]) and hold the
 //!   probes' readings, which [`probes_to_yz`] turns into `y`, `z`.
 //!
+//! - A comment line before the header may declare the file's instrument
+//!   conventions (SPEC section 7, [`conventions`]):
+//!   `# conventions: amplitude_unit=um amplitude=pk-pk phase=lag`. The
+//!   values are turned into rotorid's own (metres, zero-to-peak, `arg Y`)
+//!   as they are read; [`parse_csv_conventions`] and
+//!   [`read_for_model_with`] take overrides (the command line's). Other
+//!   comment lines are free text; a file without the line is read as
+//!   rotorid's own.
+//!
 //! The writer prints every number with Rust's shortest round-trip
 //! representation (`{:e}`), so the phasors read back bit for bit; the speed
-//! is converted rad/s -> rpm -> rad/s, exact to about one ulp.
+//! is converted rad/s -> rpm -> rad/s, exact to about one ulp. It writes
+//! rotorid's own conventions and no `# conventions:` line.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -52,6 +62,13 @@ use thiserror::Error;
 use crate::io::clip;
 use crate::model::ProbePair;
 use crate::units::{rad_s_to_rpm, rpm_to_rad_s};
+
+pub mod conventions;
+
+pub use conventions::{
+    parse_conventions_comment, AmplitudeKind, AmplitudeUnit, Conventions, ConventionsError,
+    DeclaredConventions, PhaseConvention,
+};
 
 /// Most data rows a measurement file may hold (a sweep of one million
 /// speeds; far beyond any run-up, and a bound on the memory a file can ask
@@ -70,7 +87,9 @@ pub struct Sample {
 /// A sweep of samples, in file order (run-ups and run-downs are both valid).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Measurements {
-    /// Comment lines of the file, without the leading `#`.
+    /// Comment lines of the file, without the leading `#` (the
+    /// `# conventions:` line is not among them: it is applied, see
+    /// [`CsvLocations::conventions`]).
     pub comments: Vec<String>,
     /// Number of bearings N_b.
     pub n_bearings: usize,
@@ -155,6 +174,23 @@ pub enum MeasurementError {
     /// The header is followed by no data rows.
     #[error("no data rows after the header")]
     NoData,
+    /// The `# conventions:` line (SPEC section 7) is not valid: an unknown
+    /// key or value, a key given twice, a second such line, or one after
+    /// the header.
+    #[error("line {line}: {source}")]
+    Conventions {
+        /// Line of the `# conventions:` line.
+        line: usize,
+        /// What is wrong.
+        source: ConventionsError,
+    },
+    /// A comment to write would read back as a `# conventions:` line,
+    /// while the writer writes rotorid's own conventions.
+    #[error("comment {} (counting from 1) would read back as a `# conventions:` line (the writer writes metres, 0-pk, arg Y; leave that line out)", index + 1)]
+    ConventionsComment {
+        /// 0-based index of the comment.
+        index: usize,
+    },
     /// The measurements to write are inconsistent.
     #[error("sample {} (counting from 1): {reason}", index + 1)]
     Inconsistent {
@@ -339,6 +375,12 @@ pub struct CsvLocations {
     /// SPEC section 7): per sample, one per channel (bearing channels, then
     /// node probes); empty when the file has none.
     pub sample_std: Vec<Vec<f64>>,
+    /// The conventions the values were read in and turned from (the
+    /// file's `# conventions:` line under any overrides; rotorid's own
+    /// without either).
+    pub conventions: Conventions,
+    /// 1-based line of the file's `# conventions:` line, if it has one.
+    pub conventions_line: Option<usize>,
 }
 
 impl CsvLocations {
@@ -371,12 +413,32 @@ pub fn parse_csv_located(text: &str) -> Result<(Measurements, CsvLocations), Mea
 /// [`parse_csv_located`] of a file whose bearing columns are the channels
 /// `channels` (two per bearing, e.g. [`model_channel_names`]: probe names
 /// `<name>_re,<name>_im` or `<name>_amp,<name>_phase_deg`), in that order;
-/// `None` is the SPEC's header. The phasors are the columns' values as
-/// they stand (probe readings: see [`probes_to_yz`]).
+/// `None` is the SPEC's header. The phasors are the columns' values in the
+/// file's conventions turned into rotorid's (probe readings: see
+/// [`probes_to_yz`]).
 pub fn parse_csv_channels(
     text: &str,
     channels: Option<&[String]>,
 ) -> Result<(Measurements, CsvLocations), MeasurementError> {
+    parse_csv_conventions(text, channels, &DeclaredConventions::default())
+}
+
+/// [`parse_csv_channels`] with the conventions `overrides` (the command
+/// line's `--amplitude-unit`, `--amplitude`, `--phase`) over the file's
+/// `# conventions:` line, key by key. The values are read in
+/// `Conventions::default().with(file_line).with(overrides)` and turned
+/// into rotorid's ([`Conventions::polar_to_internal`],
+/// [`Conventions::phasor_to_internal`]; `_std` columns by
+/// [`Conventions::amplitude_to_metres`]), node probes included. A file
+/// without the line and no overrides reads bit for bit as rotorid's own.
+pub fn parse_csv_conventions(
+    text: &str,
+    channels: Option<&[String]>,
+    overrides: &DeclaredConventions,
+) -> Result<(Measurements, CsvLocations), MeasurementError> {
+    let mut declared: Option<(usize, DeclaredConventions)> = None;
+    let mut conventions = Conventions::default();
+    let mut header_line = 0;
     let mut comments = Vec::new();
     let mut header: Option<(usize, CsvLayout, Vec<String>)> = None;
     let mut node_probes = Vec::new();
@@ -397,6 +459,22 @@ pub fn parse_csv_channels(
             continue;
         }
         if let Some(c) = line.strip_prefix('#') {
+            if let Some(d) = parse_conventions_comment(c) {
+                let err = |source| MeasurementError::Conventions {
+                    line: line_no,
+                    source,
+                };
+                if header.is_some() {
+                    return Err(err(ConventionsError::AfterHeader {
+                        header: header_line,
+                    }));
+                }
+                if let Some((first, _)) = declared {
+                    return Err(err(ConventionsError::SecondLine { first }));
+                }
+                declared = Some((line_no, d.map_err(err)?));
+                continue;
+            }
             comments.push(c.strip_prefix(' ').unwrap_or(c).to_string());
             continue;
         }
@@ -419,6 +497,9 @@ pub fn parse_csv_channels(
             header = Some((n_b, layout, names));
             node_probes = nodes;
             file_layout = layout;
+            header_line = line_no;
+            let file = declared.map(|(_, d)| d).unwrap_or_default();
+            conventions = Conventions::default().with(&file.overridden_by(overrides));
             continue;
         };
         if samples.len() == MAX_ROWS {
@@ -456,7 +537,23 @@ pub fn parse_csv_channels(
                         ),
                     });
                 }
-                row.push(v);
+                // In metres, 0-pk: a huge rms value or a subnormal one in
+                // mils can leave the finite positive range.
+                let metres = conventions.amplitude_to_metres(v);
+                if !(metres.is_finite() && metres > 0.0) {
+                    return Err(MeasurementError::Field {
+                        line: line_no,
+                        index: col + 1,
+                        column: name.clone(),
+                        reason: format!(
+                            "{} ({} {}) is {metres:e} m, not a standard deviation",
+                            clip(f),
+                            conventions.amplitude_unit,
+                            conventions.amplitude
+                        ),
+                    });
+                }
+                row.push(metres);
             }
             sample_std.push(row);
         }
@@ -485,8 +582,8 @@ pub fn parse_csv_channels(
         let mut q = values[1..]
             .chunks_exact(2)
             .map(|p| match layout {
-                CsvLayout::Complex => Complex64::new(p[0], p[1]),
-                CsvLayout::AmplitudePhase => Complex64::from_polar(p[0], p[1].to_radians()),
+                CsvLayout::Complex => conventions.phasor_to_internal(Complex64::new(p[0], p[1])),
+                CsvLayout::AmplitudePhase => conventions.polar_to_internal(p[0], p[1]),
             })
             .collect::<Vec<_>>();
         debug_assert_eq!(q.len(), 2 * n_b + 2 * node_probes.len());
@@ -548,6 +645,8 @@ pub fn parse_csv_channels(
             layout: file_layout,
             channels: channels.map(<[String]>::to_vec).unwrap_or_default(),
             sample_std,
+            conventions,
+            conventions_line: declared.map(|(l, _)| l),
         },
     ))
 }
@@ -636,17 +735,30 @@ pub fn read_for_model(
     path: &std::path::Path,
     file: &crate::io::model_file::ModelFile,
 ) -> Result<ModelMeasurements, MeasurementError> {
+    read_for_model_with(path, file, &DeclaredConventions::default())
+}
+
+/// [`read_for_model`] with the conventions `overrides` over the file's
+/// `# conventions:` line ([`parse_csv_conventions`]): `identify` and
+/// `diagnose` pass their `--amplitude-unit`, `--amplitude`, `--phase`.
+pub fn read_for_model_with(
+    path: &std::path::Path,
+    file: &crate::io::model_file::ModelFile,
+    overrides: &DeclaredConventions,
+) -> Result<ModelMeasurements, MeasurementError> {
     let (mut measurements, located, probe_readings) = if !file.has_probes() {
-        let (m, l) = read_csv_located(path)?;
+        let (m, l) = read_csv_conventions(path, None, overrides)?;
         (m, l, false)
     } else {
         let names = model_channel_names(&file.probes);
-        match read_csv_channels(path, Some(&names)) {
+        match read_csv_conventions(path, Some(&names), overrides) {
             Ok((m, l)) => (m, l, true),
-            Err(named @ MeasurementError::Header { .. }) => match read_csv_located(path) {
-                Ok((m, l)) => (m, l, false),
-                Err(_) => return Err(named),
-            },
+            Err(named @ MeasurementError::Header { .. }) => {
+                match read_csv_conventions(path, None, overrides) {
+                    Ok((m, l)) => (m, l, false),
+                    Err(_) => return Err(named),
+                }
+            }
             Err(e) => return Err(e),
         }
     };
@@ -714,12 +826,22 @@ pub fn read_csv_channels(
     path: impl AsRef<Path>,
     channels: Option<&[String]>,
 ) -> Result<(Measurements, CsvLocations), MeasurementError> {
+    read_csv_conventions(path, channels, &DeclaredConventions::default())
+}
+
+/// [`read_csv_channels`] with conventions `overrides` over the file's
+/// `# conventions:` line ([`parse_csv_conventions`]).
+pub fn read_csv_conventions(
+    path: impl AsRef<Path>,
+    channels: Option<&[String]>,
+    overrides: &DeclaredConventions,
+) -> Result<(Measurements, CsvLocations), MeasurementError> {
     let path = path.as_ref();
     let text = std::fs::read_to_string(path).map_err(|source| MeasurementError::Io {
         path: path.display().to_string(),
         source,
     })?;
-    parse_csv_channels(&text, channels)
+    parse_csv_conventions(&text, channels, overrides)
 }
 
 /// The speed column's value for `omega` (rad/s): rpm rounded to 12
@@ -763,9 +885,12 @@ fn bearing_csv_string(
         }
     }
     let mut out = String::new();
-    for c in &m.comments {
+    for (index, c) in m.comments.iter().enumerate() {
         // A comment containing a line break would break the format.
         for part in c.lines() {
+            if parse_conventions_comment(part).is_some() {
+                return Err(MeasurementError::ConventionsComment { index });
+            }
             let _ = writeln!(out, "# {part}");
         }
     }
