@@ -32,6 +32,10 @@ pub struct DiagnoseArgs {
     /// (SPEC section 7).
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub noise_floor: Option<f64>,
+    /// The measurement file's instrument conventions (over its
+    /// `# conventions:` line).
+    #[command(flatten)]
+    pub conventions: super::ConventionArgs,
 }
 
 /// Runs `rotorid diagnose`.
@@ -49,7 +53,8 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         ],
     )?;
     let model_file = super::load_model(&args.model)?;
-    let meas = super::read_measurements(&args.measurements, &model_file)?.measurements;
+    let meas =
+        super::read_measurements(&args.measurements, &model_file, &args.conventions)?.measurements;
     let model = model_file.model;
     if meas.samples.len() < 8 {
         return Err(CliError::new(format!(

@@ -110,6 +110,10 @@ pub struct IdentifyArgs {
     /// Keep every sample in the output-error fit (no outlier exclusion).
     #[arg(long)]
     pub no_outliers: bool,
+    /// The measurement file's instrument conventions (over its
+    /// `# conventions:` line).
+    #[command(flatten)]
+    pub conventions: super::ConventionArgs,
 }
 
 /// `--runout`.
@@ -169,7 +173,7 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     )?;
     let model_file = super::load_model(&args.model)?;
     let file = args.measurements.display().to_string();
-    let read = super::read_measurements(&args.measurements, &model_file)?;
+    let read = super::read_measurements(&args.measurements, &model_file, &args.conventions)?;
     let (meas, located, sample_std) = (read.measurements, read.located, read.sample_std);
     let model = model_file.model;
     let structure = match args.formulation {

@@ -7,7 +7,9 @@
 //!                  [--adaptive TOL] [--formulation physical|paper] [--order 1]
 //! rotorid identify --model MODEL --measurements FILE.csv [--formulation physical|paper] [--order 1]
 //!                  [--lambda 0.999] [--delta 1e-7] [--f32] [--json OUT.json] [--plot DIR]
+//!                  [--amplitude-unit m|mm|um|mil] [--amplitude 0-pk|pk-pk|rms] [--phase arg|lag]
 //! rotorid diagnose --model MODEL --measurements FILE.csv [--json OUT.json]
+//!                  [--amplitude-unit ...] [--amplitude ...] [--phase ...]
 //! rotorid campbell --model MODEL [--rpm-max 15000] [--rpm-step 250] [--modes 8]
 //!                  [--plot OUT.svg] [--json OUT.json] [--csv OUT.csv]
 //! ```
@@ -327,13 +329,48 @@ pub fn measurement_error(
     }
 }
 
-/// [`crate::io::measurement::read_for_model`] with the error as one line
+/// The instrument conventions of the measurement file (SPEC section 7),
+/// `identify`'s and `diagnose`'s `--amplitude-unit`, `--amplitude`,
+/// `--phase`: each overrides the same key of the file's `# conventions:`
+/// line; without either a value is rotorid's own (m, 0-pk, arg).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Args)]
+pub struct ConventionArgs {
+    /// Unit of the file's amplitudes, re/im values and `_std` columns: m,
+    /// mm, um or mil (25.4e-6 m). Overrides the file's `# conventions:` line.
+    #[arg(long, value_name = "UNIT")]
+    pub amplitude_unit: Option<crate::io::measurement::AmplitudeUnit>,
+    /// What the file's amplitudes measure: 0-pk, pk-pk (read as half) or
+    /// rms (read as sqrt 2 times). Overrides the file's line.
+    #[arg(long, value_name = "KIND")]
+    pub amplitude: Option<crate::io::measurement::AmplitudeKind>,
+    /// What the file's phases are: arg (arg Y, rotorid's) or lag (the lag
+    /// from the keyphasor to the next positive peak, API 670 and ROSS;
+    /// read as arg Y = -lag). Overrides the file's line.
+    #[arg(long, value_name = "arg|lag")]
+    pub phase: Option<crate::io::measurement::PhaseConvention>,
+}
+
+impl ConventionArgs {
+    /// The keys given on the command line.
+    pub fn declared(&self) -> crate::io::measurement::DeclaredConventions {
+        crate::io::measurement::DeclaredConventions {
+            amplitude_unit: self.amplitude_unit,
+            amplitude: self.amplitude,
+            phase: self.phase,
+        }
+    }
+}
+
+/// [`crate::io::measurement::read_for_model_with`] with the command line's
+/// conventions over the file's, and the error as one line
 /// ([`measurement_error`]).
 pub fn read_measurements(
     path: &std::path::Path,
     file: &crate::io::model_file::ModelFile,
+    conventions: &ConventionArgs,
 ) -> Result<crate::io::measurement::ModelMeasurements, CliError> {
-    crate::io::measurement::read_for_model(path, file).map_err(|e| measurement_error(path, e))
+    crate::io::measurement::read_for_model_with(path, file, &conventions.declared())
+        .map_err(|e| measurement_error(path, e))
 }
 
 /// `--noise-floor M`: finite and >= 0 metres.
