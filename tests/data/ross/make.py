@@ -13,6 +13,10 @@ Usage (from this folder, with the ROSS venv's python):
         loads a rotor file (e.g. one written by rotorid's ROSS writer) in ROSS
         and writes its natural frequencies and log decrements.
 
+    python make.py --probe-tables-only
+        writes only the probe tables (ROSS's amplitude and phase per probe,
+        ``rotor_example.probes_*.csv``); the full run writes them too.
+
 All numbers are SI: rad/s, m, kg, N/m, N*s/m. Speeds are given in rad/s in
 the JSON files; the rpm they came from is stated next to them.
 """
@@ -41,6 +45,7 @@ import numpy as np
 
 import ross as rs
 from ross.materials import Material, steel
+from ross.units import Q_
 
 ROSS_VERSION = "3.1.0"
 assert rs.__version__ == ROSS_VERSION, (
@@ -571,6 +576,89 @@ def make_loadable(name, builder, description, unbalance):
     return result
 
 
+# Probe tables: the unbalance response as ROSS reports it per probe
+# (ForcedResponseResults.data_magnitude / data_phase), written as rotorid
+# measurement files in ROSS's instrument conventions.
+PROBE_TABLES = [
+    # file suffix, amplitude_units, conventions line (None: no line)
+    ("probes_m_0pk_lag", "m", None),
+    ("probes_um_pkpk_lag", "um pkpk", "amplitude_unit=um amplitude=pk-pk phase=lag"),
+]
+# The same run's complex response at the same probes (forced_resp, the
+# phasor convention x(t) = Re{X exp(j w t)}: rotorid's own), the reference
+# for the tables (another machine's BLAS changes ROSS's last digits).
+PROBE_COMPLEX = "probes_complex"
+
+
+def probe_tables(name, unbalance):
+    """Write ``<name>.<suffix>.csv`` for every entry of PROBE_TABLES, and
+    ``<name>.probes_complex.csv`` (the same run's ``forced_resp``).
+
+    The rotor is ``ross.Rotor.load(<name>.toml)``, the response
+    ``run_unbalance_response`` with the fixture's unbalance at the speeds of
+    ``<name>.results.json``. Probes: each bearing node at angle 0 (ROSS x,
+    rotorid y) and pi/2 (ROSS y, rotorid z), bearings in node order
+    (rotorid's b1, b2, ...). The columns are ROSS's own ``data_magnitude``
+    (``amplitude_units`` as listed: 0-pk, or peak-to-peak with ``pkpk``) and
+    ``data_phase(phase_units="deg")``, the lag 2 pi - mod(arg P, 2 pi);
+    ``frequency_units="RPM"`` gives ``speed_rpm``.
+    """
+    rotor = rs.Rotor.load(HERE / f"{name}.toml")
+    with open(HERE / f"{name}.results.json") as f:
+        speeds = np.array(json.load(f)["unbalance_response"]["speed_rad_s"])
+    nodes = [u[0] for u in unbalance]
+    mags = [u[1] for u in unbalance]
+    phases = [u[2] for u in unbalance]
+    with Caught():
+        resp = rotor.run_unbalance_response(nodes, mags, phases, speed_range=speeds)
+    bearings = sorted(rotor.bearing_elements, key=lambda b: b.n)
+    probes, columns, dofs = [], [], []
+    for k, brg in enumerate(bearings, start=1):
+        for axis, ross_axis, angle in (("y", "x", 0.0), ("z", "y", math.pi / 2)):
+            tag = f"b{k}_{axis}"
+            probes.append(rs.Probe(brg.n, angle, tag=tag))
+            columns.append(tag)
+            dofs.append(dof_index(brg, brg.n, ross_axis))
+    rpm = Q_(speeds, "rad/s").to("RPM").m
+    out = [
+        f"# ROSS {rs.__version__}: {name}.toml, run_unbalance_response "
+        f"{[(n, m, p) for n, m, p in unbalance]} (node, kg m, rad)",
+        "# forced_resp at the bearing nodes: ROSS x, y are rotorid y, z",
+        ",".join(["speed_rpm"] + [f"{c}_{p}" for c in columns for p in ("re", "im")]),
+    ]
+    for i in range(len(speeds)):
+        row = [repr(float(rpm[i]))]
+        for d in dofs:
+            z = resp.forced_resp[d, i]
+            row += [repr(float(z.real)), repr(float(z.imag))]
+        out.append(",".join(row))
+    (HERE / f"{name}.{PROBE_COMPLEX}.csv").write_text("\n".join(out) + "\n")
+    for suffix, units, line in PROBE_TABLES:
+        with Caught():
+            mag = resp.data_magnitude(
+                probes, frequency_units="RPM", amplitude_units=units
+            )
+            ph = resp.data_phase(probes, frequency_units="RPM", phase_units="deg")
+        out = [
+            f"# ROSS {rs.__version__}: {name}.toml, run_unbalance_response "
+            f"{[(n, m, p) for n, m, p in unbalance]} (node, kg m, rad)",
+            f"# data_magnitude(probes, frequency_units='RPM', amplitude_units='{units}'), "
+            "data_phase(probes, frequency_units='RPM', phase_units='deg')",
+        ]
+        if line is not None:
+            out.append(f"# conventions: {line}")
+        header = ["speed_rpm"]
+        for c in columns:
+            header += [f"{c}_amp", f"{c}_phase_deg"]
+        out.append(",".join(header))
+        for i in range(len(speeds)):
+            row = [repr(float(mag["frequency"][i]))]
+            for c in columns:
+                row += [repr(float(mag[c][i])), repr(float(ph[c][i]))]
+            out.append(",".join(row))
+        (HERE / f"{name}.{suffix}.csv").write_text("\n".join(out) + "\n")
+
+
 def make_refused(name, builder, description):
     _, rotor, path, load_warnings = save_and_load(builder, name)
     kinds = sorted({type(b).__name__ for b in rotor.bearing_elements})
@@ -607,7 +695,14 @@ def main(argv=None):
     parser.add_argument("--out", metavar="RESULT.json")
     parser.add_argument("--speeds-rpm", type=float, nargs="+",
                         default=[0.0, 1000.0, 3000.0, 5000.0, 6000.0])  # fmt: skip
+    parser.add_argument("--probe-tables-only", action="store_true")
     args = parser.parse_args(argv)
+
+    if args.probe_tables_only:
+        name, _, _, unbalance = LOADABLE[0]
+        probe_tables(name, unbalance)
+        print(f"{name}: probe tables written")
+        return
 
     if args.check_export:
         if not args.out:
@@ -628,6 +723,8 @@ def main(argv=None):
         print(f"{name} ...", flush=True)
         summary["refused"].append(make_refused(name, builder, description))
     write_json(HERE / "index.json", summary)
+    name, _, _, unbalance = LOADABLE[0]
+    probe_tables(name, unbalance)
 
 
 if __name__ == "__main__":
