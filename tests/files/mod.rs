@@ -1,6 +1,7 @@
 //! Files and the simulator: the measurement CSV, rotorid and ROSS model
 //! files, mutated (untrusted) input, the simulated sweep.
 
+mod conventions;
 mod measurement;
 mod model;
 mod robustness;
