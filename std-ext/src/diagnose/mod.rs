@@ -44,13 +44,19 @@
 //! [`fit`]: `sqrt(S / N)` with `S = sum |y_meas - y|^2 / max(|y_meas|,
 //! f_c)^2` over the `N` complex readings.
 
+mod candidate;
+mod effect;
 pub mod extended;
 pub mod fit;
 pub mod generator;
+mod input;
 pub mod observe;
 mod stats;
 pub mod terms;
 
+pub use candidate::Candidate;
+pub use effect::Effect;
+pub use input::{DiagnoseError, DiagnoseOptions};
 use stats::bic;
 pub use stats::{chi2_quantile_upper, gamma_q, normal_quantile_upper};
 
@@ -59,20 +65,17 @@ use std::collections::HashMap;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::Serialize;
-use thiserror::Error;
 
 use crate::estimate::noise::NoiseModel;
-use crate::estimate::output_error::{fit_output_error, OutputErrorError, OutputErrorOptions};
-use crate::estimate::predictor::{PredictError, Predictor, Terms};
+use crate::estimate::output_error::{fit_output_error, OutputErrorOptions};
+use crate::estimate::predictor::{Predictor, Terms};
 use crate::estimate::results::{
     BearingResult, BearingStd, Coefficients, UnbalanceResult, UnbalanceStd,
 };
 use crate::estimate::{identify_with, IdentifyError, Options, Parametrization};
 use crate::io::measurement::Measurements;
 use crate::model::RotorModel;
-use crate::reduce::ReductionError;
 use crate::tables::auto_scaling;
-use crate::units::rad_s_to_rpm;
 use extended::{ExtendedModel, Extension, PedestalParams, Scales, E_STEP};
 use fit::{Fit, FitData};
 use rotorid_core::parametrization::{Structure, MAX_ORDER};
@@ -90,161 +93,6 @@ pub const PEDESTAL_RATIOS: [f64; 7] = [0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4];
 /// model-free noise level below which a fit explains the data to the noise:
 /// the searches stop trying further starts of its hypothesis.
 pub const NOISE_CHI2: f64 = 1.2;
-
-/// What the data show beyond the nominal model (SPEC section 5 names).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Effect {
-    /// Nothing beyond measurement noise.
-    None,
-    /// Bearing coefficients that vary with speed.
-    SpeedDependentBearing,
-    /// A pedestal that moves.
-    FoundationFlexibility,
-    /// A bent shaft.
-    ShaftBow,
-    /// A constant phasor added to a probe.
-    ProbeRunout,
-    /// Unbalance at a node not among the planes.
-    ExtraUnbalancePlane,
-    /// The shaft stiffer or softer than the model.
-    ShaftStiffnessError,
-    /// A misfit none of the above removes.
-    Unexplained,
-}
-
-impl Effect {
-    /// The hypotheses of the bank, in the order they are tried.
-    pub const BANK: [Effect; 6] = [
-        Effect::SpeedDependentBearing,
-        Effect::FoundationFlexibility,
-        Effect::ShaftBow,
-        Effect::ProbeRunout,
-        Effect::ExtraUnbalancePlane,
-        Effect::ShaftStiffnessError,
-    ];
-
-    /// The name of the command-line contract.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Effect::None => "none",
-            Effect::SpeedDependentBearing => "speed_dependent_bearing",
-            Effect::FoundationFlexibility => "foundation_flexibility",
-            Effect::ShaftBow => "shaft_bow",
-            Effect::ProbeRunout => "probe_runout",
-            Effect::ExtraUnbalancePlane => "extra_unbalance_plane",
-            Effect::ShaftStiffnessError => "shaft_stiffness_error",
-            Effect::Unexplained => "unexplained",
-        }
-    }
-
-    /// Parses a name of [`Effect::name`].
-    pub fn from_name(s: &str) -> Option<Effect> {
-        [
-            Effect::None,
-            Effect::SpeedDependentBearing,
-            Effect::FoundationFlexibility,
-            Effect::ShaftBow,
-            Effect::ProbeRunout,
-            Effect::ExtraUnbalancePlane,
-            Effect::ShaftStiffnessError,
-            Effect::Unexplained,
-        ]
-        .into_iter()
-        .find(|e| e.name() == s)
-    }
-}
-
-/// Options of the diagnosis.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DiagnoseOptions {
-    /// Polynomial order of the nominal bearing law (`physical`).
-    pub order: usize,
-    /// False-alarm rate of the choice (probability that noise alone names
-    /// an effect), split over all alternatives tried.
-    pub false_alarm: f64,
-    /// Probes on a pedestal read the shaft relative to it (the default, as
-    /// proximity probes are mounted) rather than absolutely.
-    pub relative_probes: bool,
-    /// The probes' noise floor (m, every channel); `None`: estimated from
-    /// the data (SPEC section 7).
-    pub noise_floor: Option<f64>,
-}
-
-impl Default for DiagnoseOptions {
-    fn default() -> Self {
-        DiagnoseOptions {
-            order: 1,
-            false_alarm: 1e-3,
-            relative_probes: true,
-            noise_floor: None,
-        }
-    }
-}
-
-/// Why the diagnosis could not run.
-#[derive(Debug, Error)]
-pub enum DiagnoseError {
-    /// Bad or inconsistent input.
-    #[error("{0}")]
-    Input(String),
-    /// The nominal identification failed.
-    #[error("{0}")]
-    Identify(#[from] IdentifyError),
-    /// The model reduction failed.
-    #[error("{0}")]
-    Reduction(#[from] ReductionError),
-    /// The nominal output-error fit failed.
-    #[error("{0}")]
-    OutputError(#[from] OutputErrorError),
-    /// A prediction failed.
-    #[error("{0}")]
-    Predict(#[from] PredictError),
-}
-
-/// One fitted model of the bank (or the nominal one).
-#[derive(Debug, Clone)]
-pub struct Candidate {
-    /// The effects it adds (empty: nominal).
-    pub effects: Vec<Effect>,
-    /// A short description (e.g. "extra plane at node 17").
-    pub label: String,
-    /// The model.
-    pub model: ExtendedModel,
-    /// Its fit.
-    pub fit: Fit,
-    /// The shaft modulus factor its terms were built for.
-    pub e_terms: f64,
-    /// Alternatives tried for this hypothesis (nodes, bearings, orders).
-    pub alternatives: usize,
-    /// `(S_nominal - S) / sigma^2`.
-    pub statistic: f64,
-    /// The chi-square threshold it had to exceed.
-    pub threshold: f64,
-    /// Whether it is significant.
-    pub significant: bool,
-}
-
-impl Candidate {
-    /// Relative RMS misfit.
-    pub fn residual(&self) -> f64 {
-        self.fit.residual()
-    }
-
-    /// The likelihood-ratio test against the nominal fit: the drop in `S`
-    /// in units of `sigma2` against the chi-square quantile of the extra
-    /// parameters at the rate `alpha`.
-    fn judge(&mut self, nominal: &Fit, sigma2: f64, alpha: f64) {
-        let dp = self
-            .fit
-            .n_params()
-            .saturating_sub(nominal.n_params())
-            .max(1);
-        self.statistic = (nominal.s - self.fit.s) / sigma2;
-        self.threshold = chi2_quantile_upper(dp as f64, alpha);
-        self.significant = self.statistic > self.threshold;
-    }
-}
 
 /// The size of an identified effect, with standard deviations.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -494,58 +342,14 @@ pub fn diagnose(
     meas: &Measurements,
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, DiagnoseError> {
+    input::check(model, meas, opts)?;
     let nb = model.bearings.len();
-    if meas.n_bearings != nb || meas.samples.iter().any(|s| s.q.len() != 2 * nb) {
-        return Err(DiagnoseError::Input(format!(
-            "the measurement has {} bearings, the model {}",
-            meas.n_bearings, nb
-        )));
-    }
-    if !(1..=MAX_ORDER).contains(&opts.order) {
-        return Err(DiagnoseError::Input(format!(
-            "order must be in 1..={MAX_ORDER}, got {}",
-            opts.order
-        )));
-    }
-    if !(opts.false_alarm > 0.0 && opts.false_alarm < 0.5) {
-        return Err(DiagnoseError::Input(format!(
-            "false-alarm rate must be in (0, 0.5), got {}",
-            opts.false_alarm
-        )));
-    }
-    if let Some(s) = meas
-        .samples
-        .iter()
-        .find(|s| s.omega.is_nan() || s.omega <= 0.0)
-    {
-        return Err(DiagnoseError::Input(format!(
-            "the diagnosis needs speeds above 0 rpm, got {} rpm",
-            rad_s_to_rpm(s.omega)
-        )));
-    }
     let mut clock = Stages::start();
     let samples = &meas.samples;
     let omegas: Vec<f64> = samples.iter().map(|s| s.omega).collect();
     let omega_max = omegas.iter().copied().fold(0.0, f64::max);
     let probes = &meas.node_probes;
     let node_q = &meas.node_q[..];
-    if !probes.is_empty()
-        && (node_q.len() != samples.len() || node_q.iter().any(|x| x.len() != 2 * probes.len()))
-    {
-        return Err(DiagnoseError::Input(format!(
-            "{} node-probe rows for {} samples of {} probes",
-            node_q.len(),
-            samples.len(),
-            probes.len()
-        )));
-    }
-    if let Some(n) = probes.iter().find(|&&n| n >= model.n_nodes()) {
-        return Err(DiagnoseError::Input(format!(
-            "a probe at node {} but the model has {} nodes",
-            n + 1,
-            model.n_nodes()
-        )));
-    }
     // One modal reduction for every factor of the shaft modulus (the factor
     // only moves the speed, `terms` module docs); the model's own terms by
     // the banded reduction (see `Builder::build_banded`).
