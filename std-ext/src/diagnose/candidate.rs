@@ -35,6 +35,29 @@ impl Candidate {
     pub fn residual(&self) -> f64 {
         self.fit.residual()
     }
+    /// A model fitted for `effects` (empty: nominal), not yet judged: its
+    /// statistic and threshold zero, not significant.
+    pub(crate) fn new(
+        effects: Vec<Effect>,
+        label: String,
+        model: ExtendedModel,
+        fit: Fit,
+        e_terms: f64,
+        alternatives: usize,
+    ) -> Self {
+        Candidate {
+            effects,
+            label,
+            model,
+            fit,
+            e_terms,
+            alternatives,
+            statistic: 0.0,
+            threshold: 0.0,
+            significant: false,
+        }
+    }
+
     /// The likelihood-ratio test against the nominal fit: the drop in `S`
     /// in units of `sigma2`, `(S_nominal - S) / sigma2`, against the
     /// chi-square quantile of the extra parameters (`max(P - P_nominal, 1)`

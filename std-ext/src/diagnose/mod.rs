@@ -43,8 +43,33 @@
 //! The residual reported for every model is the relative RMS misfit of
 //! [`fit`]: `sqrt(S / N)` with `S = sum |y_meas - y|^2 / max(|y_meas|,
 //! f_c)^2` over the `N` complex readings.
+//!
+//! # Layout
+//!
+//! [`diagnose()`] runs the steps above in order; each lives in its own
+//! module:
+//!
+//! * the input checks, [`DiagnoseOptions`] and [`DiagnoseError`]: `input`;
+//! * step 1, the nominal model, the noise model and the scales every fit
+//!   shares: `nominal` (with [`map_theta`], [`rotor_mass`]);
+//! * what the steps after it share: `context` (with [`NOISE_CHI2`]);
+//! * step 2, one module per hypothesis family: `bank` (with
+//!   [`PEDESTAL_RATIOS`]);
+//! * step 3, the choice and the pairs: [`diagnose()`] itself;
+//! * step 4, the observability: [`observe`];
+//! * the statistics ([`chi2_quantile_upper`], [`gamma_q`],
+//!   [`normal_quantile_upper`], the BIC): `stats`;
+//! * one fitted model, [`Candidate`]: `candidate`; the effects,
+//!   [`Effect`]: `effect`;
+//! * the result, [`Diagnosis`], and its shaping ([`findings`],
+//!   [`estimates`], [`predictions`]): `result`;
+//! * the wall-clock laps of [`Diagnosis::stages`]: `stages`;
+//! * the model extensions, the reduced terms, the fit and the case
+//!   generator: [`extended`], [`terms`], [`fit`], [`generator`].
 
+mod bank;
 mod candidate;
+mod context;
 mod effect;
 pub mod extended;
 pub mod fit;
@@ -57,41 +82,30 @@ mod stages;
 mod stats;
 pub mod terms;
 
+pub use bank::PEDESTAL_RATIOS;
 pub use candidate::Candidate;
+pub use context::NOISE_CHI2;
 pub use effect::Effect;
 pub use input::{DiagnoseError, DiagnoseOptions};
-use nominal::oe_start;
 pub(crate) use nominal::theta_from_model;
 pub use nominal::{map_theta, rotor_mass};
 pub use result::{estimates, findings, predictions, Diagnosis, Finding, RunoutFinding};
-use stages::Stages;
-use stats::bic;
 pub use stats::{chi2_quantile_upper, gamma_q, normal_quantile_upper};
 
-use crate::estimate::noise::NoiseModel;
-use crate::estimate::predictor::Predictor;
-use crate::estimate::Parametrization;
 use crate::io::measurement::Measurements;
 use crate::model::RotorModel;
-use crate::tables::auto_scaling;
-use extended::{ExtendedModel, Extension, PedestalParams, Scales, E_STEP};
-use fit::{Fit, FitData};
-use nalgebra::DMatrix;
-use rotorid_core::parametrization::{Structure, MAX_ORDER};
-use terms::SpeedTerms;
+use context::Context;
+use fit::FitData;
+use stages::Stages;
+
+use crate::diagnose::extended::{ExtendedModel, Extension, PedestalParams};
+use crate::diagnose::fit::Fit;
+use crate::diagnose::terms::SpeedTerms;
+use bank::rescreen;
 
 /// Chi-square per degree of freedom of the residual noise against the
 /// model-free noise level above which a model does not fit.
 pub const MISFIT_CHI2: f64 = 2.0;
-
-/// Natural frequencies of the starts of the pedestal search, as fractions
-/// of the top measured speed (besides two at the largest nominal misfit).
-pub const PEDESTAL_RATIOS: [f64; 7] = [0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4];
-
-/// Chi-square per degree of freedom of the residual noise against the
-/// model-free noise level below which a fit explains the data to the noise:
-/// the searches stop trying further starts of its hypothesis.
-pub const NOISE_CHI2: f64 = 1.2;
 
 /// Runs the diagnosis of `meas` against `model` (see the module docs).
 pub fn diagnose(
@@ -100,7 +114,6 @@ pub fn diagnose(
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, DiagnoseError> {
     input::check(model, meas, opts)?;
-    let nb = model.bearings.len();
     let mut clock = Stages::start();
     let samples = &meas.samples;
     let omegas: Vec<f64> = samples.iter().map(|s| s.omega).collect();
@@ -115,452 +128,44 @@ pub fn diagnose(
     clock.lap("terms");
 
     // 1. Nominal: QRD/RLS start, output-error fit, polish on our objective.
-    let structure = Structure::physical(opts.order);
-    let scaling = auto_scaling(model, omega_max);
-    // The noise model: model-free, its relative part refined by the nominal
-    // output-error fit where a floor leaves it to the few samples near the
-    // critical speeds (the same rule as `identify`).
-    let reference = crate::estimate::noise::estimate_noise(samples, opts.noise_floor);
-    let (pr, oe_theta, fitted) = oe_start(
-        model,
-        samples,
-        &terms,
-        structure,
-        scaling,
-        reference.as_ref(),
-    )?;
-    let noise_model = match (reference, fitted) {
-        (Some(r), Some(f)) if r.has_floor() => Some(NoiseModel {
-            relative: f.relative.min(r.relative),
-            ..r
-        }),
-        (r, _) => r,
-    };
-    let phi: Vec<f64> = noise_model
-        .as_ref()
-        .filter(|m| m.has_floor())
-        .map(|m| m.relative_floor())
-        .unwrap_or_default();
-    let n_real = 2 * samples.len() * 2 * nb;
-    let q_rms = (samples
-        .iter()
-        .flat_map(|s| &s.q)
-        .map(|z| z.norm_sqr())
-        .sum::<f64>()
-        / (samples.len() * 2 * nb).max(1) as f64)
-        .sqrt();
-    let rotor_mass = rotor_mass(model);
-    let scales = Scales {
-        q: if q_rms > 0.0 { q_rms } else { 1e-6 },
-        mass: rotor_mass / nb as f64,
-        omega: omega_max,
-    };
-    // The model-free noise level: lets fits far above it stop stalled
-    // (`fit` module docs) and judges the misfit below.
-    let noise_level = match &noise_model {
-        Some(m) if m.has_floor() => Some(m.relative),
-        _ => crate::estimate::noise::relative_noise_level(samples),
-    };
+    let setup = nominal::Setup::new(model, samples, &terms, opts, omega_max)?;
     let data = FitData::with_probes(samples, node_q, &terms)
-        .with_floors(&phi)
-        .with_noise_level(noise_level);
-    let base = ExtendedModel {
-        pr: pr.clone(),
-        ext: Vec::new(),
-        scales,
-        relative_probes: opts.relative_probes,
-    };
-    let nominal_fit = fit::fit(&base, &data, &oe_theta, 50)?;
-    if n_real <= nominal_fit.n_params() {
-        return Err(DiagnoseError::Input(format!(
-            "{} real equations for {} nominal parameters: too few speeds to diagnose",
-            n_real,
-            nominal_fit.n_params()
-        )));
-    }
-    let nominal = Candidate {
-        effects: Vec::new(),
-        label: format!("nominal (physical order {})", opts.order),
-        model: base.clone(),
-        fit: nominal_fit,
-        e_terms: 1.0,
-        alternatives: 1,
-        statistic: 0.0,
-        threshold: 0.0,
-        significant: false,
-    };
+        .with_floors(&setup.phi)
+        .with_noise_level(setup.noise_level);
+    let (base, nominal) = nominal::fit_nominal(&setup, &data, opts)?;
     clock.lap("nominal fit");
     let theta0 = nominal.fit.theta.clone();
-    let theta_model = theta_from_model(&pr, model, &theta0, 0.5 * omega_max);
-    let nominal_s = nominal.fit.s;
+    let ctx = Context {
+        model,
+        opts,
+        samples,
+        node_q,
+        omegas: &omegas,
+        builder: &builder,
+        terms: &terms,
+        setup: &setup,
+        data: &data,
+        base: &base,
+        nominal: &nominal,
+        theta_model: theta_from_model(&setup.pr, model, &theta0, 0.5 * omega_max),
+        theta0,
+    };
 
     // 2. The bank.
-    let mut hyps: Vec<Candidate> = Vec::new();
-    let mut push =
-        |effect: Effect, label: String, model: ExtendedModel, fit: Fit, e: f64, alt: usize| {
-            hyps.push(Candidate {
-                effects: vec![effect],
-                label,
-                model,
-                fit,
-                e_terms: e,
-                alternatives: alt,
-                statistic: 0.0,
-                threshold: 0.0,
-                significant: false,
-            })
-        };
-    let with_ext = |ext: Vec<Extension>| ExtendedModel {
-        ext,
-        ..base.clone()
-    };
-    let start_with = |m: &ExtendedModel, extra: &[f64]| -> Vec<f64> {
-        let mut t = theta0.clone();
-        t.extend_from_slice(extra);
-        t.resize(m.n_params(), 0.0);
-        t
-    };
-    let n_room = |p: usize| n_real > p + 4;
-    // A fit whose residual noise is within NOISE_CHI2 of the model-free
-    // noise level: further starts or richer variants of its hypothesis are
-    // not tried (they could only move `S` by noise).
-    let at_noise = |f: &Fit| match noise_level {
-        Some(s) if s > 0.0 => 2.0 * f.sigma2() / (s * s) <= NOISE_CHI2,
-        _ => false,
-    };
+    let bank::Bank {
+        hypotheses,
+        e_terms,
+        terms_de,
+    } = bank::run(&ctx, &mut clock)?;
 
-    // speed_dependent_bearing
-    {
-        let mut best: Option<(Fit, ExtendedModel, usize)> = None;
-        let mut alt = 0;
-        for order in opts.order + 1..=(opts.order + 2).min(MAX_ORDER) {
-            let param = Parametrization {
-                structure: Structure::physical(order),
-                ..pr.param.clone()
-            };
-            let prn = Predictor::new(param);
-            if !n_room(prn.n_params()) {
-                continue;
-            }
-            alt += 1;
-            let t = map_theta(&pr, &theta0, &prn);
-            let m = ExtendedModel {
-                pr: prn,
-                ..base.clone()
-            };
-            if let Ok(f) = fit::fit(&m, &data, &t, 50) {
-                if best
-                    .as_ref()
-                    .is_none_or(|b| bic(&f, n_real) < bic(&b.0, n_real))
-                {
-                    best = Some((f, m, order));
-                }
-            }
-        }
-        if let Some((f, m, order)) = best {
-            push(
-                Effect::SpeedDependentBearing,
-                format!("bearing law of physical order {order}"),
-                m,
-                f,
-                1.0,
-                alt,
-            );
-        }
-    }
-    clock.lap(Effect::SpeedDependentBearing.name());
-    // foundation_flexibility: a pedestal under each bearing in turn.
-    {
-        let mut best: Option<(Fit, ExtendedModel, usize)> = None;
-        let mut alt = 0;
-        // Where the nominal model misfits a bearing's channels most: a
-        // pedestal's resonance shows there.
-        let r_nominal = fit::evaluate(&base, &data, &fit::entries(&base, &data), &theta0, false)
-            .map(|(r, _)| r)
-            .ok();
-        let n_out = data.inv_w.first().map_or(0, Vec::len);
-        let mut queue: Vec<(Fit, usize)> = Vec::new();
-        for bearing in 0..nb {
-            let m = with_ext(vec![Extension::Pedestal { bearing }]);
-            if !n_room(m.n_params()) {
-                continue;
-            }
-            alt += 1;
-            let peak_ratio = r_nominal.as_ref().and_then(|r| {
-                let k = (0..samples.len()).max_by(|&a, &b| {
-                    let e = |k: usize| -> f64 {
-                        (4 * bearing..4 * bearing + 4)
-                            .map(|i| r[2 * k * n_out + i].powi(2))
-                            .sum()
-                    };
-                    e(a).total_cmp(&e(b))
-                })?;
-                Some(samples[k].omega / scales.omega)
-            });
-            let mut ratios = PEDESTAL_RATIOS.to_vec();
-            if let Some(p) = peak_ratio {
-                ratios.extend([0.97 * p, 1.03 * p]);
-            }
-            // Screen a grid of natural frequencies and masses by three
-            // iterations each (fewer rank the starts wrongly: the basin of
-            // a resonance is narrow), then fit from the two best starts.
-            // The bearings start from the nominal fit and from the model's
-            // own values (a large pedestal distorts the nominal fit).
-            // (Ranking on every second speed only halves this and loses
-            // pedestals whose y and z frequencies lie apart.)
-            let mut starts: Vec<Fit> = Vec::new();
-            for nominal_start in [&theta0, &theta_model] {
-                for &ratio in &ratios {
-                    for mass in [0.5, 1.5] {
-                        let ped = PedestalParams {
-                            mass: mass * scales.mass,
-                            omega: [ratio * scales.omega; 2],
-                            zeta: [0.05; 2],
-                        };
-                        let mut t = nominal_start.clone();
-                        t.extend_from_slice(&ped.to_scaled(&scales));
-                        if let Ok(f) = fit::fit_with(&m, &data, &t, 3, false) {
-                            starts.push(f);
-                        }
-                    }
-                }
-            }
-            starts.sort_by(|a, b| a.s.total_cmp(&b.s));
-            queue.extend(starts.into_iter().take(2).map(|f| (f, bearing)));
-        }
-        // The full fits, best screened start first (the thinned `S` of all
-        // bearings are comparable), until one fits to the noise: another
-        // start could then only move `S` by noise.
-        queue.sort_by(|a, b| a.0.s.total_cmp(&b.0.s));
-        for (start, bearing) in queue {
-            if best.as_ref().is_some_and(|b| at_noise(&b.0)) {
-                break;
-            }
-            let m = with_ext(vec![Extension::Pedestal { bearing }]);
-            if let Ok(f) = fit::fit(&m, &data, &start.theta, 60) {
-                if best.as_ref().is_none_or(|b| f.s < b.0.s) {
-                    best = Some((f, m, bearing));
-                }
-            }
-        }
-        if let Some((f, m, bearing)) = best {
-            push(
-                Effect::FoundationFlexibility,
-                format!(
-                    "pedestal under bearing {} (node {})",
-                    bearing + 1,
-                    model.bearings[bearing].node + 1
-                ),
-                m,
-                f,
-                1.0,
-                alt,
-            );
-        }
-    }
-    clock.lap(Effect::FoundationFlexibility.name());
-    // shaft_bow and extra_unbalance_plane: screened over nodes.
-    let n_nodes = model.n_nodes();
-    for effect in [Effect::ShaftBow, Effect::ExtraUnbalancePlane] {
-        let nodes: Vec<usize> = match effect {
-            Effect::ShaftBow => (1..n_nodes.saturating_sub(1)).collect(),
-            _ => (0..n_nodes).filter(|n| !model.planes.contains(n)).collect(),
-        };
-        let make = |node: usize| match effect {
-            Effect::ShaftBow => Extension::Bow { node },
-            _ => Extension::Plane { node },
-        };
-        let ranked = screen(&base, &data, &theta0, &nodes, &make)?;
-        let mut best: Option<(Fit, ExtendedModel, usize)> = None;
-        for &node in ranked.iter().take(2) {
-            let m = with_ext(vec![make(node)]);
-            if !n_room(m.n_params()) {
-                continue;
-            }
-            let t = start_with(&m, &[]);
-            if let Ok(f) = fit::fit(&m, &data, &t, 50) {
-                if best.as_ref().is_none_or(|b| f.s < b.0.s) {
-                    best = Some((f, m, node));
-                }
-            }
-        }
-        if let Some((f, m, node)) = best {
-            let label = match effect {
-                Effect::ShaftBow => format!("bow with its offset at node {}", node + 1),
-                _ => format!("extra unbalance plane at node {}", node + 1),
-            };
-            push(effect, label, m, f, 1.0, nodes.len());
-        }
-    }
-    clock.lap("shaft_bow, extra_unbalance_plane");
-    // probe_runout
-    {
-        let m = with_ext(vec![Extension::Runout]);
-        if n_room(m.n_params()) {
-            // Start: the reading at the lowest speed is mostly runout (the
-            // unbalance response vanishes like Omega^2); the nominal
-            // parameters refitted to the data without it.
-            let low = samples
-                .iter()
-                .min_by(|a, b| a.omega.total_cmp(&b.omega))
-                .map(|s| s.q.clone())
-                .unwrap_or_default();
-            let corrected: Vec<crate::io::measurement::Sample> = samples
-                .iter()
-                .map(|s| crate::io::measurement::Sample {
-                    omega: s.omega,
-                    q: s.q.iter().zip(&low).map(|(y, r)| y - r).collect(),
-                })
-                .collect();
-            let r0: Vec<f64> = low
-                .iter()
-                .flat_map(|r| [r.re / scales.q, r.im / scales.q])
-                .collect();
-            let mut t = match oe_start(
-                model,
-                &corrected,
-                &terms,
-                structure,
-                scaling,
-                noise_model.as_ref(),
-            ) {
-                Ok((_, th, _)) => th,
-                Err(_) => theta0.clone(),
-            };
-            t.extend_from_slice(&r0);
-            t.resize(m.n_params(), 0.0);
-            if let Ok(f) = fit::fit(&m, &data, &t, 50) {
-                push(
-                    Effect::ProbeRunout,
-                    "runout phasor on every channel".into(),
-                    m,
-                    f,
-                    1.0,
-                    1,
-                );
-            }
-        }
-    }
-    clock.lap(Effect::ProbeRunout.name());
-    // shaft_stiffness_error: rounds of terms rebuilt at the new factor.
-    let mut e_terms_cache: Option<(f64, Vec<SpeedTerms>)> = None;
-    // The nominal terms with dA/de, dB/de at e = 1 (central secant through
-    // e = 0.95 and 1.05), for the modulus' observability.
-    let mut terms_de: Option<Vec<SpeedTerms>> = None;
-    {
-        let m = with_ext(vec![Extension::EScale]);
-        if n_room(m.n_params()) {
-            // Start: the best of e = 1 and e = 1 -+ 5 % with the nominal
-            // parameters refitted at each (the nominal estimate adapts the
-            // bearings to the wrong shaft: a local minimum in between).
-            let mut built: Vec<(f64, Vec<SpeedTerms>)> = vec![(1.0, terms.clone())];
-            let mut best = (1.0, nominal_s, start_with(&m, &[0.0]));
-            for e_try in [0.95, 1.05] {
-                let te = builder.build(&omegas, e_try, false)?;
-                if let Ok((_, mut th, _)) = oe_start(
-                    model,
-                    samples,
-                    &te,
-                    structure,
-                    scaling,
-                    noise_model.as_ref(),
-                ) {
-                    let d = FitData::with_probes(samples, node_q, &te).with_floors(&phi);
-                    let en = fit::entries(&base, &d);
-                    if let Ok((r, _)) = fit::evaluate(&base, &d, &en, &th, false) {
-                        let s_try = r.norm_squared();
-                        if s_try < best.1 {
-                            th.push(0.0);
-                            best = (e_try, s_try, th);
-                        }
-                    }
-                }
-                built.push((e_try, te));
-            }
-            if let [_, (em, minus), (ep, plus)] = &built[..] {
-                let mut central = plus.clone();
-                terms::set_secant_derivative(&mut central, *ep, minus, *em)?;
-                let mut t1 = terms.clone();
-                for (t, c) in t1.iter_mut().zip(central) {
-                    t.da_de = c.da_de;
-                    t.db_de = c.db_de;
-                    if let (Some(tp), Some(cp)) = (t.probes.as_mut(), c.probes) {
-                        tp.dp_de = cp.dp_de;
-                        tp.du_de = cp.du_de;
-                    }
-                }
-                terms_de = Some(t1);
-            }
-            let (mut e, _, mut theta) = best;
-            // Rounds: fit with the terms linearised in e about the current
-            // factor, move the factor, rebuild the terms there. dA/de and
-            // dB/de are the secant through the previous factor's terms (one
-            // reduction per round instead of two): at convergence the
-            // offset is zero and the residual is that of the exact terms.
-            let pick = |k: usize, built: &mut Vec<(f64, Vec<SpeedTerms>)>| built.swap_remove(k);
-            let k_cur = built.iter().position(|(x, _)| *x == e).unwrap_or(0);
-            let (_, mut cur) = pick(k_cur, &mut built);
-            let k_prev = (0..built.len())
-                .min_by(|&a, &b| (built[a].0 - e).abs().total_cmp(&(built[b].0 - e).abs()))
-                .unwrap_or(0);
-            let (mut e_prev, mut prev) = pick(k_prev, &mut built);
-            drop(built);
-            let mut last: Option<(Fit, f64)> = None;
-            for _round in 0..6 {
-                if cur.first().is_none_or(|t| t.da_de.is_none()) {
-                    terms::set_secant_derivative(&mut cur, e, &prev, e_prev)?;
-                }
-                let d = FitData::with_probes(samples, node_q, &cur)
-                    .with_floors(&phi)
-                    .with_noise_level(noise_level);
-                let Ok(f) = fit::fit(&m, &d, &theta, 50) else {
-                    break;
-                };
-                let x = f.theta[m.offset(0)];
-                let e_new = e + E_STEP * x;
-                let done = (e_new - e).abs() < 1e-7 * e || e_new.is_nan() || e_new <= 0.0;
-                theta = f.theta.clone();
-                last = Some((f, e));
-                if done {
-                    break;
-                }
-                theta[m.offset(0)] = 0.0;
-                let mut next = builder.build(&omegas, e_new, false)?;
-                if (e_new - e).abs() < 1e-5 * e {
-                    // Too close for a secant without cancellation: the
-                    // derivative of the current factor is as good.
-                    for (n, c) in next.iter_mut().zip(&cur) {
-                        n.da_de.clone_from(&c.da_de);
-                        n.db_de.clone_from(&c.db_de);
-                        if let (Some(np), Some(cp)) = (n.probes.as_mut(), c.probes.as_ref()) {
-                            np.dp_de.clone_from(&cp.dp_de);
-                            np.du_de.clone_from(&cp.du_de);
-                        }
-                    }
-                }
-                (e_prev, prev) = (e, std::mem::replace(&mut cur, next));
-                e = e_new;
-            }
-            if let Some((_, e_fit)) = &last {
-                if *e_fit == e {
-                    e_terms_cache = Some((e, cur));
-                }
-            }
-            if let Some((f, e)) = last {
-                push(
-                    Effect::ShaftStiffnessError,
-                    "factor on the shaft's E and G".into(),
-                    m,
-                    f,
-                    e,
-                    1,
-                );
-            }
-        }
-    }
-
-    clock.lap(Effect::ShaftStiffnessError.name());
     // 3. Choice.
+    let (noise_level, n_real, scales) = (setup.noise_level, setup.n_real, setup.scales);
+    let nb = model.bearings.len();
+    let (theta0, theta_model) = (ctx.theta0.clone(), ctx.theta_model.clone());
+    let n_room = |p: usize| ctx.n_room(p);
+    let with_ext = |ext: Vec<Extension>| ctx.with_ext(ext);
+    let mut hyps = hypotheses;
+    let mut e_terms_cache = e_terms;
     let sigma2 = hyps
         .iter()
         .map(|c| c.fit.sigma2())
@@ -775,7 +380,7 @@ pub fn diagnose(
         effect,
         effects,
         noise_level,
-        noise: noise_model,
+        noise: setup.noise_model,
         nominal,
         hypotheses: hyps,
         chosen,
@@ -788,65 +393,17 @@ pub fn diagnose(
         probe_nodes: probes.clone(),
         stages: Vec::new(),
     };
+
+    // 4. Observability.
     let data_de = terms_de
         .as_ref()
-        .map(|t| FitData::with_probes(samples, node_q, t).with_floors(&phi));
+        .map(|t| FitData::with_probes(samples, node_q, t).with_floors(&setup.phi));
     d.observability = observe::analyse(&d, &data, data_de.as_ref());
     clock.lap("observability");
     d.stages = clock.laps;
     drop(data);
     d.terms = terms;
     Ok(d)
-}
-
-/// `b` (a node-searched effect) with its node searched again on top of
-/// `a`'s fit: the two best nodes, each as a candidate whose effect
-/// parameters start at zero.
-fn rescreen(
-    model: &RotorModel,
-    data: &FitData<'_>,
-    a: &Candidate,
-    b: &Candidate,
-) -> Result<Vec<Candidate>, DiagnoseError> {
-    let kind = match b.model.ext.as_slice() {
-        [Extension::Plane { .. }] => 0,
-        [Extension::Bow { .. }] => 1,
-        _ => return Ok(Vec::new()),
-    };
-    let n_nodes = model.n_nodes();
-    let nodes: Vec<usize> = if kind == 1 {
-        (1..n_nodes.saturating_sub(1)).collect()
-    } else {
-        (0..n_nodes).filter(|n| !model.planes.contains(n)).collect()
-    };
-    let make = |node: usize| {
-        if kind == 1 {
-            Extension::Bow { node }
-        } else {
-            Extension::Plane { node }
-        }
-    };
-    let ranked = match screen(&a.model, data, &a.fit.theta, &nodes, &make) {
-        Ok(r) => r,
-        Err(_) => return Ok(Vec::new()),
-    };
-    let nom = b.model.pr.n_params();
-    Ok(ranked
-        .into_iter()
-        .take(2)
-        .filter(|&n| b.model.ext != [make(n)])
-        .map(|n| {
-            let mut c = b.clone();
-            c.model.ext = vec![make(n)];
-            c.fit.theta.truncate(nom);
-            c.fit.theta.extend([0.0, 0.0]);
-            c.label = match kind {
-                1 => format!("bow with its offset at node {}", n + 1),
-                _ => format!("extra unbalance plane at node {}", n + 1),
-            };
-            c
-        })
-        .collect())
 }
 
 /// A pair of hypotheses fitted together, from their own estimates.
@@ -921,47 +478,4 @@ fn fit_pair(
         threshold: 0.0,
         significant: false,
     }))
-}
-
-/// Ranks `nodes` by the drop in `S` that one Gauss-Newton step from the
-/// estimate `theta0` of `base` predicts when the node's effect is added
-/// (all of `base`'s parameters free): `g_s^T G_ss^-1 g_s` over the nominal columns
-/// and the node's two, from one Jacobian holding every node's columns.
-fn screen(
-    base: &ExtendedModel,
-    data: &FitData<'_>,
-    theta0: &[f64],
-    nodes: &[usize],
-    make: &dyn Fn(usize) -> Extension,
-) -> Result<Vec<usize>, DiagnoseError> {
-    let all = ExtendedModel {
-        ext: base
-            .ext
-            .iter()
-            .copied()
-            .chain(nodes.iter().map(|&n| make(n)))
-            .collect(),
-        ..base.clone()
-    };
-    let mut theta = theta0.to_vec();
-    theta.resize(all.n_params(), 0.0);
-    let en = fit::entries(&all, data);
-    let (r, jac) = fit::evaluate(&all, data, &en, &theta, true)?;
-    let Some(j) = jac else {
-        return Ok(Vec::new());
-    };
-    let g = j.tr_mul(&r);
-    let gram = fit::gram(&j);
-    let p0 = base.n_params();
-    let mut scored: Vec<(f64, usize)> = Vec::new();
-    for (k, &node) in nodes.iter().enumerate() {
-        let o = all.offset(base.ext.len() + k);
-        let idx: Vec<usize> = (0..p0).chain([o, o + 1]).collect();
-        let gs = nalgebra::DVector::from_iterator(idx.len(), idx.iter().map(|&i| g[i]));
-        let gss = DMatrix::from_fn(idx.len(), idx.len(), |a, b| gram[(idx[a], idx[b])]);
-        let drop = gss.cholesky().map(|c| gs.dot(&c.solve(&gs))).unwrap_or(0.0);
-        scored.push((drop, node));
-    }
-    scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-    Ok(scored.into_iter().map(|(_, n)| n).collect())
 }
