@@ -4,7 +4,8 @@
 //! candidate. One module per family:
 //!
 //! * `speed_law`: `speed_dependent_bearing`;
-//! * `pedestal`: `foundation_flexibility`;
+//! * `pedestal`: `foundation_flexibility` (and the two pedestals of the
+//!   pairs);
 //! * `nodes`: `shaft_bow` and `extra_unbalance_plane`, screened over nodes;
 //! * `runout`: `probe_runout`;
 //! * `modulus`: `shaft_stiffness_error`.
@@ -16,6 +17,7 @@ mod runout;
 mod speed_law;
 
 pub(crate) use nodes::rescreen;
+pub(crate) use pedestal::two_pedestals;
 pub use pedestal::PEDESTAL_RATIOS;
 
 use crate::diagnose::candidate::Candidate;
