@@ -400,6 +400,7 @@ impl ExtendedModel {
     /// into it ([`ExtendedModel::n_outputs`]` x P`). `entries` are the
     /// nominal parameters' [`Entry`]s at this speed
     /// ([`Predictor::entries`]).
+    // Long (~240 lines): one pass filling the Jacobian's columns from one `eval`; a hot path.
     pub fn predict(
         &self,
         st: &SpeedTerms,

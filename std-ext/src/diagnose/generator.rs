@@ -69,6 +69,7 @@ pub struct Case {
 /// Generates a case around `model` with `effect` hidden (`Effect::None`:
 /// nothing; `Unexplained` is not drawn), at the speeds `speeds_rpm`, with
 /// the noise `noise` or a drawn one.
+// Long (~200 lines): a short `match` arm per effect, the draws in the order the seeds fix.
 pub fn generate(
     model: &RotorModel,
     effect: Effect,

@@ -202,48 +202,9 @@ pub fn analyse(
     let theta0 = &nominal.fit.theta;
     let n_nodes = data.terms.first().map_or(0, |t| t.b_node.ncols());
     let t2 = detection_threshold(d, 2.0);
-    let planes = &base.pr.param.plane_nodes;
     let mut out = Vec::new();
     for effect in Effect::BANK {
-        let (exts, names, scale, unit): (Vec<Extension>, Vec<String>, f64, &'static str) =
-            match effect {
-                Effect::ShaftBow => {
-                    let nodes: Vec<usize> = (1..n_nodes.saturating_sub(1)).collect();
-                    (
-                        nodes.iter().map(|&node| Extension::Bow { node }).collect(),
-                        nodes.iter().map(|n| format!("node {}", n + 1)).collect(),
-                        base.scales.q,
-                        "m",
-                    )
-                }
-                Effect::ExtraUnbalancePlane => {
-                    let nodes: Vec<usize> = (0..n_nodes).filter(|n| !planes.contains(n)).collect();
-                    (
-                        nodes
-                            .iter()
-                            .map(|&node| Extension::Plane { node })
-                            .collect(),
-                        nodes.iter().map(|n| format!("node {}", n + 1)).collect(),
-                        base.pr.param.scaling.unbalance,
-                        "kg m",
-                    )
-                }
-                Effect::ProbeRunout => (
-                    vec![Extension::Runout],
-                    (0..base.n_channels())
-                        .map(|c| format!("b{}_{}", c / 2 + 1, if c % 2 == 0 { "y" } else { "z" }))
-                        .collect(),
-                    base.scales.q,
-                    "m",
-                ),
-                Effect::ShaftStiffnessError if data_de.is_some() => (
-                    vec![Extension::EScale],
-                    vec!["the shaft".to_string()],
-                    crate::diagnose::extended::E_STEP,
-                    "(relative change of E and G)",
-                ),
-                _ => (Vec::new(), Vec::new(), 1.0, ""),
-            };
+        let (exts, names, scale, unit) = extensions(effect, base, n_nodes, data_de.is_some());
         let special = match effect {
             Effect::SpeedDependentBearing => speed_law_sizes(d, data),
             Effect::FoundationFlexibility => pedestal_sizes(d, data),
@@ -266,105 +227,174 @@ pub fn analyse(
             Some(v) => where_min(v, &names),
             None => (None, None, None, None),
         };
-        // Equally good significant alternatives.
-        let me = d
-            .hypotheses
-            .iter()
-            .filter(|c| c.effects == [effect])
-            .map(|c| c.fit.s)
-            .next();
-        let tie = chi2_quantile_upper(2.0, 0.01) * d.sigma2;
-        let indistinguishable_from: Vec<Effect> = match me {
-            Some(s)
-                if d.hypotheses
-                    .iter()
-                    .any(|c| c.effects == [effect] && c.significant) =>
-            {
-                d.hypotheses
-                    .iter()
-                    .filter(|c| c.effects.len() == 1 && c.effects[0] != effect && c.significant)
-                    .filter(|c| (c.fit.s - s).abs() < tie)
-                    .map(|c| c.effects[0])
-                    .collect()
-            }
-            _ => Vec::new(),
-        };
-        let mut note = match (min_size, &best_at, min_size_worst, &worst_at) {
-            (Some(a), Some(_), Some(_), Some(_))
-                if a.is_finite() && effect == Effect::ShaftStiffnessError =>
-            {
-                format!(
-                    "{}: detectable from a {:.1e} relative change of the shaft's modulus (through the shift of the critical speeds and mode shapes in the range)",
-                    effect.name(),
-                    a
-                )
-            }
-            (Some(a), Some(wa), Some(b), Some(wb))
-                if a.is_finite() && effect == Effect::SpeedDependentBearing =>
-            {
-                format!(
-                    "{}: a bearing law one order higher in speed is detectable once it changes a coefficient at {:.0} rpm by {a:.1e} of its value ({wa}); {} ({wb})",
-                    effect.name(),
-                    rad_s_to_rpm(d.omega_report),
-                    if b.is_finite() { format!("{b:.1e} is needed") } else { "not at all".into() }
-                )
-            }
-            (Some(a), Some(wa), Some(b), Some(wb))
-                if a.is_finite() && effect == Effect::FoundationFlexibility =>
-            {
-                format!(
-                    "{}: a pedestal (damping ratio {PEDESTAL_ZETA}) is detectable up to a stiffness of {:.1e} times the bearing's ({wa}); {} ({wb})",
-                    effect.name(),
-                    1.0 / a,
-                    if b.is_finite() { format!("up to {:.1e} times", 1.0 / b) } else { "not at all".into() }
-                )
-            }
-            (Some(a), Some(wa), Some(b), Some(wb)) if a.is_finite() => {
-                if b.is_finite() {
-                    format!(
-                        "{}: detectable from {a:.2e} {unit} ({wa}) to {b:.2e} {unit} ({wb})",
-                        effect.name()
-                    )
-                } else {
-                    format!(
-                        "{}: detectable from {a:.2e} {unit} ({wa}); not at all at {wb} (the nominal model absorbs it)",
-                        effect.name()
-                    )
-                }
-            }
-            _ => match effect {
-                Effect::SpeedDependentBearing => {
-                    "speed_dependent_bearing: refitted as a polynomial law one and two orders higher".to_string()
-                }
-                Effect::FoundationFlexibility => {
-                    "foundation_flexibility: seen when the pedestal's resonance lies in or near the speed range; far above it, a pedestal only softens the bearing"
-                        .to_string()
-                }
-                Effect::ShaftStiffnessError => {
-                    "shaft_stiffness_error: seen through the shift of the critical speeds in the range".to_string()
-                }
-                _ => format!("{}: not observable with these data", effect.name()),
-            },
-        };
-        for other in &indistinguishable_from {
-            note.push_str(&format!(
-                "; explains the data as well as {}: {}",
-                other.name(),
-                suggestion(effect, *other)
-            ));
-        }
-        out.push(Observability {
+        let mut o = Observability {
             effect,
             min_size,
             best_at,
             min_size_worst,
             worst_at,
             unit,
-            indistinguishable_from,
-            note,
-        });
+            indistinguishable_from: indistinguishable(d, effect),
+            note: String::new(),
+        };
+        o.note = note(&o, d.omega_report);
+        out.push(o);
     }
     out
+}
+
+/// The extensions of `effect` whose smallest detectable size is computed
+/// by [`min_detectable`] (empty for the speed law and the pedestal, which
+/// have their own, and for the modulus without `dA/de`), the name of each
+/// location, the scale from a scaled amplitude to physical units, and
+/// their unit.
+fn extensions(
+    effect: Effect,
+    base: &ExtendedModel,
+    n_nodes: usize,
+    has_de: bool,
+) -> (Vec<Extension>, Vec<String>, f64, &'static str) {
+    let planes = &base.pr.param.plane_nodes;
+    match effect {
+        Effect::ShaftBow => {
+            let nodes: Vec<usize> = (1..n_nodes.saturating_sub(1)).collect();
+            (
+                nodes.iter().map(|&node| Extension::Bow { node }).collect(),
+                nodes.iter().map(|n| format!("node {}", n + 1)).collect(),
+                base.scales.q,
+                "m",
+            )
+        }
+        Effect::ExtraUnbalancePlane => {
+            let nodes: Vec<usize> = (0..n_nodes).filter(|n| !planes.contains(n)).collect();
+            (
+                nodes
+                    .iter()
+                    .map(|&node| Extension::Plane { node })
+                    .collect(),
+                nodes.iter().map(|n| format!("node {}", n + 1)).collect(),
+                base.pr.param.scaling.unbalance,
+                "kg m",
+            )
+        }
+        Effect::ProbeRunout => (
+            vec![Extension::Runout],
+            (0..base.n_channels())
+                .map(|c| format!("b{}_{}", c / 2 + 1, if c % 2 == 0 { "y" } else { "z" }))
+                .collect(),
+            base.scales.q,
+            "m",
+        ),
+        Effect::ShaftStiffnessError if has_de => (
+            vec![Extension::EScale],
+            vec!["the shaft".to_string()],
+            crate::diagnose::extended::E_STEP,
+            "(relative change of E and G)",
+        ),
+        _ => (Vec::new(), Vec::new(), 1.0, ""),
+    }
+}
+
+/// The other significant single effects whose misfit lies within the
+/// chi-square quantile of 2 degrees of freedom at 1 % (times `sigma^2`) of
+/// `effect`'s, when `effect` is significant.
+fn indistinguishable(d: &Diagnosis, effect: Effect) -> Vec<Effect> {
+    // Equally good significant alternatives.
+    let me = d
+        .hypotheses
+        .iter()
+        .filter(|c| c.effects == [effect])
+        .map(|c| c.fit.s)
+        .next();
+    let tie = chi2_quantile_upper(2.0, 0.01) * d.sigma2;
+    match me {
+        Some(s)
+            if d.hypotheses
+                .iter()
+                .any(|c| c.effects == [effect] && c.significant) =>
+        {
+            d.hypotheses
+                .iter()
+                .filter(|c| c.effects.len() == 1 && c.effects[0] != effect && c.significant)
+                .filter(|c| (c.fit.s - s).abs() < tie)
+                .map(|c| c.effects[0])
+                .collect()
+        }
+        _ => Vec::new(),
+    }
+}
+
+/// The report's line for `o`, from its other fields: the smallest
+/// detectable sizes in words, or why there are none, and what would tell
+/// the effect from those it cannot be told apart from; `omega_report` is
+/// the speed the bearings are reported at (rad/s).
+fn note(o: &Observability, omega_report: f64) -> String {
+    let (effect, unit) = (o.effect, o.unit);
+    let mut note = match (o.min_size, &o.best_at, o.min_size_worst, &o.worst_at) {
+        (Some(a), Some(_), Some(_), Some(_))
+            if a.is_finite() && effect == Effect::ShaftStiffnessError =>
+        {
+            format!(
+                "{}: detectable from a {:.1e} relative change of the shaft's modulus (through the shift of the critical speeds and mode shapes in the range)",
+                effect.name(),
+                a
+            )
+        }
+        (Some(a), Some(wa), Some(b), Some(wb))
+            if a.is_finite() && effect == Effect::SpeedDependentBearing =>
+        {
+            format!(
+                "{}: a bearing law one order higher in speed is detectable once it changes a coefficient at {:.0} rpm by {a:.1e} of its value ({wa}); {} ({wb})",
+                effect.name(),
+                rad_s_to_rpm(omega_report),
+                if b.is_finite() { format!("{b:.1e} is needed") } else { "not at all".into() }
+            )
+        }
+        (Some(a), Some(wa), Some(b), Some(wb))
+            if a.is_finite() && effect == Effect::FoundationFlexibility =>
+        {
+            format!(
+                "{}: a pedestal (damping ratio {PEDESTAL_ZETA}) is detectable up to a stiffness of {:.1e} times the bearing's ({wa}); {} ({wb})",
+                effect.name(),
+                1.0 / a,
+                if b.is_finite() { format!("up to {:.1e} times", 1.0 / b) } else { "not at all".into() }
+            )
+        }
+        (Some(a), Some(wa), Some(b), Some(wb)) if a.is_finite() => {
+            if b.is_finite() {
+                format!(
+                    "{}: detectable from {a:.2e} {unit} ({wa}) to {b:.2e} {unit} ({wb})",
+                    effect.name()
+                )
+            } else {
+                format!(
+                    "{}: detectable from {a:.2e} {unit} ({wa}); not at all at {wb} (the nominal model absorbs it)",
+                    effect.name()
+                )
+            }
+        }
+        _ => match effect {
+            Effect::SpeedDependentBearing => {
+                "speed_dependent_bearing: refitted as a polynomial law one and two orders higher".to_string()
+            }
+            Effect::FoundationFlexibility => {
+                "foundation_flexibility: seen when the pedestal's resonance lies in or near the speed range; far above it, a pedestal only softens the bearing"
+                    .to_string()
+            }
+            Effect::ShaftStiffnessError => {
+                "shaft_stiffness_error: seen through the shift of the critical speeds in the range".to_string()
+            }
+            _ => format!("{}: not observable with these data", effect.name()),
+        },
+    };
+    for other in &o.indistinguishable_from {
+        note.push_str(&format!(
+            "; explains the data as well as {}: {}",
+            other.name(),
+            suggestion(effect, *other)
+        ));
+    }
+    note
 }
 
 /// The nominal model at the best estimate of the machine: the nominal

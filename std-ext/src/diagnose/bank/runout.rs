@@ -1,0 +1,64 @@
+//! `probe_runout`: a constant phasor added to every channel, started from
+//! the readings at the lowest speed.
+
+use crate::diagnose::candidate::Candidate;
+use crate::diagnose::context::Context;
+use crate::diagnose::effect::Effect;
+use crate::diagnose::extended::Extension;
+use crate::diagnose::fit;
+use crate::diagnose::nominal::oe_start;
+use crate::io::measurement::Sample;
+
+/// The fit of a runout phasor on every channel (scaled by the RMS
+/// reading), from the lowest speed's readings as runout and the nominal
+/// parameters estimated again on the data less them. `None` when the
+/// equations leave no room or the fit fails.
+pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
+    let m = ctx.with_ext(vec![Extension::Runout]);
+    if !ctx.n_room(m.n_params()) {
+        return None;
+    }
+    let (samples, setup) = (ctx.samples, ctx.setup);
+    let scales = setup.scales;
+    // Start: the reading at the lowest speed is mostly runout (the
+    // unbalance response vanishes like Omega^2); the nominal
+    // parameters refitted to the data without it.
+    let low = samples
+        .iter()
+        .min_by(|a, b| a.omega.total_cmp(&b.omega))
+        .map(|s| s.q.clone())
+        .unwrap_or_default();
+    let corrected: Vec<Sample> = samples
+        .iter()
+        .map(|s| Sample {
+            omega: s.omega,
+            q: s.q.iter().zip(&low).map(|(y, r)| y - r).collect(),
+        })
+        .collect();
+    let r0: Vec<f64> = low
+        .iter()
+        .flat_map(|r| [r.re / scales.q, r.im / scales.q])
+        .collect();
+    let mut t = match oe_start(
+        ctx.model,
+        &corrected,
+        ctx.terms,
+        setup.structure,
+        setup.scaling,
+        setup.noise_model.as_ref(),
+    ) {
+        Ok((_, th, _)) => th,
+        Err(_) => ctx.theta0.clone(),
+    };
+    t.extend_from_slice(&r0);
+    t.resize(m.n_params(), 0.0);
+    let f = fit::fit(&m, ctx.data, &t, 50).ok()?;
+    Some(Candidate::new(
+        vec![Effect::ProbeRunout],
+        "runout phasor on every channel".into(),
+        m,
+        f,
+        1.0,
+        1,
+    ))
+}

@@ -1,0 +1,57 @@
+//! `speed_dependent_bearing`: the bearing law one and two polynomial
+//! orders above the nominal one (`K(Omega) = K_0 + Omega K_1 + Omega^2
+//! K_2 + ...`, the same for `C`), the better of the two by its own BIC.
+
+use crate::diagnose::candidate::Candidate;
+use crate::diagnose::context::Context;
+use crate::diagnose::effect::Effect;
+use crate::diagnose::extended::ExtendedModel;
+use crate::diagnose::fit::{self, Fit};
+use crate::diagnose::nominal::map_theta;
+use crate::diagnose::stats::bic;
+use crate::estimate::predictor::Predictor;
+use crate::estimate::Parametrization;
+use rotorid_core::parametrization::{Structure, MAX_ORDER};
+
+/// The best fit of the bearing laws of `physical` orders `order + 1` and
+/// `order + 2` (up to `MAX_ORDER`, where the equations leave room), each
+/// started from the nominal estimate (higher orders zero); chosen by
+/// `n ln(S / n) + P ln n`. `None` when none fits.
+pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
+    let (pr, theta0, n_real) = (&ctx.setup.pr, &ctx.theta0, ctx.setup.n_real);
+    let mut best: Option<(Fit, ExtendedModel, usize)> = None;
+    let mut alt = 0;
+    for order in ctx.opts.order + 1..=(ctx.opts.order + 2).min(MAX_ORDER) {
+        let param = Parametrization {
+            structure: Structure::physical(order),
+            ..pr.param.clone()
+        };
+        let prn = Predictor::new(param);
+        if !ctx.n_room(prn.n_params()) {
+            continue;
+        }
+        alt += 1;
+        let t = map_theta(pr, theta0, &prn);
+        let m = ExtendedModel {
+            pr: prn,
+            ..ctx.base.clone()
+        };
+        if let Ok(f) = fit::fit(&m, ctx.data, &t, 50) {
+            if best
+                .as_ref()
+                .is_none_or(|b| bic(&f, n_real) < bic(&b.0, n_real))
+            {
+                best = Some((f, m, order));
+            }
+        }
+    }
+    let (f, m, order) = best?;
+    Some(Candidate::new(
+        vec![Effect::SpeedDependentBearing],
+        format!("bearing law of physical order {order}"),
+        m,
+        f,
+        1.0,
+        alt,
+    ))
+}

@@ -1,0 +1,75 @@
+//! One fitted model ([`Candidate`]): the nominal model or a hypothesis of
+//! the bank, with its fit and the likelihood-ratio test that judges it
+//! against the nominal fit.
+
+use super::effect::Effect;
+use super::extended::ExtendedModel;
+use super::fit::Fit;
+use super::stats::chi2_quantile_upper;
+
+/// One fitted model of the bank (or the nominal one).
+#[derive(Debug, Clone)]
+pub struct Candidate {
+    /// The effects it adds (empty: nominal).
+    pub effects: Vec<Effect>,
+    /// A short description (e.g. "extra plane at node 17").
+    pub label: String,
+    /// The model.
+    pub model: ExtendedModel,
+    /// Its fit.
+    pub fit: Fit,
+    /// The shaft modulus factor its terms were built for.
+    pub e_terms: f64,
+    /// Alternatives tried for this hypothesis (nodes, bearings, orders).
+    pub alternatives: usize,
+    /// `(S_nominal - S) / sigma^2`.
+    pub statistic: f64,
+    /// The chi-square threshold it had to exceed.
+    pub threshold: f64,
+    /// Whether it is significant.
+    pub significant: bool,
+}
+
+impl Candidate {
+    /// Relative RMS misfit.
+    pub fn residual(&self) -> f64 {
+        self.fit.residual()
+    }
+    /// A model fitted for `effects` (empty: nominal), not yet judged: its
+    /// statistic and threshold zero, not significant.
+    pub(crate) fn new(
+        effects: Vec<Effect>,
+        label: String,
+        model: ExtendedModel,
+        fit: Fit,
+        e_terms: f64,
+        alternatives: usize,
+    ) -> Self {
+        Candidate {
+            effects,
+            label,
+            model,
+            fit,
+            e_terms,
+            alternatives,
+            statistic: 0.0,
+            threshold: 0.0,
+            significant: false,
+        }
+    }
+
+    /// The likelihood-ratio test against the nominal fit: the drop in `S`
+    /// in units of `sigma2`, `(S_nominal - S) / sigma2`, against the
+    /// chi-square quantile of the extra parameters (`max(P - P_nominal, 1)`
+    /// degrees of freedom) at the rate `alpha`.
+    pub(crate) fn judge(&mut self, nominal: &Fit, sigma2: f64, alpha: f64) {
+        let dp = self
+            .fit
+            .n_params()
+            .saturating_sub(nominal.n_params())
+            .max(1);
+        self.statistic = (nominal.s - self.fit.s) / sigma2;
+        self.threshold = chi2_quantile_upper(dp as f64, alpha);
+        self.significant = self.statistic > self.threshold;
+    }
+}

@@ -1,0 +1,88 @@
+//! What the fits of the hypotheses share ([`Context`]): the model, the
+//! measurements and their weights, the terms and their builder, the
+//! nominal model and its estimates; with the helpers every hypothesis
+//! starts its fits with, and the rule that stops a search once a fit
+//! explains the data to the noise ([`NOISE_CHI2`]).
+
+use num_complex::Complex64;
+
+use crate::diagnose::candidate::Candidate;
+use crate::diagnose::extended::{ExtendedModel, Extension};
+use crate::diagnose::fit::{Fit, FitData};
+use crate::diagnose::input::DiagnoseOptions;
+use crate::diagnose::nominal::Setup;
+use crate::diagnose::terms::{Builder, SpeedTerms};
+use crate::io::measurement::Sample;
+use crate::model::RotorModel;
+
+/// Chi-square per degree of freedom of the residual noise against the
+/// model-free noise level below which a fit explains the data to the noise:
+/// the searches stop trying further starts of its hypothesis.
+pub const NOISE_CHI2: f64 = 1.2;
+
+/// What the hypothesis fits, the choice and the pairs read.
+pub(crate) struct Context<'a> {
+    /// The nominal rotor model.
+    pub model: &'a RotorModel,
+    /// The options of the diagnosis.
+    pub opts: &'a DiagnoseOptions,
+    /// The measured samples.
+    pub samples: &'a [Sample],
+    /// Readings of the probes at other nodes per sample (empty: none).
+    pub node_q: &'a [Vec<Complex64>],
+    /// The samples' speeds (rad/s).
+    pub omegas: &'a [f64],
+    /// The builder of the terms at any shaft-modulus factor.
+    pub builder: &'a Builder,
+    /// The model's own terms (factor 1) at each sample's speed.
+    pub terms: &'a [SpeedTerms],
+    /// The noise model, weights, scales and nominal start.
+    pub setup: &'a Setup,
+    /// The data of every fit on the model's own terms.
+    pub data: &'a FitData<'a>,
+    /// The nominal model (no extension).
+    pub base: &'a ExtendedModel,
+    /// The nominal candidate, fitted.
+    pub nominal: &'a Candidate,
+    /// The nominal estimate (scaled parameters): where every hypothesis
+    /// starts.
+    pub theta0: Vec<f64>,
+    /// The nominal estimate with the bearings set to the model's own
+    /// coefficients at half the top speed (a second start where an effect
+    /// distorts the nominal fit).
+    pub theta_model: Vec<f64>,
+}
+
+impl Context<'_> {
+    /// The nominal model with the extensions `ext`.
+    pub(crate) fn with_ext(&self, ext: Vec<Extension>) -> ExtendedModel {
+        ExtendedModel {
+            ext,
+            ..self.base.clone()
+        }
+    }
+
+    /// The start of `m`: the nominal estimate, then `extra`, the rest zero.
+    pub(crate) fn start_with(&self, m: &ExtendedModel, extra: &[f64]) -> Vec<f64> {
+        let mut t = self.theta0.clone();
+        t.extend_from_slice(extra);
+        t.resize(m.n_params(), 0.0);
+        t
+    }
+
+    /// Whether the real equations outnumber `p` parameters by more than 4.
+    pub(crate) fn n_room(&self, p: usize) -> bool {
+        self.setup.n_real > p + 4
+    }
+
+    /// A fit whose residual noise is within [`NOISE_CHI2`] of the
+    /// model-free noise level `s` (`2 sigma^2 / s^2 <= NOISE_CHI2`):
+    /// further starts or richer variants of its hypothesis are not tried
+    /// (they could only move `S` by noise).
+    pub(crate) fn at_noise(&self, f: &Fit) -> bool {
+        match self.setup.noise_level {
+            Some(s) if s > 0.0 => 2.0 * f.sigma2() / (s * s) <= NOISE_CHI2,
+            _ => false,
+        }
+    }
+}

@@ -1,0 +1,423 @@
+//! The result of a diagnosis and its shaping for reports: [`Diagnosis`]
+//! (the named effect, every model fitted, the choice, the observability),
+//! the identified size of each effect with standard deviations
+//! ([`Finding`], [`findings`]), the bearings and plane unbalances of a
+//! model in the identification's result types ([`estimates`]), and the
+//! readings a model predicts ([`predictions`]).
+
+use num_complex::Complex64;
+use serde::Serialize;
+
+use crate::diagnose::candidate::Candidate;
+use crate::diagnose::effect::Effect;
+use crate::diagnose::extended::{Extension, PedestalParams, E_STEP};
+use crate::diagnose::fit::{Fit, FitData};
+use crate::diagnose::input::DiagnoseError;
+use crate::diagnose::observe;
+use crate::diagnose::terms::{self, SpeedTerms};
+use crate::estimate::noise::NoiseModel;
+use crate::estimate::results::{
+    BearingResult, BearingStd, Coefficients, UnbalanceResult, UnbalanceStd,
+};
+use crate::io::measurement::Measurements;
+use crate::model::RotorModel;
+
+/// The size of an identified effect, with standard deviations.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "effect", rename_all = "snake_case")]
+pub enum Finding {
+    /// Speed-dependent bearings: the law's order and each bearing's
+    /// stiffness at the lowest and highest speed (N/m).
+    SpeedDependentBearing {
+        /// Polynomial order identified.
+        order: usize,
+        /// Per bearing: `(node, K at the lowest speed, K at the highest)`.
+        stiffness: Vec<(usize, Coefficients, Coefficients)>,
+    },
+    /// A pedestal under a bearing.
+    FoundationFlexibility {
+        /// Bearing node (1-based).
+        node: usize,
+        /// Mass (kg).
+        mass: f64,
+        /// Its standard deviation.
+        mass_std: f64,
+        /// Natural frequencies on its springs, y and z (Hz).
+        natural_frequency_hz: [f64; 2],
+        /// Their standard deviations.
+        natural_frequency_hz_std: [f64; 2],
+        /// Damping ratios, y and z.
+        damping_ratio: [f64; 2],
+        /// Stiffness y, z (N/m).
+        k: [f64; 2],
+        /// Damping y, z (N s/m).
+        c: [f64; 2],
+    },
+    /// A bent shaft.
+    ShaftBow {
+        /// Node of the offset (1-based).
+        node: usize,
+        /// Offset amplitude (m).
+        amplitude: f64,
+        /// Its standard deviation.
+        amplitude_std: f64,
+        /// Phase (deg).
+        phase_deg: f64,
+        /// Its standard deviation.
+        phase_deg_std: f64,
+    },
+    /// Probe runout per channel.
+    ProbeRunout {
+        /// Each channel's phasor.
+        channels: Vec<RunoutFinding>,
+    },
+    /// Unbalance at another node.
+    ExtraUnbalancePlane {
+        /// Node (1-based).
+        node: usize,
+        /// `m e` (kg m).
+        me: f64,
+        /// Its standard deviation.
+        me_std: f64,
+        /// Phase (deg).
+        phase_deg: f64,
+        /// Its standard deviation.
+        phase_deg_std: f64,
+    },
+    /// The shaft's modulus off.
+    ShaftStiffnessError {
+        /// Factor on E and G.
+        factor: f64,
+        /// Its standard deviation.
+        factor_std: f64,
+    },
+}
+
+/// The runout of one channel.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunoutFinding {
+    /// Channel name (`b1_y`, ...).
+    pub channel: String,
+    /// Amplitude (m).
+    pub amplitude: f64,
+    /// Its standard deviation.
+    pub amplitude_std: f64,
+    /// Phase (deg).
+    pub phase_deg: f64,
+    /// Its standard deviation.
+    pub phase_deg_std: f64,
+    /// Whether it is above 3 standard deviations.
+    pub significant: bool,
+}
+
+/// The result of [`diagnose`](crate::diagnose::diagnose()).
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    /// The named effect (the stronger of a pair).
+    pub effect: Effect,
+    /// The effects of the chosen model (empty for `none`/`unexplained`).
+    pub effects: Vec<Effect>,
+    /// The model-free noise level, when the speeds allow it.
+    pub noise_level: Option<f64>,
+    /// The noise model the fits were weighted with (SPEC section 7).
+    pub noise: Option<NoiseModel>,
+    /// The nominal model.
+    pub nominal: Candidate,
+    /// Every hypothesis fitted (best variant of each), pairs included.
+    pub hypotheses: Vec<Candidate>,
+    /// Index in `hypotheses` of the chosen model (`None`: nominal).
+    pub chosen: Option<usize>,
+    /// `sigma^2` used for the statistics.
+    pub sigma2: f64,
+    /// The false-alarm rate of the choice.
+    pub false_alarm: f64,
+    /// Observability of each hypothesis.
+    pub observability: Vec<observe::Observability>,
+    /// What must be known before trusting the result.
+    pub warnings: Vec<String>,
+    /// The speeds (rad/s) and the terms used (for plots).
+    pub terms: Vec<SpeedTerms>,
+    /// Speed at which bearings are reported (rad/s).
+    pub omega_report: f64,
+    /// Shaft nodes (0-based) of the measurement's probes at other nodes.
+    pub probe_nodes: Vec<usize>,
+    /// Wall-clock time of each stage of
+    /// [`diagnose`](crate::diagnose::diagnose()) (seconds), in order: where
+    /// a diagnosis spends its time.
+    pub stages: Vec<(&'static str, f64)>,
+}
+
+impl Diagnosis {
+    /// The chosen model (the nominal one for `none`/`unexplained`).
+    pub fn extended(&self) -> &Candidate {
+        self.chosen
+            .and_then(|i| self.hypotheses.get(i))
+            .unwrap_or(&self.nominal)
+    }
+
+    /// Residual of the nominal model.
+    pub fn residual_nominal(&self) -> f64 {
+        self.nominal.residual()
+    }
+
+    /// Residual of the chosen model.
+    pub fn residual_extended(&self) -> f64 {
+        self.extended().residual()
+    }
+
+    /// The smallest detectable size of `ext` alone at the nominal estimate
+    /// (m for a bow or runout, kg m for a plane; see [`observe`]); `None`
+    /// for effects without a zero (pedestal, modulus, speed law).
+    pub fn min_detectable(&self, meas: &Measurements, ext: Extension) -> Option<f64> {
+        let phi = self
+            .noise
+            .as_ref()
+            .filter(|m| m.has_floor())
+            .map(|m| m.relative_floor())
+            .unwrap_or_default();
+        let data = FitData::with_probes(&meas.samples, &meas.node_q, &self.terms).with_floors(&phi);
+        observe::min_detectable_single(self, &data, ext)
+    }
+
+    /// The identified size of every effect of the chosen model.
+    pub fn findings(&self) -> Vec<Finding> {
+        let c = self.extended();
+        findings(c, &self.terms)
+    }
+}
+
+/// The probe readings `c` predicts at every speed of `d` (m), with the
+/// terms rebuilt for its shaft modulus when it has one.
+pub fn predictions(
+    model: &RotorModel,
+    d: &Diagnosis,
+    c: &Candidate,
+) -> Result<Vec<Vec<Complex64>>, DiagnoseError> {
+    let own;
+    let terms: &[SpeedTerms] = if c.model.ext.contains(&Extension::EScale) {
+        let omegas: Vec<f64> = d.terms.iter().map(|t| t.omega).collect();
+        own = terms::build_with_probes(model, &omegas, c.e_terms, true, &d.probe_nodes)?;
+        &own
+    } else {
+        &d.terms
+    };
+    terms
+        .iter()
+        .map(|st| {
+            c.model
+                .predict(st, &c.model.pr.entries(st.omega), &c.fit.theta, None)
+                .map(|y| y.iter().copied().collect())
+                .map_err(DiagnoseError::from)
+        })
+        .collect()
+}
+
+/// Amplitude and phase (deg) of `z = s (x + j y)` with their standard
+/// deviations from the 2x2 covariance of `(x, y)` (linearised).
+fn polar_with_std(x: f64, y: f64, s: f64, cov: Option<[[f64; 2]; 2]>) -> (f64, f64, f64, f64) {
+    let z = Complex64::new(x, y) * s;
+    let r = z.norm();
+    let (mut sa, mut sp) = (f64::NAN, f64::NAN);
+    if let (Some(c), true) = (cov, r > 0.0) {
+        let (u, v) = (z.re / r, z.im / r);
+        // d r = u dx' + v dy', d phi = (-v dx' + u dy') / r, x' = s x.
+        let var_r = s * s * (u * u * c[0][0] + 2.0 * u * v * c[0][1] + v * v * c[1][1]);
+        let var_p = s * s * (v * v * c[0][0] - 2.0 * u * v * c[0][1] + u * u * c[1][1]) / (r * r);
+        sa = var_r.max(0.0).sqrt();
+        sp = var_p.max(0.0).sqrt().to_degrees();
+    }
+    (r, z.arg().to_degrees(), sa, sp)
+}
+
+/// The 2x2 covariance of parameters `o` and `o + 1` of `f`, when it has one.
+fn cov2(f: &Fit, o: usize) -> Option<[[f64; 2]; 2]> {
+    f.covariance.as_ref().map(|c| {
+        [
+            [c[(o, o)], c[(o, o + 1)]],
+            [c[(o + 1, o)], c[(o + 1, o + 1)]],
+        ]
+    })
+}
+
+/// The findings of a candidate's extensions.
+pub fn findings(c: &Candidate, terms: &[SpeedTerms]) -> Vec<Finding> {
+    let m = &c.model;
+    let f = &c.fit;
+    let param = &m.pr.param;
+    let nom = m.pr.n_params();
+    let mut out = Vec::new();
+    if param.structure.order > 1 && c.effects.contains(&Effect::SpeedDependentBearing) {
+        let w = m.pr.weights(&f.theta[..nom]);
+        let lo = terms.iter().map(|t| t.omega).fold(f64::INFINITY, f64::min);
+        let hi = terms.iter().map(|t| t.omega).fold(0.0, f64::max);
+        let stiffness = (0..param.n_bearings())
+            .filter_map(|b| {
+                let kl = param.bearing(&w, b, lo)?.k;
+                let kh = param.bearing(&w, b, hi)?.k;
+                Some((param.bearing_nodes[b] + 1, kl.into(), kh.into()))
+            })
+            .collect();
+        out.push(Finding::SpeedDependentBearing {
+            order: param.structure.order,
+            stiffness,
+        });
+    }
+    for (k, ext) in m.ext.iter().enumerate() {
+        let o = m.offset(k);
+        match *ext {
+            Extension::Runout => {
+                let channels = (0..m.n_channels())
+                    .map(|ch| {
+                        let oo = o + 2 * ch;
+                        let (a, p, sa, sp) =
+                            polar_with_std(f.theta[oo], f.theta[oo + 1], m.scales.q, cov2(f, oo));
+                        RunoutFinding {
+                            channel: format!(
+                                "b{}_{}",
+                                ch / 2 + 1,
+                                if ch % 2 == 0 { "y" } else { "z" }
+                            ),
+                            amplitude: a,
+                            amplitude_std: sa,
+                            phase_deg: p,
+                            phase_deg_std: sp,
+                            significant: a > 3.0 * sa,
+                        }
+                    })
+                    .collect();
+                out.push(Finding::ProbeRunout { channels });
+            }
+            Extension::Plane { node } => {
+                let (a, p, sa, sp) = polar_with_std(
+                    f.theta[o],
+                    f.theta[o + 1],
+                    param.scaling.unbalance,
+                    cov2(f, o),
+                );
+                out.push(Finding::ExtraUnbalancePlane {
+                    node: node + 1,
+                    me: a,
+                    me_std: sa,
+                    phase_deg: p,
+                    phase_deg_std: sp,
+                });
+            }
+            Extension::Bow { node } => {
+                let (a, p, sa, sp) =
+                    polar_with_std(f.theta[o], f.theta[o + 1], m.scales.q, cov2(f, o));
+                out.push(Finding::ShaftBow {
+                    node: node + 1,
+                    amplitude: a,
+                    amplitude_std: sa,
+                    phase_deg: p,
+                    phase_deg_std: sp,
+                });
+            }
+            Extension::EScale => {
+                out.push(Finding::ShaftStiffnessError {
+                    factor: c.e_terms + E_STEP * f.theta[o],
+                    factor_std: E_STEP * f.std(o).unwrap_or(f64::NAN),
+                });
+            }
+            Extension::Pedestal { bearing } => {
+                let p = PedestalParams::from_scaled(&f.theta[o..o + 5], &m.scales);
+                let (k, cc) = p.k_c();
+                let sd = |i: usize| f.std(o + i).unwrap_or(f64::NAN);
+                let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
+                out.push(Finding::FoundationFlexibility {
+                    node: param
+                        .bearing_nodes
+                        .get(bearing)
+                        .map_or(bearing + 1, |n| n + 1),
+                    mass: p.mass,
+                    mass_std: p.mass * sd(0),
+                    natural_frequency_hz: [hz(p.omega[0]), hz(p.omega[1])],
+                    natural_frequency_hz_std: [hz(p.omega[0]) * sd(1), hz(p.omega[1]) * sd(2)],
+                    damping_ratio: p.zeta,
+                    k,
+                    c: cc,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Bearings (at `omega`) and plane unbalances of a candidate, with
+/// standard deviations, in the identification's result types.
+pub fn estimates(c: &Candidate, omega: f64) -> (Vec<BearingResult>, Vec<UnbalanceResult>) {
+    let m = &c.model;
+    let param = &m.pr.param;
+    let nom = m.pr.n_params();
+    let w = m.pr.weights(&c.fit.theta[..nom]);
+    let cov = c.fit.covariance.as_ref();
+    // Physical structure: parameter i is unknown i (real).
+    let fstd = |func: &[(usize, f64)]| -> f64 {
+        cov.map_or(f64::NAN, |cv| {
+            let mut v = 0.0;
+            for &(i, gi) in func {
+                for &(k, gk) in func {
+                    v += gi * gk * cv[(i, k)];
+                }
+            }
+            v.max(0.0).sqrt()
+        })
+    };
+    let bearings = (0..param.n_bearings())
+        .filter_map(|b| {
+            let est = param.bearing(&w, b, omega)?;
+            let ks: [f64; 4] =
+                std::array::from_fn(|e| fstd(&param.stiffness_functional(b, e, omega)));
+            let cs: [f64; 4] =
+                std::array::from_fn(|e| fstd(&param.damping_functional(b, e, omega)));
+            Some(BearingResult {
+                node: param.bearing_nodes[b] + 1,
+                k: est.k.into(),
+                c: est.c.into(),
+                check: None,
+                std: cov.map(|_| BearingStd {
+                    k: ks.into(),
+                    c: cs.into(),
+                }),
+            })
+        })
+        .collect();
+    let unbalance = (0..param.n_planes())
+        .filter_map(|k| {
+            let u = param.unbalance(&w, k)?;
+            // Re and Im parameters of plane k.
+            let (ir, ii) =
+                (0..param.n_unknowns()).fold((None, None), |acc, j| match param.unknown(j) {
+                    Some(rotorid_core::parametrization::Unknown::Unbalance { plane, part })
+                        if plane == k =>
+                    {
+                        match part {
+                            rotorid_core::parametrization::UnbalancePart::Re => (Some(j), acc.1),
+                            rotorid_core::parametrization::UnbalancePart::Im => (acc.0, Some(j)),
+                            rotorid_core::parametrization::UnbalancePart::Phasor => acc,
+                        }
+                    }
+                    _ => acc,
+                });
+            let sd = match (ir, ii, cov) {
+                (Some(a), Some(b), Some(cv)) => {
+                    let s = param.scale(a);
+                    let z = Complex64::new(w[a].re, w[b].re);
+                    let c2 = [[cv[(a, a)], cv[(a, b)]], [cv[(b, a)], cv[(b, b)]]];
+                    let (_, _, sa, sp) = polar_with_std(z.re, z.im, s, Some(c2));
+                    Some((sa, sp))
+                }
+                _ => None,
+            };
+            Some(UnbalanceResult {
+                node: param.plane_nodes[k] + 1,
+                me: u.me,
+                phase_deg: u.phase_deg(),
+                me_std: sd.map(|s| s.0),
+                phase_deg_std: sd.map(|s| s.1),
+                std: sd.map(|(me, phase_deg)| UnbalanceStd { me, phase_deg }),
+            })
+        })
+        .collect();
+    (bearings, unbalance)
+}
