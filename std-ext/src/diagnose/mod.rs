@@ -92,7 +92,7 @@ pub use context::NOISE_CHI2;
 pub use effect::Effect;
 pub use input::{DiagnoseError, DiagnoseOptions};
 pub(crate) use nominal::theta_from_model;
-pub use nominal::{map_theta, rotor_mass};
+pub use nominal::{map_theta, rotor_mass, MIN_RELATIVE_NOISE};
 pub use result::{estimates, findings, predictions, Diagnosis, Finding, RunoutFinding};
 pub use stats::{chi2_quantile_upper, gamma_q, normal_quantile_upper};
 

@@ -80,9 +80,43 @@ impl Setup {
             scaling,
             reference.as_ref(),
         )?;
+        // A runout the slow roll shows plainly: the noise model refined by
+        // the nominal fit with the runout among its unknowns (as `identify`
+        // does by default), not by a fit that must misfit the low speeds.
+        let fitted =
+            match crate::estimate::sweep::slow_roll_estimate(samples).filter(|e| e.significant()) {
+                Some(e) => match oe_start_with_runout(
+                    model,
+                    samples,
+                    terms,
+                    structure,
+                    scaling,
+                    reference.as_ref(),
+                    Some(&e.runout),
+                ) {
+                    Ok((_, _, f, _)) => f.or(fitted),
+                    Err(_) => fitted,
+                },
+                None => fitted,
+            };
+        // Each part of the noise model is the smaller of the two reads (a
+        // model that misfits reads its misfit as noise); a channel whose
+        // model-free floor reads zero (its readings dominated by runout)
+        // takes the fitted one; the relative part is at least
+        // [`MIN_RELATIVE_NOISE`].
         let noise_model = match (reference, fitted) {
             (Some(r), Some(f)) if r.has_floor() => Some(NoiseModel {
-                relative: f.relative.min(r.relative),
+                relative: f.relative.min(r.relative).max(MIN_RELATIVE_NOISE),
+                floor_m: r
+                    .floor_m
+                    .iter()
+                    .zip(f.floor_m.iter().chain(std::iter::repeat(&0.0)))
+                    .map(|(&a, &b)| match (a > 0.0, b > 0.0) {
+                        (true, true) => a.min(b),
+                        (true, false) => a,
+                        _ => b.max(0.0),
+                    })
+                    .collect(),
                 ..r
             }),
             (r, _) => r,
@@ -227,6 +261,13 @@ pub fn rotor_mass(model: &RotorModel) -> f64 {
     shaft + model.disks.iter().map(|d| d.mass).sum::<f64>()
 }
 
+/// The least relative noise the diagnosis assumes when the probes have a
+/// floor (0.1 %: the calibration and linearity tolerance of a proximity
+/// probe chain). The fits' misfits are in units relative to it; without
+/// this bound a floor that explains every sample drives the relative part
+/// to zero and the floor to infinity in those units.
+pub const MIN_RELATIVE_NOISE: f64 = 1e-3;
+
 /// The output-error estimate of the nominal parameters on `samples` with
 /// the terms `terms` (same order): QRD/RLS start, then
 /// [`fit_output_error`]. Returns the predictor and its scaled parameters.
@@ -238,6 +279,29 @@ pub(crate) fn oe_start(
     scaling: ColumnScaling<f64>,
     noise: Option<&NoiseModel>,
 ) -> Result<(Predictor, Vec<f64>, Option<NoiseModel>), DiagnoseError> {
+    oe_start_with_runout(model, samples, terms, structure, scaling, noise, None)
+        .map(|(pr, theta, noise, _)| (pr, theta, noise))
+}
+
+/// What [`oe_start_with_runout`] returns: the predictor, the scaled
+/// parameters, the refined noise model and the fitted runout per channel
+/// (m; empty without a runout start).
+pub(crate) type RunoutStart = (Predictor, Vec<f64>, Option<NoiseModel>, Vec<Complex64>);
+
+/// [`oe_start`] with a runout phasor per channel fitted beside the nominal
+/// parameters, from `runout` (m): the filter sees the samples less
+/// `runout`, the output-error fit the samples as measured with the runout
+/// among its unknowns (linearised in its instrumental-variable passes,
+/// [`crate::estimate::output_error`]), as `identify` does by default.
+pub(crate) fn oe_start_with_runout(
+    model: &RotorModel,
+    samples: &[Sample],
+    terms: &[SpeedTerms],
+    structure: Structure,
+    scaling: ColumnScaling<f64>,
+    noise: Option<&NoiseModel>,
+    runout: Option<&[Complex64]>,
+) -> Result<RunoutStart, DiagnoseError> {
     let mut o = Options::new(structure);
     o.scaling = Some(scaling);
     let index: HashMap<u64, usize> = terms
@@ -249,10 +313,20 @@ pub(crate) fn oe_start(
         let i = index.get(&w.to_bits()).copied().unwrap_or(0);
         Ok((terms[i].a.clone(), terms[i].b.clone()))
     };
+    let seen: Vec<Sample> = match runout {
+        Some(r) => samples
+            .iter()
+            .map(|s| Sample {
+                omega: s.omega,
+                q: s.q.iter().zip(r).map(|(y, r)| y - r).collect(),
+            })
+            .collect(),
+        None => samples.to_vec(),
+    };
     let meas = Measurements {
         comments: Vec::new(),
         n_bearings: model.bearings.len(),
-        samples: samples.to_vec(),
+        samples: seen,
         ..Measurements::default()
     };
     let id = identify_with(
@@ -265,14 +339,25 @@ pub(crate) fn oe_start(
     )?;
     let pr = Predictor::new(id.param.clone());
     let oe_terms: Vec<Terms> = terms.iter().map(|t| (t.a.clone(), t.b.clone())).collect();
-    let proportional = || {
-        fit_output_error(
+    let proportional = || match runout {
+        Some(r) => crate::estimate::output_error::fit_output_error_with(
             &pr,
             samples,
             &oe_terms,
             &id.scaled_weights,
             &OutputErrorOptions::default(),
-        )
+            &crate::estimate::output_error::FitNoise {
+                runout: Some(r.to_vec()),
+                ..Default::default()
+            },
+        ),
+        None => fit_output_error(
+            &pr,
+            samples,
+            &oe_terms,
+            &id.scaled_weights,
+            &OutputErrorOptions::default(),
+        ),
     };
     // With a floor, the fit under the noise model; where it cannot be
     // done (a model far from the data can make its weighted normal
@@ -288,11 +373,12 @@ pub(crate) fn oe_start(
             &crate::estimate::output_error::FitNoise {
                 model: Some(m.clone()),
                 refine: true,
+                runout: runout.map(<[Complex64]>::to_vec),
                 ..Default::default()
             },
         )
         .or_else(|_| proportional())?,
         None => proportional()?,
     };
-    Ok((pr, oe.theta, oe.noise))
+    Ok((pr, oe.theta, oe.noise, oe.runout))
 }

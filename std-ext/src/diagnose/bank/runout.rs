@@ -1,17 +1,19 @@
-//! `probe_runout`: a constant phasor added to every channel, started from
-//! the readings at the lowest speed.
+//! `probe_runout`: a constant phasor added to every channel, the better of
+//! two starts: the readings at the lowest speed, and the slow-roll
+//! estimate refined by the output-error fit that solves for the runout.
 
 use crate::diagnose::candidate::Candidate;
 use crate::diagnose::context::Context;
 use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::Extension;
 use crate::diagnose::fit;
-use crate::diagnose::nominal::oe_start;
+use crate::diagnose::nominal::{oe_start, oe_start_with_runout};
 use crate::io::measurement::Sample;
 
 /// The fit of a runout phasor on every channel (scaled by the RMS
 /// reading), from the lowest speed's readings as runout and the nominal
-/// parameters estimated again on the data less them. `None` when the
+/// parameters estimated again on the data less them, and from the
+/// slow-roll runout refined with them; the better fit. `None` when the
 /// equations leave no room or the fit fails.
 pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
     let m = ctx.with_ext(vec![Extension::Runout]);
@@ -52,7 +54,33 @@ pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
     };
     t.extend_from_slice(&r0);
     t.resize(m.n_params(), 0.0);
-    let f = fit::fit(&m, ctx.data, &t, 50).ok()?;
+    let mut best = fit::fit(&m, ctx.data, &t, 50).ok();
+    // Second start: the slow-roll runout (fitted over the lowest speeds,
+    // `slow_roll_estimate`) refined with the nominal parameters by the
+    // output-error fit that solves for it.
+    let slow = crate::estimate::sweep::slow_roll_estimate(samples)
+        .map(|e| e.runout)
+        .unwrap_or_else(|| low.clone());
+    if let Ok((_, mut t2, _, r2)) = oe_start_with_runout(
+        ctx.model,
+        samples,
+        ctx.terms,
+        setup.structure,
+        setup.scaling,
+        setup.noise_model.as_ref(),
+        Some(&slow),
+    ) {
+        if r2.len() == low.len() {
+            t2.extend(r2.iter().flat_map(|r| [r.re / scales.q, r.im / scales.q]));
+            t2.resize(m.n_params(), 0.0);
+            if let Ok(f2) = fit::fit(&m, ctx.data, &t2, 50) {
+                if best.as_ref().is_none_or(|b| f2.s < b.s) {
+                    best = Some(f2);
+                }
+            }
+        }
+    }
+    let f = best?;
     Some(Candidate::new(
         vec![Effect::ProbeRunout],
         "runout phasor on every channel".into(),

@@ -7,7 +7,7 @@ use crate::diagnose::context::Context;
 use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::ExtendedModel;
 use crate::diagnose::fit::{self, Fit};
-use crate::diagnose::nominal::map_theta;
+use crate::diagnose::nominal::{map_theta, oe_start};
 use crate::diagnose::stats::bic;
 use crate::estimate::predictor::Predictor;
 use crate::estimate::Parametrization;
@@ -15,7 +15,8 @@ use rotorid_core::parametrization::{Structure, MAX_ORDER};
 
 /// The best fit of the bearing laws of `physical` orders `order + 1` and
 /// `order + 2` (up to `MAX_ORDER`, where the equations leave room), each
-/// started from the nominal estimate (higher orders zero); chosen by
+/// the better of two starts (the nominal estimate with higher orders zero;
+/// the law of that order identified directly); chosen by
 /// `n ln(S / n) + P ln n`. `None` when none fits.
 pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
     let (pr, theta0, n_real) = (&ctx.setup.pr, &ctx.theta0, ctx.setup.n_real);
@@ -36,7 +37,29 @@ pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
             pr: prn,
             ..ctx.base.clone()
         };
-        if let Ok(f) = fit::fit(&m, ctx.data, &t, 50) {
+        let mut f_order = fit::fit(&m, ctx.data, &t, 50).ok();
+        // Second start: the law of this order identified directly (filter,
+        // then output-error fit). Its equations are linear in the law's
+        // coefficients, so the filter needs no start, while the nominal
+        // constants can lie far from a law that varies strongly.
+        let setup = ctx.setup;
+        if let Ok((_, t2, _)) = oe_start(
+            ctx.model,
+            ctx.samples,
+            ctx.terms,
+            Structure::physical(order),
+            setup.scaling,
+            setup.noise_model.as_ref(),
+        ) {
+            if t2.len() == m.n_params() {
+                if let Ok(f2) = fit::fit(&m, ctx.data, &t2, 50) {
+                    if f_order.as_ref().is_none_or(|b| f2.s < b.s) {
+                        f_order = Some(f2);
+                    }
+                }
+            }
+        }
+        if let Some(f) = f_order {
             if best
                 .as_ref()
                 .is_none_or(|b| bic(&f, n_real) < bic(&b.0, n_real))
