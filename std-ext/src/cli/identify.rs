@@ -19,7 +19,7 @@ fn short_number(x: f64) -> String {
 
 /// Model structure of the identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Formulation {
+pub enum FormulationArg {
     /// Real K and C per bearing and complex unbalance (physics enforced).
     Physical,
     /// The paper's complex Z0, Z1 per bearing (Eqs. 43, 47, 48).
@@ -45,8 +45,8 @@ pub struct IdentifyArgs {
     #[arg(long, value_name = "FILE.csv")]
     pub measurements: std::path::PathBuf,
     /// Model structure.
-    #[arg(long, value_enum, default_value_t = Formulation::Physical)]
-    pub formulation: Formulation,
+    #[arg(long, value_enum, default_value_t = FormulationArg::Physical)]
+    pub formulation: FormulationArg,
     /// The estimate reported.
     #[arg(long, value_enum, default_value_t = EstimatorArg::Oe)]
     pub estimator: EstimatorArg,
@@ -173,8 +173,8 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     let (meas, located, sample_std) = (read.measurements, read.located, read.sample_std);
     let model = model_file.model;
     let structure = match args.formulation {
-        Formulation::Physical => Structure::physical(args.order),
-        Formulation::Paper => Structure::paper(args.order),
+        FormulationArg::Physical => Structure::physical(args.order),
+        FormulationArg::Paper => Structure::paper(args.order),
     };
     // The library's defaults, then the arguments.
     let mut opts = Options {

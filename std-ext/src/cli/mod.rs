@@ -37,7 +37,7 @@ pub mod tables;
 
 pub use campbell::CampbellArgs;
 pub use diagnose::DiagnoseArgs;
-pub use identify::{Formulation, IdentifyArgs};
+pub use identify::{FormulationArg, IdentifyArgs};
 pub use simulate::SimulateArgs;
 pub use tables::TablesArgs;
 

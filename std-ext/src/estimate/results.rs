@@ -101,9 +101,12 @@ pub struct UnbalanceResult {
     pub std: Option<UnbalanceStd>,
 }
 
-/// The result of `rotorid identify`.
+/// The reported estimate of an identification in physical units: the
+/// bearings at the last speed and the unbalance, with their standard
+/// deviations, and the checks of the fit (noise, outliers, runout); what
+/// `rotorid identify --json` writes ([`Identification::result`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct IdentifyResult {
+pub struct Estimate {
     /// `"oe"` (refined by the output-error fit) or `"rls"` (QRD/RLS alone).
     pub estimator: &'static str,
     /// The relative noise level `s` estimated from the data without the
@@ -196,7 +199,7 @@ pub struct RunoutResult {
 impl Identification {
     /// The typed result (see the module documentation), with the standard
     /// deviations of [`Identification::std`] when known.
-    pub fn result(&self) -> IdentifyResult {
+    pub fn result(&self) -> Estimate {
         let std = self.std();
         let p = &self.param;
         let bearings = self
@@ -243,7 +246,7 @@ impl Identification {
             .collect();
         let check = self.check.as_ref();
         let names = crate::io::measurement::default_channel_names(p.n_bearings());
-        IdentifyResult {
+        Estimate {
             estimator: if self.refinement.is_some() {
                 "oe"
             } else {
