@@ -15,7 +15,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde::Serialize;
 
-use crate::fe::campbell::{CampbellDiagram, CriticalSpeed, Track, Whirl};
+use crate::campbell::CampbellAnalysis;
+use crate::fe::campbell::{CriticalSpeed, Whirl};
 use crate::report::plot::{tick_label, PlotError};
 use crate::units::{rad_s_to_hz, rad_s_to_rpm};
 
@@ -167,15 +168,15 @@ impl From<&CriticalRow> for CriticalJson {
 }
 
 impl CampbellReport {
-    /// The report of `tracks` on `diagram`, with the critical speeds
-    /// (`mode` indices into `tracks`).
-    pub fn new(
-        label: impl Into<String>,
-        diagram: &CampbellDiagram,
-        tracks: &[Track],
-        critical: &[CriticalSpeed],
-        critical_undamped: &[CriticalSpeed],
-    ) -> Self {
+    /// The report of an analysis ([`crate::campbell()`]) under the model's
+    /// label.
+    pub fn new(label: impl Into<String>, analysis: &CampbellAnalysis) -> Self {
+        let CampbellAnalysis {
+            diagram,
+            tracks,
+            critical,
+            critical_undamped,
+        } = analysis;
         let modes = tracks
             .iter()
             .map(|t| {
@@ -705,7 +706,7 @@ fn draw_legend(
 pub const MAX_SHAPE_MODES: usize = 6;
 
 /// The mode shapes `modes` (the shaft DOFs of [`crate::fe::campbell::Mode::shape`], as
-/// [`crate::fe::campbell::campbell_with`] returns them at one speed) of
+/// [`crate::fe::campbell::diagram_with`] returns them at one speed) of
 /// `model` at `rpm`, as SVG: the displacement along the shaft (axial
 /// position x in m from the left end) in y (top panel) and z (bottom
 /// panel). Each shape is scaled so that its largest translation
