@@ -60,9 +60,7 @@ use thiserror::Error;
 use crate::estimate::noise::NoiseModel;
 use crate::estimate::output_error::{fit_output_error, OutputErrorError, OutputErrorOptions};
 use crate::estimate::predictor::{PredictError, Predictor, Terms};
-use crate::estimate::results::{
-    BearingResult, BearingStd, Coefficients, UnbalanceResult, UnbalanceStd,
-};
+use crate::estimate::results::{BearingResult, BearingStd, Coefficients, UnbalanceResult};
 use crate::estimate::{identify_with, IdentifyError, Options, Parametrization};
 use crate::io::measurement::Measurements;
 use crate::model::RotorModel;
@@ -1855,14 +1853,7 @@ pub fn estimates(c: &Candidate, omega: f64) -> (Vec<BearingResult>, Vec<Unbalanc
                 }
                 _ => None,
             };
-            Some(UnbalanceResult {
-                node: param.plane_nodes[k] + 1,
-                me: u.me,
-                phase_deg: u.phase_deg(),
-                me_std: sd.map(|s| s.0),
-                phase_deg_std: sd.map(|s| s.1),
-                std: sd.map(|(me, phase_deg)| UnbalanceStd { me, phase_deg }),
-            })
+            Some(UnbalanceResult::new(param.plane_nodes[k] + 1, &u, sd))
         })
         .collect();
     (bearings, unbalance)
