@@ -429,6 +429,17 @@ where
         Ok(())
     }
 
+    /// Back-substitution `R w = p` into `w` (`M` entries; see
+    /// [`BlockRef::solve_weights`]).
+    pub fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        self.view().solve_weights(w)
+    }
+
+    /// `min|R_ii| / max|R_ii|` (see [`BlockRef::diag_ratio`]).
+    pub fn diag_ratio(&self) -> T {
+        self.view().diag_ratio()
+    }
+
     /// Read-only view.
     pub fn view(&self) -> BlockRef<'_, F> {
         BlockRef {
@@ -487,6 +498,21 @@ where
             *gj = g;
         }
         Ok(())
+    }
+
+    /// [`Self::update_rows`]: the Givens kernel reads whole rows, so rows
+    /// in the block layout's groups (the identification's) take the same
+    /// path.
+    #[inline(always)]
+    pub fn update_grouped_rows(
+        &mut self,
+        u: &[F],
+        d: &[F],
+        lambda: T,
+        xi: &mut [F],
+        gamma: &mut [T],
+    ) -> Result<(), FilterError> {
+        self.update_rows(u, d, lambda, xi, gamma)
     }
 
     /// The checks of an update (in this order: lengths, `lambda`,
