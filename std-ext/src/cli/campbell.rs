@@ -6,7 +6,7 @@
 
 use clap::Args;
 
-use super::{load_model, CliError, Io};
+use super::{load_model_arg, CliError, Io};
 use crate::campbell::CampbellOptions;
 use crate::report::campbell::CampbellReport;
 
@@ -94,7 +94,7 @@ pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             }
         }
     }
-    let file = load_model(&args.model)?;
+    let file = load_model_arg(&args.model)?;
     if !(args.rpm_max.is_finite() && args.rpm_max > 0.0) {
         return Err(CliError(format!(
             "--rpm-max must be finite and > 0, got {}",

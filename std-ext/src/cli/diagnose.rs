@@ -48,7 +48,7 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             ("--plot", args.plot.as_deref()),
         ],
     )?;
-    let model_file = super::load_model(&args.model)?;
+    let model_file = super::load_model_arg(&args.model)?;
     let meas = super::read_measurements(&args.measurements, &model_file)?.measurements;
     let model = model_file.model;
     if meas.samples.len() < 8 {

@@ -167,7 +167,7 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             ("--ross-out", args.ross_out.as_deref()),
         ],
     )?;
-    let model_file = super::load_model(&args.model)?;
+    let model_file = super::load_model_arg(&args.model)?;
     let file = args.measurements.display().to_string();
     let read = super::read_measurements(&args.measurements, &model_file)?;
     let (meas, located, sample_std) = (read.measurements, read.located, read.sample_std);

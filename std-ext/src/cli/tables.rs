@@ -25,7 +25,7 @@
 
 use clap::Args;
 
-use super::{load_model, CliError, FormulationArg, Io, RpmGridArgs};
+use super::{load_model_arg, CliError, FormulationArg, Io, RpmGridArgs};
 use crate::core::parametrization::{Structure, MAX_ORDER};
 use crate::tables::grid::AdaptiveOptions;
 use crate::tables::{build, build_adaptive, Scalar};
@@ -77,7 +77,7 @@ pub fn run(args: &TablesArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         FormulationArg::Physical => Structure::physical(args.order),
         FormulationArg::Paper => Structure::paper(args.order),
     };
-    let model = load_model(&args.model)?.model;
+    let model = load_model_arg(&args.model)?.model;
     let scalar = if args.f32 { Scalar::F32 } else { Scalar::F64 };
     let (table, note) = match args.adaptive {
         None => {
