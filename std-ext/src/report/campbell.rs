@@ -357,9 +357,9 @@ impl CampbellReport {
         s
     }
 
-    /// Writes the diagram as SVG (see [`plot`]).
+    /// Writes the diagram as SVG (see [`diagram_plot`]).
     pub fn plot(&self, path: &Path, rpm_max: f64) -> Result<(), PlotError> {
-        plot(self, path, rpm_max)
+        diagram_plot(self, path, rpm_max)
     }
 }
 
@@ -504,7 +504,7 @@ fn legend_series(report: &CampbellReport, rpm_max: f64) -> Vec<Series> {
 /// decrement of each mode. Title `Campbell diagram: LABEL`; the legend
 /// (modes, whirl styles, the critical speeds in rpm) sits right of the
 /// panels, outside the data ([`panel_plot`]).
-pub fn plot(report: &CampbellReport, path: &Path, rpm_max: f64) -> Result<(), PlotError> {
+pub fn diagram_plot(report: &CampbellReport, path: &Path, rpm_max: f64) -> Result<(), PlotError> {
     if !(rpm_max.is_finite() && rpm_max > 0.0) {
         return Err(PlotError::Data {
             path: path.display().to_string(),
