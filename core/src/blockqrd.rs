@@ -500,21 +500,6 @@ where
         Ok(())
     }
 
-    /// [`Self::update_rows`]: the Givens kernel reads whole rows, so rows
-    /// in the block layout's groups (the identification's) take the same
-    /// path.
-    #[inline(always)]
-    pub fn update_grouped_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        self.update_rows(u, d, lambda, xi, gamma)
-    }
-
     /// The checks of an update (in this order: lengths, `lambda`,
     /// non-finite or out-of-range entries, then rows with non-zeros in two
     /// blocks) in one pass over each row, which finds

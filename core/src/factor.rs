@@ -230,11 +230,12 @@ where
 
 /// [`FilterState`] and [`Factor`] for a block-layout storage
 /// `$storage<F, NB, W, S>` whose own methods are the filter's: `SHAPE`,
-/// `zeroed`, `init` (checked), `update_rows`, `update_grouped_rows`,
-/// `solve_weights` and `diag_ratio`. The Givens block and the
+/// `zeroed`, `init` (checked), `update_rows`, `solve_weights` and
+/// `diag_ratio`; with `, update_grouped_rows`, its own form for grouped
+/// rows too (otherwise grouped rows are rows). The Givens block and the
 /// square-root-free filters have the same interface this way.
 macro_rules! block_filter_state {
-    ($storage:ident) => {
+    ($storage:ident $(, $grouped:ident)?) => {
         impl<F, T, const NB: usize, const W: usize, const S: usize> FilterState<F>
             for $storage<F, NB, W, S>
         where
@@ -261,17 +262,19 @@ macro_rules! block_filter_state {
             ) -> Result<(), FilterError> {
                 $storage::update_rows(self, u, d, lambda, xi, gamma)
             }
-            #[inline(always)]
-            fn update_grouped_rows(
-                &mut self,
-                u: &[F],
-                d: &[F],
-                lambda: T,
-                xi: &mut [F],
-                gamma: &mut [T],
-            ) -> Result<(), FilterError> {
-                $storage::update_grouped_rows(self, u, d, lambda, xi, gamma)
-            }
+            $(
+                #[inline(always)]
+                fn $grouped(
+                    &mut self,
+                    u: &[F],
+                    d: &[F],
+                    lambda: T,
+                    xi: &mut [F],
+                    gamma: &mut [T],
+                ) -> Result<(), FilterError> {
+                    $storage::$grouped(self, u, d, lambda, xi, gamma)
+                }
+            )?
             fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
                 $storage::solve_weights(self, w)
             }
@@ -294,7 +297,7 @@ macro_rules! block_filter_state {
 }
 
 block_filter_state!(BlockFactor);
-block_filter_state!(SqrtFreeFactor);
+block_filter_state!(SqrtFreeFactor, update_grouped_rows);
 
 /// An owning, fixed-size QRD/RLS filter: a state `R` ([`Factor`]) and its
 /// forgetting factor `lambda`. Aliases: [`crate::blockqrd::BlockQrdRls`]
