@@ -1,7 +1,8 @@
 //! The library's front door on the built-in reference rotor (the paper's):
 //! a realistic sweep is simulated (unbalance at balance grade G6.3, 0.5 %
 //! noise plus a 0.5 um probe floor), then identified and diagnosed with the
-//! defaults of the `rotorid` command.
+//! defaults of the `rotorid` command; the critical speeds of the
+//! identified rotor come from its Campbell analysis.
 //!
 //! `cargo run --release --example library`
 
@@ -26,5 +27,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let d = rotorid::diagnose(&model, &meas, &rotorid::DiagnoseOptions::default())?;
     println!("diagnosis: {}", d.effect.name());
+
+    let c = rotorid::campbell(
+        &id.identified_model(&model),
+        &rotorid::CampbellOptions::default(),
+    )?;
+    for s in &c.critical {
+        let rpm = rotorid::units::rad_s_to_rpm(s.omega);
+        println!(
+            "critical speed: {rpm:.0} rpm (mode {}, {:?})",
+            s.mode + 1,
+            s.whirl
+        );
+    }
     Ok(())
 }

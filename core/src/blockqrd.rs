@@ -429,6 +429,17 @@ where
         Ok(())
     }
 
+    /// Back-substitution `R w = p` into `w` (`M` entries; see
+    /// [`BlockRef::solve_weights`]).
+    pub fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+        self.view().solve_weights(w)
+    }
+
+    /// `min|R_ii| / max|R_ii|` (see [`BlockRef::diag_ratio`]).
+    pub fn diag_ratio(&self) -> T {
+        self.view().diag_ratio()
+    }
+
     /// Read-only view.
     pub fn view(&self) -> BlockRef<'_, F> {
         BlockRef {

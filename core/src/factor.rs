@@ -228,107 +228,76 @@ where
     }
 }
 
-impl<F, T, const NB: usize, const W: usize, const S: usize> FilterState<F>
-    for BlockFactor<F, NB, W, S>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    fn unknowns(&self) -> usize {
-        Self::SHAPE.unknowns()
-    }
-    fn shape(&self) -> Option<BlockShape> {
-        Some(Self::SHAPE)
-    }
-    fn init(&mut self, delta: T) -> Result<(), FilterError> {
-        BlockFactor::init(self, delta)
-    }
-    #[inline(always)]
-    fn update_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        BlockFactor::update_rows(self, u, d, lambda, xi, gamma)
-    }
-    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        self.view().solve_weights(w)
-    }
-    fn diag_ratio(&self) -> Result<T, FilterError> {
-        Ok(self.view().diag_ratio())
-    }
+/// [`FilterState`] and [`Factor`] for a block-layout storage
+/// `$storage<F, NB, W, S>` whose own methods are the filter's: `SHAPE`,
+/// `zeroed`, `init` (checked), `update_rows`, `solve_weights` and
+/// `diag_ratio`; with `, update_grouped_rows`, its own form for grouped
+/// rows too (otherwise grouped rows are rows). The Givens block and the
+/// square-root-free filters have the same interface this way.
+macro_rules! block_filter_state {
+    ($storage:ident $(, $grouped:ident)?) => {
+        impl<F, T, const NB: usize, const W: usize, const S: usize> FilterState<F>
+            for $storage<F, NB, W, S>
+        where
+            F: ComplexField<RealField = T> + Copy,
+            T: Real,
+        {
+            fn unknowns(&self) -> usize {
+                Self::SHAPE.unknowns()
+            }
+            fn shape(&self) -> Option<BlockShape> {
+                Some(Self::SHAPE)
+            }
+            fn init(&mut self, delta: T) -> Result<(), FilterError> {
+                $storage::init(self, delta)
+            }
+            #[inline(always)]
+            fn update_rows(
+                &mut self,
+                u: &[F],
+                d: &[F],
+                lambda: T,
+                xi: &mut [F],
+                gamma: &mut [T],
+            ) -> Result<(), FilterError> {
+                $storage::update_rows(self, u, d, lambda, xi, gamma)
+            }
+            $(
+                #[inline(always)]
+                fn $grouped(
+                    &mut self,
+                    u: &[F],
+                    d: &[F],
+                    lambda: T,
+                    xi: &mut [F],
+                    gamma: &mut [T],
+                ) -> Result<(), FilterError> {
+                    $storage::$grouped(self, u, d, lambda, xi, gamma)
+                }
+            )?
+            fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
+                $storage::solve_weights(self, w)
+            }
+            fn diag_ratio(&self) -> Result<T, FilterError> {
+                Ok($storage::diag_ratio(self))
+            }
+        }
+
+        impl<F, T, const NB: usize, const W: usize, const S: usize> Factor<F>
+            for $storage<F, NB, W, S>
+        where
+            F: ComplexField<RealField = T> + Copy,
+            T: Real,
+        {
+            fn zeroed() -> Self {
+                $storage::zeroed()
+            }
+        }
+    };
 }
 
-impl<F, T, const NB: usize, const W: usize, const S: usize> Factor<F> for BlockFactor<F, NB, W, S>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    fn zeroed() -> Self {
-        BlockFactor::zeroed()
-    }
-}
-
-impl<F, T, const NB: usize, const W: usize, const S: usize> FilterState<F>
-    for SqrtFreeFactor<F, NB, W, S>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    fn unknowns(&self) -> usize {
-        Self::SHAPE.unknowns()
-    }
-    fn shape(&self) -> Option<BlockShape> {
-        Some(Self::SHAPE)
-    }
-    fn init(&mut self, delta: T) -> Result<(), FilterError> {
-        qrdrls::validate_delta(delta)?;
-        SqrtFreeFactor::init(self, delta);
-        Ok(())
-    }
-    #[inline(always)]
-    fn update_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        SqrtFreeFactor::update_rows(self, u, d, lambda, xi, gamma)
-    }
-    #[inline(always)]
-    fn update_grouped_rows(
-        &mut self,
-        u: &[F],
-        d: &[F],
-        lambda: T,
-        xi: &mut [F],
-        gamma: &mut [T],
-    ) -> Result<(), FilterError> {
-        SqrtFreeFactor::update_grouped_rows(self, u, d, lambda, xi, gamma)
-    }
-    fn solve_weights(&self, w: &mut [F]) -> Result<(), FilterError> {
-        SqrtFreeFactor::solve_weights(self, w)
-    }
-    fn diag_ratio(&self) -> Result<T, FilterError> {
-        Ok(SqrtFreeFactor::diag_ratio(self))
-    }
-}
-
-impl<F, T, const NB: usize, const W: usize, const S: usize> Factor<F>
-    for SqrtFreeFactor<F, NB, W, S>
-where
-    F: ComplexField<RealField = T> + Copy,
-    T: Real,
-{
-    fn zeroed() -> Self {
-        SqrtFreeFactor::new(T::zero())
-    }
-}
+block_filter_state!(BlockFactor);
+block_filter_state!(SqrtFreeFactor, update_grouped_rows);
 
 /// An owning, fixed-size QRD/RLS filter: a state `R` ([`Factor`]) and its
 /// forgetting factor `lambda`. Aliases: [`crate::blockqrd::BlockQrdRls`]

@@ -90,7 +90,7 @@ use num_complex::Complex;
 
 /// Errors of the identifier.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum IdentifyError {
+pub enum IdentifierError {
     /// Non-finite speed, phasor or table term (state untouched).
     NonFinite,
     /// Sizes (`M`, `N`, buffers, bearing or plane index) do not match the
@@ -126,65 +126,65 @@ pub enum IdentifyError {
     Filter(FilterError),
 }
 
-impl fmt::Display for IdentifyError {
+impl fmt::Display for IdentifierError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            IdentifyError::NonFinite => f.write_str("non-finite speed, response or table term"),
-            IdentifyError::Dimension => {
+            IdentifierError::NonFinite => f.write_str("non-finite speed, response or table term"),
+            IdentifierError::Dimension => {
                 f.write_str("sizes do not match the model structure (M, N, bearings, planes)")
             }
-            IdentifyError::Structure { expected, found } => write!(
+            IdentifierError::Structure { expected, found } => write!(
                 f,
                 "structure {:?} order {} asked for, but the identifier's type is {:?} order {}",
                 found.formulation, found.order, expected.formulation, expected.order
             ),
-            IdentifyError::InvalidOrder => f.write_str("polynomial order out of range"),
-            IdentifyError::InvalidSpeed => f.write_str("speed must be >= 0"),
-            IdentifyError::InvalidConfig => f.write_str(
+            IdentifierError::InvalidOrder => f.write_str("polynomial order out of range"),
+            IdentifierError::InvalidSpeed => f.write_str("speed must be >= 0"),
+            IdentifierError::InvalidConfig => f.write_str(
                 "steady-running guard thresholds and noise floors must be finite and >= 0",
             ),
-            IdentifyError::InvalidLambda => f.write_str(
+            IdentifierError::InvalidLambda => f.write_str(
                 "forgetting factor lambda must lie in [0.368, 1] (a memory of at least one update)",
             ),
-            IdentifyError::InvalidDelta => f.write_str(
+            IdentifierError::InvalidDelta => f.write_str(
                 "regularisation delta must lie in [1/sqrt(MAX), sqrt(MAX)] of the working precision \
                  (f32: 5.4e-20..1.8e19, f64: 7.5e-155..1.3e154)",
             ),
-            IdentifyError::EstimateOverflow => f.write_str(
+            IdentifierError::EstimateOverflow => f.write_str(
                 "an estimate is not finite in the working precision (the data cannot determine it)",
             ),
-            IdentifyError::Table(e) => write!(f, "table lookup failed: {e}"),
-            IdentifyError::Filter(e) => write!(f, "filter: {e}"),
+            IdentifierError::Table(e) => write!(f, "table lookup failed: {e}"),
+            IdentifierError::Filter(e) => write!(f, "filter: {e}"),
         }
     }
 }
 
-impl core::error::Error for IdentifyError {}
+impl core::error::Error for IdentifierError {}
 
-impl From<RegressorError> for IdentifyError {
+impl From<RegressorError> for IdentifierError {
     fn from(e: RegressorError) -> Self {
         match e {
-            RegressorError::InvalidOrder => IdentifyError::InvalidOrder,
-            RegressorError::Dimension => IdentifyError::Dimension,
-            RegressorError::NonFinite => IdentifyError::NonFinite,
+            RegressorError::InvalidOrder => IdentifierError::InvalidOrder,
+            RegressorError::Dimension => IdentifierError::Dimension,
+            RegressorError::NonFinite => IdentifierError::NonFinite,
         }
     }
 }
 
-impl From<ParamError> for IdentifyError {
+impl From<ParamError> for IdentifierError {
     fn from(e: ParamError) -> Self {
         match e {
-            ParamError::InvalidOrder => IdentifyError::InvalidOrder,
-            ParamError::Dimension => IdentifyError::Dimension,
+            ParamError::InvalidOrder => IdentifierError::InvalidOrder,
+            ParamError::Dimension => IdentifierError::Dimension,
         }
     }
 }
 
-impl From<FilterError> for IdentifyError {
+impl From<FilterError> for IdentifierError {
     fn from(e: FilterError) -> Self {
         match e {
-            FilterError::NonFinite => IdentifyError::NonFinite,
-            other => IdentifyError::Filter(other),
+            FilterError::NonFinite => IdentifierError::NonFinite,
+            other => IdentifierError::Filter(other),
         }
     }
 }
@@ -339,18 +339,18 @@ impl<T: Real> Config<T> {
 
     /// Checks `lambda` (in `[MIN_LAMBDA, 1]`), `delta` (in [`delta_range`]),
     /// the order and the guard thresholds.
-    pub fn validate(&self) -> Result<(), IdentifyError> {
+    pub fn validate(&self) -> Result<(), IdentifierError> {
         self.structure.validate()?;
         if !(self.lambda >= T::lit(MIN_LAMBDA) && self.lambda <= T::one()) {
-            return Err(IdentifyError::InvalidLambda);
+            return Err(IdentifierError::InvalidLambda);
         }
         let (lo, hi) = delta_range::<T>();
         if !(self.delta >= lo && self.delta <= hi) {
-            return Err(IdentifyError::InvalidDelta);
+            return Err(IdentifierError::InvalidDelta);
         }
         let ok = |x: T| x.is_finite() && x >= T::zero();
         if !(ok(self.steady.margin) && ok(self.steady.min_diag_ratio)) {
-            return Err(IdentifyError::InvalidConfig);
+            return Err(IdentifierError::InvalidConfig);
         }
         Ok(())
     }
@@ -543,7 +543,7 @@ pub fn check_sizes<T: Real, F: IdField<T>>(
     np: usize,
     m: usize,
     n: usize,
-) -> Result<(), IdentifyError> {
+) -> Result<(), IdentifierError> {
     structure.validate()?;
     if F::FORMULATION != structure.formulation
         || nq == 0
@@ -551,24 +551,24 @@ pub fn check_sizes<T: Real, F: IdField<T>>(
         || m != structure.n_unknowns(nq / 2, np)
         || n != structure.n_rows(nq / 2)
     {
-        return Err(IdentifyError::Dimension);
+        return Err(IdentifierError::Dimension);
     }
     Ok(())
 }
 
 impl<T: Real, F: IdField<T>, V: FilterState<F>> Kernel<'_, T, F, V> {
     /// A block-structured factor must have the layout of the structure.
-    fn check_layout(&self) -> Result<(), IdentifyError> {
+    fn check_layout(&self) -> Result<(), IdentifierError> {
         match self.factor.shape() {
             Some(s) if s != BlockShape::of(self.config.structure, self.nq / 2, self.np) => {
-                Err(IdentifyError::Dimension)
+                Err(IdentifierError::Dimension)
             }
             _ => Ok(()),
         }
     }
 
     /// Initialises the filter state: `R = sqrt(delta) I`, `w~ = 0`, guard reset.
-    pub fn init(&mut self) -> Result<(), IdentifyError> {
+    pub fn init(&mut self) -> Result<(), IdentifierError> {
         self.config.validate()?;
         check_sizes::<T, F>(
             &self.config.structure,
@@ -590,18 +590,18 @@ impl<T: Real, F: IdField<T>, V: FilterState<F>> Kernel<'_, T, F, V> {
         &mut self,
         eq: &Equations<'_, T>,
         scratch: Scratch<'_, T, F>,
-    ) -> Result<StepReport<T>, IdentifyError> {
+    ) -> Result<StepReport<T>, IdentifierError> {
         let cfg = self.config;
         let Scratch { d, u, xi, gamma } = scratch;
         let omega = eq.omega;
         if !omega.is_finite() || eq.q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
-            return Err(IdentifyError::NonFinite);
+            return Err(IdentifierError::NonFinite);
         }
         if eq.nq != self.nq || eq.np != self.np {
-            return Err(IdentifyError::Dimension);
+            return Err(IdentifierError::Dimension);
         }
         if omega < T::zero() {
-            return Err(IdentifyError::InvalidSpeed);
+            return Err(IdentifierError::InvalidSpeed);
         }
         let order = cfg.structure.order;
         let m = self.factor.unknowns();
@@ -665,7 +665,7 @@ impl<T: Real, F: IdField<T>, V: FilterState<F>> Kernel<'_, T, F, V> {
     }
 
     /// Current scaled weights `w~` into `w` (length `M`).
-    pub fn weights(&self, w: &mut [F]) -> Result<(), IdentifyError> {
+    pub fn weights(&self, w: &mut [F]) -> Result<(), IdentifierError> {
         self.factor.solve_weights(w)?;
         Ok(())
     }
@@ -682,10 +682,10 @@ pub fn estimates_into<T: Real, F: IdField<T>>(
     omega: T,
     bearings: &mut [BearingEstimate<T>],
     unbalance: &mut [UnbalanceEstimate<T>],
-) -> Result<(), IdentifyError> {
+) -> Result<(), IdentifierError> {
     let nb = nq / 2;
     if bearings.len() != nb || unbalance.len() != np {
-        return Err(IdentifyError::Dimension);
+        return Err(IdentifierError::Dimension);
     }
     let st = &config.structure;
     let finite = |v: &[T; 4]| v.iter().all(|x| x.is_finite());
@@ -696,13 +696,13 @@ pub fn estimates_into<T: Real, F: IdField<T>>(
             && be.im_z0.as_ref().is_none_or(finite)
             && be.re_z1.as_ref().is_none_or(finite))
         {
-            return Err(IdentifyError::EstimateOverflow);
+            return Err(IdentifierError::EstimateOverflow);
         }
     }
     for (k, ue) in unbalance.iter_mut().enumerate() {
         *ue = unbalance_estimate(st, &config.scaling, w, nb, np, k)?;
         if !(ue.a.re.is_finite() && ue.a.im.is_finite() && ue.me.is_finite()) {
-            return Err(IdentifyError::EstimateOverflow);
+            return Err(IdentifierError::EstimateOverflow);
         }
     }
     Ok(())
@@ -726,7 +726,7 @@ impl<T: Real, const NQ: usize, const NP: usize> Estimates<T, NQ, NP> {
         config: &Config<T>,
         w: &[F],
         omega: T,
-    ) -> Result<Self, IdentifyError> {
+    ) -> Result<Self, IdentifierError> {
         let zero_b = BearingEstimate {
             k: [T::zero(); 4],
             c: [T::zero(); 4],
@@ -737,7 +737,7 @@ impl<T: Real, const NQ: usize, const NP: usize> Estimates<T, NQ, NP> {
         for _ in 0..NQ / 2 {
             bearings
                 .push(zero_b)
-                .map_err(|_| IdentifyError::Dimension)?;
+                .map_err(|_| IdentifierError::Dimension)?;
         }
         let zero_u = UnbalanceEstimate::from_phasor(Complex::new(T::zero(), T::zero()));
         let mut unbalance = [zero_u; NP];
@@ -769,11 +769,11 @@ impl<T: Real, const NQ: usize, const NP: usize> Estimates<T, NQ, NP> {
 /// (it defines `TABLE`, `STRUCTURE`, `SCALING` and `type Id`):
 ///
 /// ```
-/// # use rotorid_core::identify::{Config, IdentifyError};
+/// # use rotorid_core::identify::{Config, IdentifierError};
 /// # use rotorid_core::Complex;
 /// # mod generated { include!("../../tests/data/paper_table_f32.rs"); }
 /// # use generated::{Id, SCALING, STRUCTURE, TABLE};
-/// # fn main() -> Result<(), IdentifyError> {
+/// # fn main() -> Result<(), IdentifierError> {
 /// # let (omega, q) = (700.0f32, [Complex::new(1e-6f32, 2e-7); 4]);
 /// let mut id = Id::new(Config::new(STRUCTURE, SCALING))?; // or Id::from_table(&TABLE)
 /// id.update(&TABLE, omega, &q)?;
@@ -788,7 +788,7 @@ impl<T: Real, const NQ: usize, const NP: usize> Estimates<T, NQ, NP> {
 /// Written out (`include!` the generated file into a module of its own):
 ///
 /// ```
-/// use rotorid_core::identify::{Config, IdentifyError};
+/// use rotorid_core::identify::{Config, IdentifierError};
 /// use rotorid_core::Complex;
 ///
 /// mod table {
@@ -797,7 +797,7 @@ impl<T: Real, const NQ: usize, const NP: usize> Estimates<T, NQ, NP> {
 /// }
 /// use table::{Id, SCALING, STRUCTURE, TABLE};
 ///
-/// fn main() -> Result<(), IdentifyError> {
+/// fn main() -> Result<(), IdentifierError> {
 ///     let mut id = Id::new(Config::new(STRUCTURE, SCALING))?;
 ///     let (omega, q) = (700.0f32, [Complex::new(1e-6f32, 2e-7); 4]); // rad/s, m
 ///     id.update(&TABLE, omega, &q)?;
@@ -837,10 +837,10 @@ impl<T: Real, const NQ: usize, const NP: usize> Estimates<T, NQ, NP> {
 /// dense one stores `M^2 + M` entries. All three give the same estimates
 /// to round-off, the two Givens filters to the bit. The square-root-free
 /// filter refuses a step whose arithmetic would leave the range of `T`
-/// ([`IdentifyError::Filter`] with `OutOfRange`, state untouched) where the
+/// ([`IdentifierError::Filter`] with `OutOfRange`, state untouched) where the
 /// Givens filters' bounded entries go on; with the unknowns scaled to order
 /// one ([`crate::scaling`]) that takes data far outside any machine's. A
-/// block layout that is not the structure's is [`IdentifyError::Dimension`].
+/// block layout that is not the structure's is [`IdentifierError::Dimension`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Identifier<T, F, const NQ: usize, const NP: usize, const M: usize, const N: usize, R> {
     config: Config<T>,
@@ -930,7 +930,7 @@ pub type PaperDenseIdentifier<T, const NQ: usize, const NP: usize, const M: usiz
 /// thus spells no generic parameter:
 ///
 /// ```
-/// use rotorid_core::identify::IdentifyError;
+/// use rotorid_core::identify::IdentifierError;
 /// use rotorid_core::table::TableView;
 /// use rotorid_core::Complex;
 ///
@@ -940,8 +940,8 @@ pub type PaperDenseIdentifier<T, const NQ: usize, const NP: usize, const M: usiz
 /// }
 /// use table::{Id, NQ};
 ///
-/// fn run(blob: &[u8], omega: f32, q: &[Complex<f32>; NQ]) -> Result<(), IdentifyError> {
-///     let view = TableView::<f32>::parse(blob).map_err(IdentifyError::Table)?;
+/// fn run(blob: &[u8], omega: f32, q: &[Complex<f32>; NQ]) -> Result<(), IdentifierError> {
+///     let view = TableView::<f32>::parse(blob).map_err(IdentifierError::Table)?;
 ///     let mut id = Id::from_table(&view)?; // refused unless the blob is `physical` 1
 ///     id.update(&view, omega, q)?;
 ///     let est = id.estimates(omega)?;
@@ -1066,13 +1066,13 @@ impl<
 
     /// A fresh identifier. The sizes are checked at compile time (see
     /// [`Self::STRUCTURE`]); at run time `config.structure` must be
-    /// [`Self::STRUCTURE`] (else [`IdentifyError::Structure`]) and `lambda`,
-    /// `delta` and the guard in range ([`IdentifyError::InvalidLambda`],
-    /// [`IdentifyError::InvalidDelta`], [`IdentifyError::InvalidConfig`]).
-    pub fn new(config: Config<T>) -> Result<Self, IdentifyError> {
+    /// [`Self::STRUCTURE`] (else [`IdentifierError::Structure`]) and `lambda`,
+    /// `delta` and the guard in range ([`IdentifierError::InvalidLambda`],
+    /// [`IdentifierError::InvalidDelta`], [`IdentifierError::InvalidConfig`]).
+    pub fn new(config: Config<T>) -> Result<Self, IdentifierError> {
         let structure = const { Self::STRUCTURE };
         if config.structure != structure {
-            return Err(IdentifyError::Structure {
+            return Err(IdentifierError::Structure {
                 expected: structure,
                 found: config.structure,
             });
@@ -1090,16 +1090,16 @@ impl<
 
     /// A fresh identifier with the default configuration
     /// ([`Config::new`]) for the structure of the type and `scaling`.
-    pub fn with_scaling(scaling: ColumnScaling<T>) -> Result<Self, IdentifyError> {
+    pub fn with_scaling(scaling: ColumnScaling<T>) -> Result<Self, IdentifierError> {
         Self::new(Config::new(const { Self::STRUCTURE }, scaling))
     }
 
     /// A fresh identifier with the default configuration for the structure
     /// and scaling the table was written for ([`TableSetup`]: a generated
     /// `TABLE` or a parsed [`crate::table::TableView`]);
-    /// [`IdentifyError::Structure`] if the table was written for another
+    /// [`IdentifierError::Structure`] if the table was written for another
     /// structure than the type's.
-    pub fn from_table(table: &impl TableSetup<T>) -> Result<Self, IdentifyError> {
+    pub fn from_table(table: &impl TableSetup<T>) -> Result<Self, IdentifierError> {
         Self::new(Config::new(table.structure(), table.scaling()))
     }
 
@@ -1125,7 +1125,7 @@ impl<
     }
 
     /// Back to the initial state.
-    pub fn reset(&mut self) -> Result<(), IdentifyError> {
+    pub fn reset(&mut self) -> Result<(), IdentifierError> {
         self.kernel().init()
     }
 
@@ -1136,11 +1136,11 @@ impl<
         table: &TB,
         omega: T,
         q: &[Complex<T>; NQ],
-    ) -> Result<StepReport<T>, IdentifyError> {
+    ) -> Result<StepReport<T>, IdentifierError> {
         if !omega.is_finite() || q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
-            return Err(IdentifyError::NonFinite);
+            return Err(IdentifierError::NonFinite);
         }
-        let terms = table.terms(omega).map_err(IdentifyError::Table)?;
+        let terms = table.terms(omega).map_err(IdentifierError::Table)?;
         self.update_with_terms(omega, &terms.a, &terms.b, q)
     }
 
@@ -1151,7 +1151,7 @@ impl<
         a: &[[Complex<T>; NQ]; NQ],
         b: &[[Complex<T>; NP]; NQ],
         q: &[Complex<T>; NQ],
-    ) -> Result<StepReport<T>, IdentifyError> {
+    ) -> Result<StepReport<T>, IdentifierError> {
         let mut d = [F::zero(); N];
         let mut u = [[F::zero(); M]; N];
         let mut xi = [F::zero(); N];
@@ -1176,7 +1176,7 @@ impl<
     }
 
     /// The scaled weights `w~` (back-substitution).
-    pub fn scaled_weights(&self) -> Result<[F; M], IdentifyError> {
+    pub fn scaled_weights(&self) -> Result<[F; M], IdentifierError> {
         let mut w = [F::zero(); M];
         self.factor.solve_weights(&mut w)?;
         Ok(w)
@@ -1196,7 +1196,7 @@ impl<
 
     /// Physical estimates, bearing coefficients evaluated at `omega` (rad/s;
     /// irrelevant for order 1).
-    pub fn estimates(&self, omega: T) -> Result<Estimates<T, NQ, NP>, IdentifyError> {
+    pub fn estimates(&self, omega: T) -> Result<Estimates<T, NQ, NP>, IdentifierError> {
         Estimates::from_weights(&self.config, &self.scaled_weights()?, omega)
     }
 }
@@ -1417,20 +1417,20 @@ mod tests {
         let c = config::<f64>(Structure::paper(1), 0.99, 1e-3);
         assert_eq!(
             PaperDenseIdentifier::<f64, NQ, NP, 27, 4>::new(c).err(),
-            Some(IdentifyError::Structure {
+            Some(IdentifierError::Structure {
                 expected: Structure::paper(2),
                 found: Structure::paper(1)
             })
         );
         assert!(matches!(
             PhysicalDenseIdentifier::<f64, NQ, NP, 22, 8>::new(c),
-            Err(IdentifyError::Structure { .. })
+            Err(IdentifierError::Structure { .. })
         ));
         let mut bad = c;
         bad.lambda = 1.5;
         assert_eq!(
             PaperDenseIdentifier::<f64, NQ, NP, 19, 4>::new(bad).err(),
-            Some(IdentifyError::InvalidLambda)
+            Some(IdentifierError::InvalidLambda)
         );
         assert!(PaperDenseIdentifier::<f64, NQ, NP, 27, 4>::new(config(
             Structure::paper(2),
@@ -1478,7 +1478,7 @@ mod tests {
             Config::new(Structure::paper(1), sc)
                 .with_lambda(0.0)
                 .validate(),
-            Err(IdentifyError::InvalidLambda)
+            Err(IdentifierError::InvalidLambda)
         );
         // A memory under one update, and delta out of [1/L, L].
         for lambda in [1.5e-32, 1e-300f64 as f32, 0.36] {
@@ -1486,7 +1486,7 @@ mod tests {
                 Config::new(Structure::paper(1), sc)
                     .with_lambda(lambda)
                     .validate(),
-                Err(IdentifyError::InvalidLambda)
+                Err(IdentifierError::InvalidLambda)
             );
         }
         assert!(Config::new(Structure::paper(1), sc)
@@ -1498,7 +1498,7 @@ mod tests {
                 Config::new(Structure::paper(1), sc)
                     .with_delta(delta)
                     .validate(),
-                Err(IdentifyError::InvalidDelta)
+                Err(IdentifierError::InvalidDelta)
             );
         }
         for delta in [1e-19f32, 1e19] {
@@ -1513,7 +1513,7 @@ mod tests {
                 Config::new(Structure::paper(1), sc64)
                     .with_delta(delta)
                     .validate(),
-                Err(IdentifyError::InvalidDelta)
+                Err(IdentifierError::InvalidDelta)
             );
         }
     }
@@ -1551,7 +1551,7 @@ mod tests {
             Err(err) => assert!(
                 matches!(
                     err,
-                    IdentifyError::EstimateOverflow | IdentifyError::Filter(_)
+                    IdentifierError::EstimateOverflow | IdentifierError::Filter(_)
                 ),
                 "{err:?}"
             ),
@@ -1577,7 +1577,7 @@ mod tests {
                 &mut bearings,
                 &mut unbalance
             ),
-            Err(IdentifyError::EstimateOverflow)
+            Err(IdentifierError::EstimateOverflow)
         );
     }
 
@@ -1597,22 +1597,22 @@ mod tests {
         q[2].im = f64::NAN;
         assert_eq!(
             id.update_with_terms(700.0, &t.a, &t.b, &q),
-            Err(IdentifyError::NonFinite)
+            Err(IdentifierError::NonFinite)
         );
         q[2].im = 0.0;
         assert_eq!(
             id.update_with_terms(f64::INFINITY, &t.a, &t.b, &q),
-            Err(IdentifyError::NonFinite)
+            Err(IdentifierError::NonFinite)
         );
         assert_eq!(
             id.update_with_terms(-1.0, &t.a, &t.b, &q),
-            Err(IdentifyError::InvalidSpeed)
+            Err(IdentifierError::InvalidSpeed)
         );
         let mut tb = t;
         tb.a[1][1].re = f64::NAN;
         assert_eq!(
             id.update_with_terms(700.0, &tb.a, &tb.b, &q),
-            Err(IdentifyError::NonFinite)
+            Err(IdentifierError::NonFinite)
         );
         assert_eq!((id.factor.clone(), id.guard), before);
     }

@@ -82,7 +82,7 @@
 //! columns. No heap: every buffer is an inline array of the const sizes.
 
 use crate::identify::{
-    check_sizes, Config, Estimates, GuardState, IdField, IdentifyError, SteadyAction, StepReport,
+    check_sizes, Config, Estimates, GuardState, IdField, IdentifierError, SteadyAction, StepReport,
 };
 use crate::parametrization::{
     bearing_estimate, unbalance_estimate, BearingEstimate, Formulation, UnbalanceEstimate,
@@ -123,24 +123,24 @@ impl<T: Real, const NQ: usize> NoiseFloor<T, NQ> {
     }
 
     /// The floor `phi_i = f_i / s` (m) per channel. Error
-    /// ([`IdentifyError::InvalidConfig`]) unless every `phi_i` is finite
+    /// ([`IdentifierError::InvalidConfig`]) unless every `phi_i` is finite
     /// and `>= 0`.
-    pub fn new(phi: [T; NQ]) -> Result<Self, IdentifyError> {
+    pub fn new(phi: [T; NQ]) -> Result<Self, IdentifierError> {
         if phi.iter().all(|x| x.is_finite() && *x >= T::zero()) {
             Ok(NoiseFloor { phi })
         } else {
-            Err(IdentifyError::InvalidConfig)
+            Err(IdentifierError::InvalidConfig)
         }
     }
 
     /// The floor of probes whose noise is `E|e_i|^2 = f_i^2 + s^2 |q_i|^2`:
     /// `floor_m` the `f_i` (m), `relative` the `s` (e.g. 0.005 for 0.5 %);
-    /// `phi_i = f_i / s`. Error ([`IdentifyError::InvalidConfig`]) unless
+    /// `phi_i = f_i / s`. Error ([`IdentifierError::InvalidConfig`]) unless
     /// every `f_i` is finite and `>= 0`, `s` finite and `> 0`, and every
     /// `f_i / s` finite.
-    pub fn of_probe(floor_m: [T; NQ], relative: T) -> Result<Self, IdentifyError> {
+    pub fn of_probe(floor_m: [T; NQ], relative: T) -> Result<Self, IdentifierError> {
         if !(relative.is_finite() && relative > T::zero()) {
-            return Err(IdentifyError::InvalidConfig);
+            return Err(IdentifierError::InvalidConfig);
         }
         Self::new(floor_m.map(|f| f / relative))
     }
@@ -173,10 +173,10 @@ impl<T: Real, const NQ: usize> Prefilter<T, NQ> {
     /// previous scaled weights `w_prev` of the physical `structure` with
     /// `config`'s scaling, and the noise floor `floor` (`phi`, m; use
     /// [`NoiseFloor::zero`] for noise proportional to the response).
-    /// Errors: sizes ([`IdentifyError::Dimension`]),
-    /// non-finite input ([`IdentifyError::NonFinite`]), `H(w_prev)`
+    /// Errors: sizes ([`IdentifierError::Dimension`]),
+    /// non-finite input ([`IdentifierError::NonFinite`]), `H(w_prev)`
     /// singular or a zero predicted response
-    /// ([`IdentifyError::Filter`] with [`FilterError::Singular`]).
+    /// ([`IdentifierError::Filter`] with [`FilterError::Singular`]).
     // index proven: rows and columns below `NQ` (`2 m + 1 < 2 N_b = NQ`,
     // loop bounds `0..NQ`), planes below `NP`: the arrays' const sizes.
     #[allow(clippy::indexing_slicing)]
@@ -187,10 +187,10 @@ impl<T: Real, const NQ: usize> Prefilter<T, NQ> {
         b: &[[Complex<T>; NP]; NQ],
         w_prev: &[T],
         floor: &NoiseFloor<T, NQ>,
-    ) -> Result<Self, IdentifyError> {
+    ) -> Result<Self, IdentifierError> {
         let st = &config.structure;
         if st.formulation != Formulation::Physical || NQ == 0 || NQ % 2 != 0 {
-            return Err(IdentifyError::Dimension);
+            return Err(IdentifierError::Dimension);
         }
         let finite = |z: &Complex<T>| z.re.is_finite() && z.im.is_finite();
         if !omega.is_finite()
@@ -198,7 +198,7 @@ impl<T: Real, const NQ: usize> Prefilter<T, NQ> {
             || !b.iter().flatten().all(finite)
             || !w_prev.iter().all(|x| x.is_finite())
         {
-            return Err(IdentifyError::NonFinite);
+            return Err(IdentifierError::NonFinite);
         }
         let nb = NQ / 2;
         // H = A + Z_B(w_prev), Z_B = K + j Omega C per bearing block.
@@ -226,7 +226,7 @@ impl<T: Real, const NQ: usize> Prefilter<T, NQ> {
         for (i, row) in inv.iter_mut().enumerate() {
             row[i] = Complex::new(T::one(), T::zero());
         }
-        let singular = IdentifyError::Filter(FilterError::Singular);
+        let singular = IdentifierError::Filter(FilterError::Singular);
         for col in 0..NQ {
             let mut piv = col;
             let mut best = abs(h[col][col]);
@@ -296,9 +296,9 @@ impl<T: Real, const NQ: usize> Prefilter<T, NQ> {
     /// `i` in rows `2i` (real part) and `2i + 1` (imaginary part).
     // index proven: `2 i + 1 < 2 NQ`, `j < m` after the length check.
     #[allow(clippy::indexing_slicing)]
-    pub fn apply(&self, d: &mut [T], u: &mut [T], m: usize) -> Result<(), IdentifyError> {
+    pub fn apply(&self, d: &mut [T], u: &mut [T], m: usize) -> Result<(), IdentifierError> {
         if d.len() != 2 * NQ || u.len() != 2 * NQ * m {
-            return Err(IdentifyError::Dimension);
+            return Err(IdentifierError::Dimension);
         }
         let zero = Complex::new(T::zero(), T::zero());
         let mut g = [zero; NQ];
@@ -339,10 +339,10 @@ impl<T: Real, const NQ: usize> Prefilter<T, NQ> {
 /// ```
 /// use rotorid_core::identify::Config;
 /// use rotorid_core::prefilter::{NoiseFloor, PrefilteredIdentifier};
-/// # use rotorid_core::identify::IdentifyError;
+/// # use rotorid_core::identify::IdentifierError;
 /// # mod table { include!("../../tests/data/paper_table_f32.rs"); }
 /// # use table::{Id, SCALING, STRUCTURE, TABLE};
-/// # fn main() -> Result<(), IdentifyError> {
+/// # fn main() -> Result<(), IdentifierError> {
 /// # let q = [rotorid_core::Complex::new(1e-6f32, 2e-7); 4];
 /// # let sweep = [(630.0f32, q), (700.0, q), (780.0, q)];
 /// let config = Config::new(STRUCTURE, SCALING).with_lambda(1.0);
@@ -390,14 +390,14 @@ impl<T: Real + IdField<T>, const NQ: usize, const NP: usize, const M: usize, con
     /// plain pass of an identifier with any filter, such as
     /// [`crate::identify::PhysicalIdentifier`]). `config` must be of the
     /// physical structure with `M` unknowns and `N` rows for `NQ`, `NP`.
-    pub fn new(config: Config<T>, w_prev: [T; M]) -> Result<Self, IdentifyError> {
+    pub fn new(config: Config<T>, w_prev: [T; M]) -> Result<Self, IdentifierError> {
         config.validate()?;
         check_sizes::<T, T>(&config.structure, NQ, NP, M, N)?;
         if N != 2 * NQ {
-            return Err(IdentifyError::Dimension);
+            return Err(IdentifierError::Dimension);
         }
         if !w_prev.iter().all(|x| x.is_finite()) {
-            return Err(IdentifyError::NonFinite);
+            return Err(IdentifierError::NonFinite);
         }
         let mut s = PrefilteredIdentifier {
             config,
@@ -452,11 +452,11 @@ impl<T: Real + IdField<T>, const NQ: usize, const NP: usize, const M: usize, con
         table: &TB,
         omega: T,
         q: &[Complex<T>; NQ],
-    ) -> Result<StepReport<T>, IdentifyError> {
+    ) -> Result<StepReport<T>, IdentifierError> {
         if !omega.is_finite() || q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
-            return Err(IdentifyError::NonFinite);
+            return Err(IdentifierError::NonFinite);
         }
-        let terms = table.terms(omega).map_err(IdentifyError::Table)?;
+        let terms = table.terms(omega).map_err(IdentifierError::Table)?;
         self.update_with_terms(omega, &terms.a, &terms.b, q)
     }
 
@@ -469,12 +469,12 @@ impl<T: Real + IdField<T>, const NQ: usize, const NP: usize, const M: usize, con
         a: &[[Complex<T>; NQ]; NQ],
         b: &[[Complex<T>; NP]; NQ],
         q: &[Complex<T>; NQ],
-    ) -> Result<StepReport<T>, IdentifyError> {
+    ) -> Result<StepReport<T>, IdentifierError> {
         if !omega.is_finite() || q.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
-            return Err(IdentifyError::NonFinite);
+            return Err(IdentifierError::NonFinite);
         }
         if omega < T::zero() {
-            return Err(IdentifyError::InvalidSpeed);
+            return Err(IdentifierError::InvalidSpeed);
         }
         let cfg = self.config;
         let eq = Equations {
@@ -541,7 +541,7 @@ impl<T: Real + IdField<T>, const NQ: usize, const NP: usize, const M: usize, con
     }
 
     /// The scaled weights `w~` of the current pass (back-substitution).
-    pub fn scaled_weights(&self) -> Result<[T; M], IdentifyError> {
+    pub fn scaled_weights(&self) -> Result<[T; M], IdentifierError> {
         let mut w = [T::zero(); M];
         qrdrls::solve_weights(self.r.as_flattened(), &self.p, &mut w)?;
         Ok(w)
@@ -549,7 +549,7 @@ impl<T: Real + IdField<T>, const NQ: usize, const NP: usize, const M: usize, con
 
     /// Ends the pass: its estimate becomes `w_prev`, the factor and the
     /// guard start afresh. On error (singular factor) nothing changes.
-    pub fn next_pass(&mut self) -> Result<(), IdentifyError> {
+    pub fn next_pass(&mut self) -> Result<(), IdentifierError> {
         let w = self.scaled_weights()?;
         qrdrls::init(
             self.r.as_flattened_mut(),
@@ -563,18 +563,18 @@ impl<T: Real + IdField<T>, const NQ: usize, const NP: usize, const M: usize, con
     }
 
     /// Physical estimates of the current pass, bearings at `omega` (rad/s).
-    pub fn estimates(&self, omega: T) -> Result<Estimates<T, NQ, NP>, IdentifyError> {
+    pub fn estimates(&self, omega: T) -> Result<Estimates<T, NQ, NP>, IdentifierError> {
         let w = self.scaled_weights()?;
         self.estimates_of(&w, omega)
     }
 
     /// Physical estimates of `w_prev` (after [`Self::next_pass`], the
     /// last pass's), bearings at `omega` (rad/s).
-    pub fn previous_estimates(&self, omega: T) -> Result<Estimates<T, NQ, NP>, IdentifyError> {
+    pub fn previous_estimates(&self, omega: T) -> Result<Estimates<T, NQ, NP>, IdentifierError> {
         self.estimates_of(&self.prev, omega)
     }
 
-    fn estimates_of(&self, w: &[T; M], omega: T) -> Result<Estimates<T, NQ, NP>, IdentifyError> {
+    fn estimates_of(&self, w: &[T; M], omega: T) -> Result<Estimates<T, NQ, NP>, IdentifierError> {
         Estimates::from_weights(&self.config, w, omega)
     }
 }

@@ -245,9 +245,19 @@ where
         }
     }
 
+    /// All zero (`d = 0`: no information; see [`Self::init`]).
+    pub fn zeroed() -> Self {
+        Self::new(T::zero())
+    }
+
     /// Resets to `R = sqrt(delta) I`, `p = 0`.
-    pub fn init(&mut self, delta: T) {
+    ///
+    /// Errors (state untouched): `InvalidDelta` (`delta` not in
+    /// `(0, sqrt(T::MAX)]`).
+    pub fn init(&mut self, delta: T) -> Result<(), FilterError> {
+        qrdrls::validate_delta(delta)?;
         *self = Self::new(delta);
+        Ok(())
     }
 
     /// One update with `N = d.len()` rows of `M = NB W + S` entries in `u`

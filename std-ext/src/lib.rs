@@ -11,10 +11,11 @@
 //! ```text
 //! model -> fe -> reduce -> tables -> estimate -> (diagnose) -> report -> cli
 //!   ^ io (model files, ROSS files, measurement CSV)    simulate (fe + model::extension)
+//!                                                       campbell (fe)
 //! ```
 //!
 //! The top-level modules form layers, lowest first: [`units`], [`model`],
-//! [`io`], [`fe`], [`reduce`], [`tables`], [`mod@simulate`], [`estimate`],
+//! [`io`], [`fe`], [`reduce`], [`tables`], [`mod@campbell`], [`mod@simulate`], [`estimate`],
 //! [`mod@diagnose`], [`report`], [`cli`]. A module may use the ones before it, never one
 //! after it (`tests/architecture.rs` checks this on the source), so there
 //! are no import cycles and each stage can be read and tested on its own.
@@ -30,8 +31,9 @@
 //! The jobs of the `rotorid` command, each a function of the model, the
 //! measurements and an options struct whose `Default` is the command's
 //! default: [`identify`] ([`IdentifyOptions`]), [`diagnose()`]
-//! ([`DiagnoseOptions`]), [`simulate()`] ([`SimOptions`]); a measurement
-//! file is read for its model by [`read_for_model`].
+//! ([`DiagnoseOptions`]), [`simulate()`] ([`SimOptions`]); and of the model
+//! alone, [`campbell()`] ([`CampbellOptions`]). A measurement file is read
+//! for its model by [`read_for_model`].
 //!
 //! ```no_run
 //! let file = rotorid::io::model_file::model_file_by_name_or_path("paper")?;
@@ -40,6 +42,8 @@
 //! println!("{}", serde_json::to_string_pretty(&id.result())?);
 //! let d = rotorid::diagnose(&file.model, &read.measurements, &Default::default())?;
 //! println!("{}", d.effect.name());
+//! let c = rotorid::campbell(&file.model, &Default::default())?;
+//! println!("{}", rotorid::report::campbell::CampbellReport::new("paper", &c).text());
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
@@ -48,6 +52,7 @@
 
 pub use rotorid_core as core;
 
+pub use campbell::{campbell, CampbellAnalysis, CampbellOptions};
 pub use diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 pub use estimate::{identify, Identification, IdentifyError, Options as IdentifyOptions, Progress};
 pub use io::measurement::{read_for_model, Measurements, ModelMeasurements};
@@ -68,6 +73,8 @@ pub mod fe;
 pub mod reduce;
 
 pub mod tables;
+
+pub mod campbell;
 
 pub mod simulate;
 

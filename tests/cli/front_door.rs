@@ -1,7 +1,8 @@
 //! The library's front door and the `rotorid` command give the same
 //! answer: the same file through `rotorid::read_for_model`,
 //! `rotorid::identify` / `rotorid::diagnose` with the default options, and
-//! the JSON of the command, byte for byte.
+//! the JSON of the command, byte for byte; likewise `rotorid::campbell`
+//! of the model alone.
 
 use crate::common::*;
 use rotorid::model::RotorModel;
@@ -63,4 +64,25 @@ fn library_and_command_write_the_same_json() {
     let d = rotorid::diagnose(&file.model, &read.measurements, &Default::default()).unwrap();
     let lib = serde_json::to_string_pretty(&rotorid::report::diagnose::json(&d)).unwrap() + "\n";
     assert_eq!(command_json("diagnose", &csv), lib);
+}
+
+#[test]
+fn campbell_library_and_command_write_the_same_json() {
+    let file = rotorid::io::model_file::model_file_by_name_or_path("paper").unwrap();
+    let analysis = rotorid::campbell(&file.model, &rotorid::CampbellOptions::default()).unwrap();
+    let report = rotorid::report::campbell::CampbellReport::new("paper", &analysis);
+    let lib = serde_json::to_string_pretty(&report.json()).unwrap() + "\n";
+    let json = tmp("campbell-front-door.json");
+    let out = cli([
+        "campbell",
+        "--model",
+        "paper",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.success(), "{}", out.stderr);
+    assert_eq!(std::fs::read_to_string(&json).unwrap(), lib);
+    // The critical speeds are there, and the table printed is the report's.
+    assert!(!analysis.critical.is_empty());
+    assert_eq!(out.stdout, report.text());
 }

@@ -351,51 +351,6 @@ fn generator_is_deterministic() {
     assert!(rpm_to_rad_s(15000.0) > 0.0);
 }
 
-/// One case printed in full: `ROTORID_EFFECT=shaft_bow ROTORID_SEED=3`
-/// (`ROTORID_NOISE=draw` as in the confusion matrix).
-#[test]
-#[ignore]
-fn debug_case() {
-    let effect = std::env::var("ROTORID_EFFECT")
-        .ok()
-        .and_then(|s| Effect::from_name(&s))
-        .unwrap_or(Effect::None);
-    let seed: u64 = std::env::var("ROTORID_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0);
-    let m = match std::env::var("ROTORID_MODEL") {
-        Ok(path) => {
-            rotorid::io::model_file::model_file_by_name_or_path(&path)
-                .unwrap()
-                .model
-        }
-        Err(_) => RotorModel::paper(),
-    };
-    let rpm_max: f64 = std::env::var("ROTORID_RPM_MAX")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(15000.0);
-    let sp: Vec<f64> = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
-    // ROTORID_NOISE: a relative level, or `draw` for the generator's own
-    // draw (as the confusion matrix does); 0.001 by default.
-    let noise = match std::env::var("ROTORID_NOISE").as_deref() {
-        Ok("draw") => None,
-        Ok(s) => s.parse().ok(),
-        Err(_) => Some(0.001),
-    };
-    let case = generate(&m, effect, seed, &sp, noise).unwrap();
-    let d = diagnose(&m, &case.meas, &DiagnoseOptions::default()).unwrap();
-    println!("hidden {} (noise {})", case.hidden.description, case.noise);
-    let nom = predictions_text(&m, &d, &case);
-    println!("{nom}");
-}
-
-fn predictions_text(m: &RotorModel, d: &Diagnosis, case: &Case) -> String {
-    let nominal = rotorid::diagnose::predictions(m, d, &d.nominal).unwrap();
-    rotorid::report::diagnose::text(d, &case.meas.samples, &nominal)
-}
-
 /// Two effects at once (runout and an extra plane): no single effect
 /// fits, the pair does, and both are named.
 #[test]

@@ -4,7 +4,7 @@
 
 use rotorid::fe::assembly::FeModel;
 use rotorid::fe::campbell::{
-    campbell_with, critical_speeds, track_modes, CampbellOptions, CriticalSpeed, Crossing, Whirl,
+    critical_speeds, diagram_with, track_modes, CriticalSpeed, Crossing, ModeSelection, Whirl,
 };
 use rotorid::fe::response::{unbalance_response, Forcing};
 use rotorid::fe::shaft::Section;
@@ -65,10 +65,10 @@ fn disk_gyroscopic_split_matches_rigid_disk_closed_form() {
     let kr = 12.0 * ei / l;
     let (id, ip) = (disk.id, disk.ip);
     let speeds: Vec<f64> = (0..=5).map(|i| 200.0 * i as f64).collect();
-    let diag = campbell_with(
+    let diag = diagram_with(
         &fe,
         &speeds,
-        &CampbellOptions {
+        &ModeSelection {
             max_frequency: None,
             max_modes: 6,
         },
@@ -130,10 +130,10 @@ fn tracks_follow_the_backward_tilt_mode_through_the_translation_modes() {
     let (id, ip) = (disk.id, disk.ip);
     let bwd = |om: f64| (-ip * om + (ip * ip * om * om + 4.0 * id * kr).sqrt()) / (2.0 * id);
     let speeds: Vec<f64> = (0..=20).map(|i| 100.0 * i as f64).collect();
-    let diag = campbell_with(
+    let diag = diagram_with(
         &fe,
         &speeds,
-        &CampbellOptions {
+        &ModeSelection {
             max_frequency: None,
             max_modes: 6,
         },
@@ -185,10 +185,10 @@ fn tracks_follow_the_backward_tilt_mode_through_the_translation_modes() {
 fn paper_modes(model: &RotorModel, rpm: &[f64]) -> rotorid::fe::campbell::CampbellDiagram {
     let fe = FeModel::new(model).unwrap();
     let speeds: Vec<f64> = rpm.iter().map(|&r| rpm_to_rad_s(r)).collect();
-    campbell_with(
+    diagram_with(
         &fe,
         &speeds,
-        &CampbellOptions {
+        &ModeSelection {
             max_frequency: Some(rpm_to_rad_s(20000.0)),
             max_modes: 4,
         },

@@ -10,7 +10,7 @@
 
 use num_complex::Complex64;
 use rotorid::fe::assembly::{Dir, FeModel};
-use rotorid::fe::campbell::{campbell_with, CampbellOptions, Mode, Whirl};
+use rotorid::fe::campbell::{diagram_with, Mode, ModeSelection, Whirl};
 use rotorid::fe::response::{unbalance_response, Forcing};
 use rotorid::io::model_file::{load_model, ModelFileError};
 use rotorid::io::ross::RossError;
@@ -52,11 +52,11 @@ fn load(name: &str) -> RotorModel {
 
 /// All our modes at `omega` (no cut-off).
 fn modes(fe: &FeModel, omega: f64) -> Vec<Mode> {
-    let opts = CampbellOptions {
+    let opts = ModeSelection {
         max_frequency: None,
         max_modes: usize::MAX,
     };
-    campbell_with(fe, &[omega], &opts)
+    diagram_with(fe, &[omega], &opts)
         .unwrap()
         .points
         .pop()

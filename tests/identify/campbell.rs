@@ -6,7 +6,7 @@ use crate::common::*;
 use rotorid::core::parametrization::Structure;
 use rotorid::estimate::{auto_scaling, identify_with, Identification, Options};
 use rotorid::fe::assembly::FeModel;
-use rotorid::fe::campbell::{campbell_with, CampbellOptions};
+use rotorid::fe::campbell::{diagram_with, ModeSelection};
 use rotorid::model::RotorModel;
 use rotorid::simulate::add_noise;
 use rotorid::units::rpm_to_rad_s;
@@ -44,12 +44,12 @@ fn worst_frequency_error(
     f_max: f64,
 ) -> Option<(f64, usize)> {
     let speeds: Vec<f64> = (0..=5).map(|i| rpm_to_rad_s(3000.0 * i as f64)).collect();
-    let opts = |f| CampbellOptions {
+    let opts = |f| ModeSelection {
         max_frequency: Some(f),
         max_modes: 12,
     };
-    let a = campbell_with(&FeModel::new(truth).unwrap(), &speeds, &opts(f_max)).unwrap();
-    let b = campbell_with(&FeModel::new(ident).unwrap(), &speeds, &opts(1.25 * f_max)).unwrap();
+    let a = diagram_with(&FeModel::new(truth).unwrap(), &speeds, &opts(f_max)).unwrap();
+    let b = diagram_with(&FeModel::new(ident).unwrap(), &speeds, &opts(1.25 * f_max)).unwrap();
     let mut worst = 0.0f64;
     let mut count = 0;
     for (pa, pb) in a.points.iter().zip(&b.points) {
@@ -147,12 +147,12 @@ fn identified_rotor_uses_the_reported_coefficients() {
             }
             b.law = BearingLaw::Constant(BearingCoefficients { k, c });
         }
-        let opts = CampbellOptions {
+        let opts = ModeSelection {
             max_frequency: Some(2.0 * omega),
             max_modes: 8,
         };
-        let a = campbell_with(&FeModel::new(&ident).unwrap(), &[omega], &opts).unwrap();
-        let b = campbell_with(&FeModel::new(&constant).unwrap(), &[omega], &opts).unwrap();
+        let a = diagram_with(&FeModel::new(&ident).unwrap(), &[omega], &opts).unwrap();
+        let b = diagram_with(&FeModel::new(&constant).unwrap(), &[omega], &opts).unwrap();
         assert_eq!(a.points[0].modes.len(), b.points[0].modes.len());
         assert!(!a.points[0].modes.is_empty());
         for (ma, mb) in a.points[0].modes.iter().zip(&b.points[0].modes) {

@@ -9,7 +9,7 @@ use crate::common::*;
 use num_complex::Complex;
 use rotorid::core::factor::Factor;
 use rotorid::core::identify::{
-    Config, IdField, Identifier, IdentifyError, PaperDenseIdentifier, PaperGivensIdentifier,
+    Config, IdField, Identifier, IdentifierError, PaperDenseIdentifier, PaperGivensIdentifier,
     PaperIdentifier, PhysicalDenseIdentifier, PhysicalGivensIdentifier, PhysicalIdentifier,
 };
 use rotorid::core::parametrization::Structure;
@@ -130,7 +130,7 @@ fn firmware_and_desktop_paths_agree_in_f32() {
             // A blob written for another structure is refused at run time.
             assert!(matches!(
                 PaperDenseIdentifier::<f32, NQ, NP, 19, 4>::from_table(&view),
-                Err(IdentifyError::Structure { .. })
+                Err(IdentifierError::Structure { .. })
             ));
             // The generated `Id` is the square-root-free filter: the same
             // estimates to f32 round-off (checked below).
@@ -190,7 +190,7 @@ fn firmware_and_desktop_paths_agree_in_f32() {
         assert!(round_sf < 1.5 * round, "{round_sf:e} against {round:e}");
     }
     // The generated `Id` is the recommended alias.
-    let _: fn(Config<f32>) -> Result<generated::Id, IdentifyError> =
+    let _: fn(Config<f32>) -> Result<generated::Id, IdentifierError> =
         PhysicalIdentifier::<f32, NQ, NP, 22, 8, 4, 6>::new;
 }
 

@@ -12,7 +12,6 @@ use rotorid::model::RotorModel;
 use rotorid::reduce::Reducer;
 use rotorid::simulate::{add_noise, simulate, SimOptions};
 use rotorid::tables::grid::uniform_rpm;
-use rotorid::units::rpm_to_rad_s;
 
 /// A noise-free sweep of a model with its reduced terms, the physical
 /// structure's predictor and the true parameters (shared with the
@@ -241,47 +240,6 @@ fn monte_carlo(c: &Case, noise: f64, seeds: std::ops::Range<u64>, lambda: f64) -
         pooled_z: (z2 / (n * np as f64)).sqrt(),
         median_rms: rms_ratio[np / 2],
     }
-}
-
-#[test]
-#[ignore]
-fn explore_case_4_1() {
-    let c = case(
-        RotorModel::paper(),
-        1,
-        uniform_rpm(5.0, 15000.0, 5.0).unwrap(),
-    );
-    let t = std::time::Instant::now();
-    let mc = monte_carlo(&c, 0.01, 1..6, 0.999);
-    println!(
-        "worst rms/crb {:.2} bias {:.2} std {:.2} median {:.2} ({:?})",
-        mc.worst_rms,
-        mc.worst_bias,
-        mc.worst_std,
-        mc.median_rms,
-        t.elapsed()
-    );
-    let _ = rpm_to_rad_s(1.0);
-}
-
-#[test]
-#[ignore]
-fn explore_case_4_2() {
-    let c = case(
-        RotorModel::paper_speed_dependent(),
-        3,
-        uniform_rpm(5.0, 15000.0, 5.0).unwrap(),
-    );
-    let t = std::time::Instant::now();
-    let mc = monte_carlo(&c, 0.001, 1..6, 1.0);
-    println!(
-        "worst rms/crb {:.2} bias {:.2} std {:.2} median {:.2} ({:?})",
-        mc.worst_rms,
-        mc.worst_bias,
-        mc.worst_std,
-        mc.median_rms,
-        t.elapsed()
-    );
 }
 
 /// Case 4.1 (constant bearings), 3000 speeds 5..15000 rpm, physical

@@ -384,8 +384,8 @@ fn prefiltered_with_the_probe_floor_300_seeds() {
 /// a probe's `f` and `s > 0`); a refused floor changes nothing.
 #[test]
 fn the_noise_floor_is_validated() {
-    use rotorid::core::identify::IdentifyError;
-    let bad = IdentifyError::InvalidConfig;
+    use rotorid::core::identify::IdentifierError;
+    let bad = IdentifierError::InvalidConfig;
     for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1e-9] {
         let mut phi = [1e-4f32; 4];
         phi[2] = x;
@@ -426,7 +426,7 @@ mod table {
 /// predicts no response cannot weigh the equations.
 #[test]
 fn bad_input_leaves_the_prefiltered_state_untouched() {
-    use rotorid::core::identify::IdentifyError;
+    use rotorid::core::identify::IdentifierError;
     use rotorid::core::qrdrls::FilterError;
     use rotorid::core::table::BearingTable;
     use table::{SCALING, STRUCTURE, TABLE};
@@ -451,28 +451,28 @@ fn bad_input_leaves_the_prefiltered_state_untouched() {
     bad[1].re = f32::NAN;
     assert_eq!(
         id.update(&TABLE, 700.0, &bad),
-        Err(IdentifyError::NonFinite)
+        Err(IdentifierError::NonFinite)
     );
     assert_eq!(
         id.update(&TABLE, f32::INFINITY, &q(700.0)),
-        Err(IdentifyError::NonFinite)
+        Err(IdentifierError::NonFinite)
     );
     let t = TABLE.terms(700.0).unwrap();
     assert_eq!(
         id.update_with_terms(-1.0, &t.a, &t.b, &q(700.0)),
-        Err(IdentifyError::InvalidSpeed)
+        Err(IdentifierError::InvalidSpeed)
     );
     let mut ta = t.a;
     ta[0][0].im = f32::INFINITY;
     assert_eq!(
         id.update_with_terms(700.0, &ta, &t.b, &q(700.0)),
-        Err(IdentifyError::NonFinite)
+        Err(IdentifierError::NonFinite)
     );
     assert_eq!(state(&id), before);
     let mut zero = PrefilteredIdentifier::<f32, 4, 3, 22, 8>::new(config, [0.0; 22]).unwrap();
     assert_eq!(
         zero.update(&TABLE, 700.0, &q(700.0)),
-        Err(IdentifyError::Filter(FilterError::Singular))
+        Err(IdentifierError::Filter(FilterError::Singular))
     );
     assert_eq!(zero.guard().steps, 0);
     assert!(PrefilteredIdentifier::<f32, 4, 3, 22, 8>::new(config, [f32::NAN; 22]).is_err());

@@ -11,7 +11,7 @@ use super::FwId as Id;
 use crate::sweep::SWEEP;
 use crate::table::{SCALING, STRUCTURE, TABLE};
 use core::fmt::{self, Write};
-use rotorid_core::identify::{Config, IdentifyError};
+use rotorid_core::identify::{Config, IdentifierError};
 use rotorid_core::parametrization::COEFFICIENTS;
 
 /// Hooks around each identifier update (stack painting, instruction-count
@@ -53,13 +53,13 @@ pub fn update(
     id: &mut Id,
     omega: f32,
     q: &[rotorid_core::Complex<f32>; 4],
-) -> Result<rotorid_core::identify::StepReport<f32>, IdentifyError> {
+) -> Result<rotorid_core::identify::StepReport<f32>, IdentifierError> {
     id.update(&TABLE, omega, q)
 }
 
 /// Runs the sweep through the identifier and writes the estimates to `out`
 /// (lines starting with `est `). Returns the number of updates folded in.
-pub fn run<W: Write, P: Probe>(out: &mut W, probe: &mut P) -> Result<usize, IdentifyError> {
+pub fn run<W: Write, P: Probe>(out: &mut W, probe: &mut P) -> Result<usize, IdentifierError> {
     let mut id = Id::new(Config::new(STRUCTURE, SCALING))?;
     let (mut used, mut last) = (0usize, 0.0f32);
     for (omega, q) in SWEEP.iter() {

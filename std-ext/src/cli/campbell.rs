@@ -1,18 +1,14 @@
-//! `rotorid campbell`: damped natural frequencies against speed, modes
-//! tracked by mode shape, whirl direction, log decrement and the critical
-//! speeds of every whirl; optional SVG diagram, JSON and CSV (see
+//! `rotorid campbell`: the Campbell analysis of [`crate::campbell()`]
+//! (damped natural frequencies against speed, modes tracked by mode shape,
+//! whirl direction, log decrement and the critical speeds of every whirl)
+//! printed, with optional SVG diagram, JSON and CSV (see
 //! [`crate::report::campbell`]).
 
 use clap::Args;
 
-use super::{load_model, CliError, Io};
-use crate::fe::assembly::FeModel;
-use crate::fe::campbell::{
-    campbell_with, critical_speeds, track_modes, CampbellOptions, Crossing, Track,
-};
+use super::{load_model_arg, CliError, Io};
+use crate::campbell::CampbellOptions;
 use crate::report::campbell::CampbellReport;
-use crate::tables::grid::uniform_rpm;
-use crate::units::rpm_to_rad_s;
 
 /// Arguments of `rotorid campbell`.
 #[derive(Debug, Clone, PartialEq, Args)]
@@ -64,12 +60,6 @@ pub struct CampbellArgs {
     pub modes_rpm: f64,
 }
 
-/// Extra modes solved per speed beyond `--modes`, so that a mode leaving
-/// the lowest `--modes` is still followed for a while.
-fn tracking_margin(modes: usize) -> usize {
-    (modes / 2).max(4)
-}
-
 /// The label of MODEL in titles and files: the file's stem for a path,
 /// the name for a built-in model.
 pub fn model_label(model: &str) -> String {
@@ -104,7 +94,7 @@ pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             }
         }
     }
-    let file = load_model(&args.model)?;
+    let file = load_model_arg(&args.model)?;
     if !(args.rpm_max.is_finite() && args.rpm_max > 0.0) {
         return Err(CliError(format!(
             "--rpm-max must be finite and > 0, got {}",
@@ -120,32 +110,13 @@ pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             args.modes_rpm
         )));
     }
-    let rpm = uniform_rpm(0.0, args.rpm_max, args.rpm_step)?;
-    let omegas: Vec<f64> = rpm.iter().map(|&r| rpm_to_rad_s(r)).collect();
-    // Size limits before the FE model is even assembled (4 DOF per node,
-    // 2 more per pedestal).
-    let n_dof_est = 4 * file.model.n_nodes();
-    crate::fe::campbell::check_size(n_dof_est, omegas.len())?;
-    let fe = FeModel::new(&file.model)?;
     let opts = CampbellOptions {
-        max_modes: args.modes.saturating_add(tracking_margin(args.modes)),
-        ..CampbellOptions::default()
+        rpm_max: args.rpm_max,
+        rpm_step: args.rpm_step,
+        modes: args.modes,
     };
-    let diagram = campbell_with(&fe, &omegas, &opts)?;
-    // The modes shown: tracks among the lowest `--modes` at some speed.
-    let tracks: Vec<Track> = track_modes(&diagram)
-        .into_iter()
-        .filter(|t| t.modes.iter().any(|m| m.is_some_and(|i| i < args.modes)))
-        .collect();
-    let damped = critical_speeds(&fe, &diagram, &tracks, Crossing::Damped)?;
-    let undamped = critical_speeds(&fe, &diagram, &tracks, Crossing::Undamped)?;
-    let report = CampbellReport::new(
-        model_label(&args.model),
-        &diagram,
-        &tracks,
-        &damped,
-        &undamped,
-    );
+    let analysis = crate::campbell(&file.model, &opts)?;
+    let report = CampbellReport::new(model_label(&args.model), &analysis);
     write!(io.out, "{}", report.text())?;
     if let Some(path) = &args.json {
         let t = serde_json::to_string_pretty(&report.json())?;
@@ -164,15 +135,7 @@ pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     }
     if let Some(path) = &args.modes_plot {
         let n = args.modes.min(crate::report::campbell::MAX_SHAPE_MODES);
-        let at = campbell_with(
-            &fe,
-            &[rpm_to_rad_s(args.modes_rpm)],
-            &CampbellOptions {
-                max_modes: n,
-                ..CampbellOptions::default()
-            },
-        )?;
-        let modes = at.points.first().map(|p| p.modes.as_slice()).unwrap_or(&[]);
+        let modes = crate::campbell::mode_shapes(&file.model, args.modes_rpm, n)?;
         if modes.is_empty() {
             return Err(CliError(format!(
                 "--modes-plot: no mode with a positive damped frequency at {} rpm",
@@ -183,7 +146,7 @@ pub fn run(args: &CampbellArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             path,
             &model_label(&args.model),
             &file.model,
-            &modes[..modes.len().min(n)],
+            &modes,
             args.modes_rpm,
         )?;
         writeln!(io.err, "wrote {}", path.display())?;

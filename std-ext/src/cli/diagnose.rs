@@ -52,7 +52,7 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             ("--plot", args.plot.as_deref()),
         ],
     )?;
-    let model_file = super::load_model(&args.model)?;
+    let model_file = super::load_model_arg(&args.model)?;
     let meas =
         super::read_measurements(&args.measurements, &model_file, &args.conventions)?.measurements;
     let model = model_file.model;

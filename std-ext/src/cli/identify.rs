@@ -19,7 +19,7 @@ fn short_number(x: f64) -> String {
 
 /// Model structure of the identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Formulation {
+pub enum FormulationArg {
     /// Real K and C per bearing and complex unbalance (physics enforced).
     Physical,
     /// The paper's complex Z0, Z1 per bearing (Eqs. 43, 47, 48).
@@ -45,8 +45,8 @@ pub struct IdentifyArgs {
     #[arg(long, value_name = "FILE.csv")]
     pub measurements: std::path::PathBuf,
     /// Model structure.
-    #[arg(long, value_enum, default_value_t = Formulation::Physical)]
-    pub formulation: Formulation,
+    #[arg(long, value_enum, default_value_t = FormulationArg::Physical)]
+    pub formulation: FormulationArg,
     /// The estimate reported.
     #[arg(long, value_enum, default_value_t = EstimatorArg::Oe)]
     pub estimator: EstimatorArg,
@@ -171,14 +171,14 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             ("--ross-out", args.ross_out.as_deref()),
         ],
     )?;
-    let model_file = super::load_model(&args.model)?;
+    let model_file = super::load_model_arg(&args.model)?;
     let file = args.measurements.display().to_string();
     let read = super::read_measurements(&args.measurements, &model_file, &args.conventions)?;
     let (meas, located, sample_std) = (read.measurements, read.located, read.sample_std);
     let model = model_file.model;
     let structure = match args.formulation {
-        Formulation::Physical => Structure::physical(args.order),
-        Formulation::Paper => Structure::paper(args.order),
+        FormulationArg::Physical => Structure::physical(args.order),
+        FormulationArg::Paper => Structure::paper(args.order),
     };
     // The library's defaults, then the arguments.
     let mut opts = Options {

@@ -39,7 +39,7 @@ pub mod tables;
 
 pub use campbell::CampbellArgs;
 pub use diagnose::DiagnoseArgs;
-pub use identify::{Formulation, IdentifyArgs};
+pub use identify::{FormulationArg, IdentifyArgs};
 pub use simulate::SimulateArgs;
 pub use tables::TablesArgs;
 
@@ -157,7 +157,7 @@ impl<E: std::error::Error> From<E> for CliError {
 
 /// Loads MODEL: a built-in name or a model file (own format or ROSS), with
 /// the file's `[simulate]` effects. The error names the model argument.
-pub fn load_model(name_or_path: &str) -> Result<ModelFile, CliError> {
+pub fn load_model_arg(name_or_path: &str) -> Result<ModelFile, CliError> {
     model_file_by_name_or_path(name_or_path).map_err(|e| match e {
         crate::io::model_file::ModelFileError::UnknownModel(_)
         | crate::io::model_file::ModelFileError::NotFound(_) => CliError(e.to_string()),

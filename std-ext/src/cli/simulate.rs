@@ -3,7 +3,7 @@
 
 use clap::{Args, ValueEnum};
 
-use super::{load_model, CliError, Io, RpmGridArgs};
+use super::{load_model_arg, CliError, Io, RpmGridArgs};
 use crate::io::measurement::{write_csv_with_node_probes, CsvLayout};
 use crate::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
 use crate::model::{BowPoint, Pedestal, Unbalance};
@@ -66,24 +66,24 @@ fn parse_node_triple(s: &str) -> Result<Triple<usize>, String> {
 
 /// A `--runout` value.
 #[derive(Debug, Clone, PartialEq)]
-pub enum RunoutArg {
+pub enum RunoutSpec {
     /// `CHANNEL:AMPLITUDE_M:PHASE_DEG`.
     Channel(Triple<String>),
     /// `AMPLITUDE_M` on every bearing channel, phases from the seed.
     Every(f64),
 }
 
-fn parse_runout(s: &str) -> Result<RunoutArg, String> {
+fn parse_runout(s: &str) -> Result<RunoutSpec, String> {
     if !s.contains(':') {
         return match s.trim().parse::<f64>() {
-            Ok(a) if a.is_finite() && a >= 0.0 => Ok(RunoutArg::Every(a)),
+            Ok(a) if a.is_finite() && a >= 0.0 => Ok(RunoutSpec::Every(a)),
             _ => Err(format!(
                 "expected CHANNEL:AMPLITUDE_M:PHASE_DEG (e.g. b1_y:2e-6:30) or an amplitude in metres >= 0, got `{s}`"
             )),
         };
     }
     parse_triple::<String>(s, "CHANNEL:AMPLITUDE_M:PHASE_DEG (e.g. b1_y:2e-6:30)")
-        .map(RunoutArg::Channel)
+        .map(RunoutSpec::Channel)
 }
 
 /// Arguments of `rotorid simulate`. The effect flags add to (or, for the
@@ -178,7 +178,7 @@ pub struct SimulateArgs {
     /// AMPLITUDE_M alone: that runout on every bearing channel, phases
     /// drawn from the seed (repeatable).
     #[arg(long, value_name = "CH:AMP:PHASE|AMP", value_parser = parse_runout)]
-    pub runout: Vec<RunoutArg>,
+    pub runout: Vec<RunoutSpec>,
     /// Extra unbalance NODE:ME_KGM:PHASE_DEG (repeatable).
     #[arg(long, value_name = "NODE:ME:PHASE", value_parser = parse_node_triple)]
     pub extra_unbalance: Vec<Triple<usize>>,
@@ -256,7 +256,7 @@ impl SimulateArgs {
         }
         for r in &self.runout {
             match r {
-                RunoutArg::Channel(r) => {
+                RunoutSpec::Channel(r) => {
                     let channel = Channel::parse(&r.first, n_bearings)
                         .map_err(|m| CliError(format!("--runout: {m}")))?;
                     e.runout.push(Runout {
@@ -265,7 +265,7 @@ impl SimulateArgs {
                         phase: r.phase_deg.to_radians(),
                     });
                 }
-                RunoutArg::Every(a) => e
+                RunoutSpec::Every(a) => e
                     .runout
                     .extend(crate::simulate::random_runout(n_bearings, *a, self.seed)),
             }
@@ -288,7 +288,7 @@ pub fn run(args: &SimulateArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         &[],
         &[("--out", Some(&args.out)), ("--plot", args.plot.as_deref())],
     )?;
-    let file = load_model(&args.model)?;
+    let file = load_model_arg(&args.model)?;
     let speeds_rpm = args.grid.speeds_rpm()?;
     if !(args.noise.is_finite() && args.noise >= 0.0) {
         return Err(CliError(format!(

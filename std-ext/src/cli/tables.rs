@@ -25,7 +25,7 @@
 
 use clap::Args;
 
-use super::{load_model, CliError, Formulation, Io, RpmGridArgs};
+use super::{load_model_arg, CliError, FormulationArg, Io, RpmGridArgs};
 use crate::core::parametrization::{Structure, MAX_ORDER};
 use crate::tables::grid::AdaptiveOptions;
 use crate::tables::{build, build_adaptive, Scalar};
@@ -57,8 +57,8 @@ pub struct TablesArgs {
     #[arg(long, value_name = "TOL")]
     pub adaptive: Option<f64>,
     /// Model structure the firmware identifies with (carried by the table).
-    #[arg(long, value_enum, default_value_t = Formulation::Physical)]
-    pub formulation: Formulation,
+    #[arg(long, value_enum, default_value_t = FormulationArg::Physical)]
+    pub formulation: FormulationArg,
     /// Polynomial order P of the bearing dynamic stiffness in Omega.
     #[arg(long, default_value_t = 1, value_name = "P")]
     pub order: usize,
@@ -74,10 +74,10 @@ pub fn run(args: &TablesArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         )));
     }
     let structure = match args.formulation {
-        Formulation::Physical => Structure::physical(args.order),
-        Formulation::Paper => Structure::paper(args.order),
+        FormulationArg::Physical => Structure::physical(args.order),
+        FormulationArg::Paper => Structure::paper(args.order),
     };
-    let model = load_model(&args.model)?.model;
+    let model = load_model_arg(&args.model)?.model;
     let scalar = if args.f32 { Scalar::F32 } else { Scalar::F64 };
     let (table, note) = match args.adaptive {
         None => {

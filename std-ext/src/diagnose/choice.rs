@@ -13,8 +13,9 @@ use crate::diagnose::pairs::best_pair;
 use crate::diagnose::terms::SpeedTerms;
 
 /// Chi-square per degree of freedom of the residual noise against the
-/// model-free noise level above which a model does not fit.
-pub const MISFIT_CHI2: f64 = 2.0;
+/// model-free noise level above which a model does not fit: the same
+/// threshold as `identify`'s misfit test.
+pub use crate::estimate::refine::MISFIT_CHI2;
 
 /// The yardsticks every candidate is measured with.
 pub(crate) struct Judge {

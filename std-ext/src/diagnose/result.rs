@@ -16,9 +16,7 @@ use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::observe;
 use crate::diagnose::terms::{self, SpeedTerms};
 use crate::estimate::noise::NoiseModel;
-use crate::estimate::results::{
-    BearingResult, BearingStd, Coefficients, UnbalanceResult, UnbalanceStd,
-};
+use crate::estimate::results::{BearingResult, BearingStd, Coefficients, UnbalanceResult};
 use crate::io::measurement::Measurements;
 use crate::model::RotorModel;
 
@@ -409,14 +407,7 @@ pub fn estimates(c: &Candidate, omega: f64) -> (Vec<BearingResult>, Vec<Unbalanc
                 }
                 _ => None,
             };
-            Some(UnbalanceResult {
-                node: param.plane_nodes[k] + 1,
-                me: u.me,
-                phase_deg: u.phase_deg(),
-                me_std: sd.map(|s| s.0),
-                phase_deg_std: sd.map(|s| s.1),
-                std: sd.map(|(me, phase_deg)| UnbalanceStd { me, phase_deg }),
-            })
+            Some(UnbalanceResult::new(param.plane_nodes[k] + 1, &u, sd))
         })
         .collect();
     (bearings, unbalance)

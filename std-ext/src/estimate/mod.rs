@@ -1,9 +1,9 @@
 //! Estimation of the bearing coefficients and unbalance from measured
 //! responses.
 //!
-//! * [`parametrization`]: what the unknowns are (the core's description
-//!   bound to a rotor's nodes and a scaling); every reading of weights
-//!   goes through it.
+//! * [`unknowns`]: what the unknowns are (the core's
+//!   [`rotorid_core::parametrization`] bound to a rotor's nodes and a
+//!   scaling, [`Parametrization`]); every reading of weights goes through it.
 //! * [`sweep`]: the identification of a speed sweep: the equation-error
 //!   QRD/RLS pass (the paper's method, the firmware's kernel on `Vec`
 //!   buffers), the runout handling and, by default, the output-error fit
@@ -14,19 +14,20 @@
 //!   measured ones, its Fisher information, and the model-free noise level;
 //!   [`refine`] runs it after the QRD/RLS and checks the fit; [`design`]
 //!   reads the Fisher information as a design of the test.
-//! * [`results`]: typed results in physical units (`serde::Serialize`).
+//! * [`results`]: the reported [`Estimate`] in physical units
+//!   (`serde::Serialize`).
 
 pub mod design;
 pub mod noise;
 pub mod output_error;
-pub mod parametrization;
 pub mod predictor;
 pub mod refine;
 pub mod results;
 pub mod sweep;
 pub mod uncertainty;
+pub mod unknowns;
 
-pub use parametrization::Parametrization;
-pub use results::IdentifyResult;
+pub use results::Estimate;
 pub use sweep::*;
 pub use uncertainty::StdSet;
+pub use unknowns::Parametrization;

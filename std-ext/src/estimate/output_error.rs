@@ -1596,7 +1596,7 @@ pub fn misfit_weighted(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::parametrization::Parametrization;
+    use crate::estimate::unknowns::Parametrization;
     use rotorid_core::parametrization::Structure;
     use rotorid_core::scaling::ColumnScaling;
 

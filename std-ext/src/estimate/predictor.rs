@@ -42,7 +42,7 @@ use num_complex::Complex64;
 use rotorid_core::parametrization::{BearingTerm, UnbalancePart, Unknown};
 use thiserror::Error;
 
-use crate::estimate::parametrization::Parametrization;
+use crate::estimate::unknowns::Parametrization;
 
 /// The prediction failed at a speed.
 #[derive(Debug, Clone, PartialEq, Error)]

@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use crate::estimate::{Identification, Precision};
 use crate::units::rad_s_to_rpm;
-use rotorid_core::parametrization::Formulation;
+use rotorid_core::parametrization::{Formulation, UnbalanceEstimate};
 
 /// A 2x2 bearing coefficient matrix by entry.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -82,7 +82,11 @@ pub struct UnbalanceStd {
 }
 
 /// One identified unbalance plane.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+///
+/// Its JSON carries the standard deviations twice, as `me_std` and
+/// `phase_deg_std` beside the values and under `std` with the values' keys
+/// (both forms are the command line's contract); they are stored once.
+#[derive(Debug, Clone, PartialEq)]
 pub struct UnbalanceResult {
     /// Node (1-based).
     pub node: usize,
@@ -90,20 +94,52 @@ pub struct UnbalanceResult {
     pub me: f64,
     /// Phase `alpha` (deg).
     pub phase_deg: f64,
-    /// Standard deviation of `m e` (kg m), when known.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub me_std: Option<f64>,
-    /// Standard deviation of the phase (deg), when known.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub phase_deg_std: Option<f64>,
-    /// Both standard deviations, under the keys of their values.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// Standard deviations of `m e` and the phase, when known.
     pub std: Option<UnbalanceStd>,
 }
 
-/// The result of `rotorid identify`.
+impl UnbalanceResult {
+    /// The plane at `node` (1-based) with the estimate `u` and, when known,
+    /// the standard deviations `(m e, phase)` in kg m and degrees.
+    pub fn new(node: usize, u: &UnbalanceEstimate<f64>, std: Option<(f64, f64)>) -> Self {
+        UnbalanceResult {
+            node,
+            me: u.me,
+            phase_deg: u.phase_deg(),
+            std: std.map(|(me, phase_deg)| UnbalanceStd { me, phase_deg }),
+        }
+    }
+}
+
+impl Serialize for UnbalanceResult {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("UnbalanceResult", 6)?;
+        st.serialize_field("node", &self.node)?;
+        st.serialize_field("me", &self.me)?;
+        st.serialize_field("phase_deg", &self.phase_deg)?;
+        match &self.std {
+            Some(sd) => {
+                st.serialize_field("me_std", &sd.me)?;
+                st.serialize_field("phase_deg_std", &sd.phase_deg)?;
+                st.serialize_field("std", sd)?;
+            }
+            None => {
+                st.skip_field("me_std")?;
+                st.skip_field("phase_deg_std")?;
+                st.skip_field("std")?;
+            }
+        }
+        st.end()
+    }
+}
+
+/// The reported estimate of an identification in physical units: the
+/// bearings at the last speed and the unbalance, with their standard
+/// deviations, and the checks of the fit (noise, outliers, runout); what
+/// `rotorid identify --json` writes ([`Identification::result`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct IdentifyResult {
+pub struct Estimate {
     /// `"oe"` (refined by the output-error fit) or `"rls"` (QRD/RLS alone).
     pub estimator: &'static str,
     /// The relative noise level `s` estimated from the data without the
@@ -196,7 +232,7 @@ pub struct RunoutResult {
 impl Identification {
     /// The typed result (see the module documentation), with the standard
     /// deviations of [`Identification::std`] when known.
-    pub fn result(&self) -> IdentifyResult {
+    pub fn result(&self) -> Estimate {
         let std = self.std();
         let p = &self.param;
         let bearings = self
@@ -230,20 +266,16 @@ impl Identification {
             .iter()
             .enumerate()
             .map(|(k, u)| {
-                let sd = std.as_ref().and_then(|s| s.unbalance.get(k)).copied();
-                UnbalanceResult {
-                    node: p.plane_nodes.get(k).map_or(k + 1, |n| n + 1),
-                    me: u.me,
-                    phase_deg: u.phase_deg(),
-                    me_std: sd.map(|s| s.0),
-                    phase_deg_std: sd.map(|s| s.1),
-                    std: sd.map(|(me, phase_deg)| UnbalanceStd { me, phase_deg }),
-                }
+                UnbalanceResult::new(
+                    p.plane_nodes.get(k).map_or(k + 1, |n| n + 1),
+                    u,
+                    std.as_ref().and_then(|s| s.unbalance.get(k)).copied(),
+                )
             })
             .collect();
         let check = self.check.as_ref();
         let names = crate::io::measurement::default_channel_names(p.n_bearings());
-        IdentifyResult {
+        Estimate {
             estimator: if self.refinement.is_some() {
                 "oe"
             } else {

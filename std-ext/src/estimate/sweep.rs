@@ -12,8 +12,8 @@
 //! like the paper's Figs. 4 and 5) and the final ones (for reports and the
 //! SPEC's JSON).
 
-use crate::estimate::parametrization::Parametrization;
 use crate::estimate::uncertainty::{sandwich_covariance, WeightedRow};
+use crate::estimate::unknowns::Parametrization;
 use crate::fe::assembly::FeError;
 use crate::io::measurement::{Measurements, Sample};
 use crate::model::{BearingLaw, ModelError, RotorModel, Unbalance};
@@ -22,8 +22,8 @@ use nalgebra::DMatrix;
 use num_complex::{Complex, Complex64};
 use rotorid_core::factor::FactorMut;
 use rotorid_core::identify::{
-    check_sizes, estimates_into, Config, GuardState, IdField, IdentifyError as CoreError, Kernel,
-    Scratch, SteadyPolicy, StepReport,
+    check_sizes, estimates_into, Config, GuardState, IdField, IdentifierError, Kernel, Scratch,
+    SteadyPolicy, StepReport,
 };
 use rotorid_core::parametrization::{BearingEstimate, Formulation, Structure, UnbalanceEstimate};
 use rotorid_core::regressor::Equations;
@@ -92,7 +92,7 @@ pub enum IdentifyError {
     Scaling,
     /// The configuration was refused by the core identifier.
     #[error("options: {0}")]
-    Config(CoreError),
+    Config(IdentifierError),
     /// The identifier refused sample `index` (0-based; shown from 1) at `rpm`.
     #[error("sample {} (counting from 1, {rpm} rpm): {source}", index + 1)]
     Step {
@@ -101,11 +101,11 @@ pub enum IdentifyError {
         /// Its speed (rpm).
         rpm: f64,
         /// The core error.
-        source: CoreError,
+        source: IdentifierError,
     },
     /// Estimates could not be extracted (singular factor).
     #[error("estimates: {0}")]
-    Estimates(CoreError),
+    Estimates(IdentifierError),
     /// Per-sample standard deviations that do not match the samples, or
     /// are not finite and positive.
     #[error(
@@ -670,7 +670,7 @@ struct State<T, F> {
 const MAX_COV_ROWS: usize = 100_000;
 
 impl<T: Real, F: IdField<T> + Widen> State<T, F> {
-    fn new(config: Config<T>, nb: usize, np: usize) -> Result<Self, CoreError> {
+    fn new(config: Config<T>, nb: usize, np: usize) -> Result<Self, IdentifierError> {
         let m = config.structure.n_unknowns(nb, np);
         let n = config.structure.n_rows(nb);
         check_sizes::<T, F>(&config.structure, 2 * nb, np, m, n)?;
@@ -708,7 +708,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
         }
     }
 
-    fn step(&mut self, eq: &Equations<'_, T>) -> Result<StepReport<T>, CoreError> {
+    fn step(&mut self, eq: &Equations<'_, T>) -> Result<StepReport<T>, IdentifierError> {
         let (mut d, mut u, mut xi, mut gamma) = (
             std::mem::take(&mut self.d),
             std::mem::take(&mut self.u),
@@ -770,7 +770,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
         sandwich_covariance(&r, &w, &self.rows, self.log_w)
     }
 
-    fn estimates(&mut self, omega: T) -> Result<EstimateSet, CoreError> {
+    fn estimates(&mut self, omega: T) -> Result<EstimateSet, IdentifierError> {
         let mut w = std::mem::take(&mut self.w);
         let res = self.kernel().weights(&mut w);
         self.w = w;

@@ -29,7 +29,7 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 use rotorid_core::parametrization::Formulation;
 
-use crate::estimate::parametrization::Functional;
+use crate::estimate::unknowns::Functional;
 use crate::estimate::Identification;
 
 /// One row of the regression as the filter saw it (scaled, normalised),

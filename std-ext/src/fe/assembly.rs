@@ -46,7 +46,7 @@
 
 use crate::fe::banded::{BandedError, BandedMatrix};
 use crate::fe::bearing::{
-    bearing_dynamic_stiffness, condense_pedestal, damping, pedestal_dynamic_stiffness, stiffness,
+    condense_pedestal, damping, law_dynamic_stiffness, pedestal_dynamic_stiffness, stiffness,
     BearingError,
 };
 use crate::fe::disk::disk_matrices;
@@ -338,7 +338,7 @@ impl FeModel {
     ) -> Result<Vec<((Matrix2<Complex64>, Option<Matrix2<Complex64>>), usize)>, FeError> {
         let mut out = Vec::with_capacity(self.model.bearings.len());
         for b in &self.model.bearings {
-            let zb = bearing_dynamic_stiffness(&b.law, omega, s);
+            let zb = law_dynamic_stiffness(&b.law, omega, s);
             match &b.pedestal {
                 None => out.push(((zb, None), b.node)),
                 Some(p) => {

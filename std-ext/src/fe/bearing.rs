@@ -51,7 +51,7 @@ pub fn damping(c: &BearingCoefficients) -> Matrix2<f64> {
 
 /// Bearing dynamic stiffness `Z_B(s) = K + s C` with the coefficients of
 /// `law` at rotor speed `omega` (rad/s).
-pub fn bearing_dynamic_stiffness(law: &BearingLaw, omega: f64, s: Complex64) -> Matrix2<Complex64> {
+pub fn law_dynamic_stiffness(law: &BearingLaw, omega: f64, s: Complex64) -> Matrix2<Complex64> {
     let c = law.at(omega);
     stiffness(&c).map(|v| Complex64::new(v, 0.0)) + damping(&c).map(|v| s * v)
 }
@@ -99,7 +99,7 @@ mod tests {
             c: [1e3, 2e3],
         };
         let s = Complex64::new(0.0, 600.0);
-        let zb = bearing_dynamic_stiffness(&law, 600.0, s);
+        let zb = law_dynamic_stiffness(&law, 600.0, s);
         let zp = pedestal_dynamic_stiffness(&p, s);
         let (zeff, t) = condense_pedestal(&zb, &zp, s).unwrap();
         // Series form: Z_eff = Z_B (Z_B + Z_P)^-1 Z_P.

@@ -116,9 +116,9 @@ pub struct CampbellDiagram {
     pub points: Vec<CampbellPoint>,
 }
 
-/// Which modes to keep.
+/// Which modes a diagram keeps at each speed.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CampbellOptions {
+pub struct ModeSelection {
     /// Keep modes with damped frequency below this (rad/s); `None`: no limit.
     pub max_frequency: Option<f64>,
     /// Keep at most this many modes per speed: the lowest by undamped
@@ -126,9 +126,9 @@ pub struct CampbellOptions {
     pub max_modes: usize,
 }
 
-impl Default for CampbellOptions {
+impl Default for ModeSelection {
     fn default() -> Self {
-        CampbellOptions {
+        ModeSelection {
             max_frequency: None,
             max_modes: 12,
         }
@@ -172,16 +172,18 @@ pub fn check_size(n_dof: usize, n_speeds: usize) -> Result<(), FeError> {
     Ok(())
 }
 
-/// Campbell diagram with the default options (the 12 lowest modes).
-pub fn campbell(fe: &FeModel, speeds: &[f64]) -> Result<CampbellDiagram, FeError> {
-    campbell_with(fe, speeds, &CampbellOptions::default())
+/// Campbell diagram of the 12 lowest modes ([`ModeSelection::default`]) at
+/// `speeds` (rad/s); [`crate::campbell()`] is the whole analysis of a
+/// model (speeds, tracked modes, critical speeds).
+pub fn diagram(fe: &FeModel, speeds: &[f64]) -> Result<CampbellDiagram, FeError> {
+    diagram_with(fe, speeds, &ModeSelection::default())
 }
 
-/// Campbell diagram with explicit options.
-pub fn campbell_with(
+/// Campbell diagram of the modes `opts` selects at `speeds` (rad/s).
+pub fn diagram_with(
     fe: &FeModel,
     speeds: &[f64],
-    opts: &CampbellOptions,
+    opts: &ModeSelection,
 ) -> Result<CampbellDiagram, FeError> {
     check_size(fe.n_dof(), speeds.len())?;
     let m = fe.mass_matrix();
@@ -204,8 +206,8 @@ pub fn campbell_with(
 }
 
 /// The modes at one speed.
-pub fn modes_at(fe: &FeModel, omega: f64, opts: &CampbellOptions) -> Result<Vec<Mode>, FeError> {
-    Ok(campbell_with(fe, &[omega], opts)?
+pub fn modes_at(fe: &FeModel, omega: f64, opts: &ModeSelection) -> Result<Vec<Mode>, FeError> {
+    Ok(diagram_with(fe, &[omega], opts)?
         .points
         .pop()
         .map(|p| p.modes)
@@ -217,7 +219,7 @@ fn modes_at_impl(
     chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
     g: &DMatrix<f64>,
     omega: f64,
-    opts: &CampbellOptions,
+    opts: &ModeSelection,
 ) -> Result<Vec<Mode>, FeError> {
     let mut lams = eigenvalues_at(fe, chol, g, omega)?;
     lams.retain(|l| opts.max_frequency.is_none_or(|f| l.im <= f));

@@ -10,13 +10,11 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use plotters::coord::types::RangedCoordf64;
-use plotters::coord::Shift;
-use plotters::prelude::*;
 use serde::Serialize;
 
-use crate::fe::campbell::{CampbellDiagram, CriticalSpeed, Track, Whirl};
-use crate::report::plot::{tick_label, PlotError};
+use crate::campbell::CampbellAnalysis;
+use crate::fe::campbell::{CriticalSpeed, Whirl};
+use crate::report::plot::{panel_plot, Marker, Panel, PlotError, PlotOptions, Series, VLine};
 use crate::units::{rad_s_to_hz, rad_s_to_rpm};
 
 /// One tracked mode at one speed.
@@ -167,15 +165,15 @@ impl From<&CriticalRow> for CriticalJson {
 }
 
 impl CampbellReport {
-    /// The report of `tracks` on `diagram`, with the critical speeds
-    /// (`mode` indices into `tracks`).
-    pub fn new(
-        label: impl Into<String>,
-        diagram: &CampbellDiagram,
-        tracks: &[Track],
-        critical: &[CriticalSpeed],
-        critical_undamped: &[CriticalSpeed],
-    ) -> Self {
+    /// The report of an analysis ([`crate::campbell()`]) under the model's
+    /// label.
+    pub fn new(label: impl Into<String>, analysis: &CampbellAnalysis) -> Self {
+        let CampbellAnalysis {
+            diagram,
+            tracks,
+            critical,
+            critical_undamped,
+        } = analysis;
         let modes = tracks
             .iter()
             .map(|t| {
@@ -359,9 +357,9 @@ impl CampbellReport {
         s
     }
 
-    /// Writes the diagram as SVG (see [`plot`]).
+    /// Writes the diagram as SVG (see [`diagram_plot`]).
     pub fn plot(&self, path: &Path, rpm_max: f64) -> Result<(), PlotError> {
-        plot(self, path, rpm_max)
+        diagram_plot(self, path, rpm_max)
     }
 }
 
@@ -379,9 +377,8 @@ const MODE_COLORS: [(u8, u8, u8); 10] = [
     (23, 190, 207),
 ];
 
-fn mode_color(k: usize) -> RGBColor {
-    let (r, g, b) = MODE_COLORS[k % MODE_COLORS.len()];
-    RGBColor(r, g, b)
+fn mode_color(k: usize) -> (u8, u8, u8) {
+    MODE_COLORS[k % MODE_COLORS.len()]
 }
 
 /// Dash pattern of a whirl: forward solid, backward dashed, mixed dotted.
@@ -390,6 +387,16 @@ fn dash(w: Whirl) -> Option<(u32, u32)> {
         Whirl::Forward => None,
         Whirl::Backward => Some((9, 5)),
         Whirl::Mixed => Some((2, 4)),
+    }
+}
+
+/// A line in the whirl's style (legend label `label`).
+fn whirl_line(label: String, xy: Vec<(f64, f64)>, w: Whirl, color: (u8, u8, u8)) -> Series {
+    let (x, y) = xy.into_iter().unzip();
+    let s = Series::line(label, x, y).color(color);
+    match dash(w) {
+        None => s,
+        Some((on, off)) => s.dash_pattern(on, off),
     }
 }
 
@@ -426,84 +433,92 @@ fn whirl_runs(
     out
 }
 
-type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
-
-fn draw_runs<'a, DB>(
-    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
-    runs: Vec<(Whirl, Vec<(f64, f64)>)>,
-    color: RGBColor,
-) -> Result<(), String>
-where
-    DB: DrawingBackend + 'a,
-{
-    let style = ShapeStyle::from(&color).stroke_width(2);
-    for (w, run) in runs {
-        if run.len() < 2 {
-            chart
-                .draw_series(run.iter().map(|&p| Circle::new(p, 2, style.filled())))
-                .map_err(|e| e.to_string())?;
-            continue;
-        }
-        match dash(w) {
-            None => {
-                chart
-                    .draw_series(LineSeries::new(run, style))
-                    .map_err(|e| e.to_string())?;
-            }
-            Some((size, gap)) => {
-                chart
-                    .draw_series(DashedLineSeries::new(run, size, gap, style))
-                    .map_err(|e| e.to_string())?;
+/// The curves of every mode (`value` of each point), one series per run of
+/// one whirl in the mode's colour and the whirl's style; a lone point as a
+/// dot. No legend labels: [`legend_series`] gives those.
+fn mode_curves(report: &CampbellReport, value: impl Fn(&ModePoint) -> f64) -> Vec<Series> {
+    let mut out = Vec::new();
+    for (k, m) in report.modes.iter().enumerate() {
+        for (w, run) in whirl_runs(&report.speeds_rpm, m, &value) {
+            if run.len() < 2 {
+                let (x, y) = run.into_iter().unzip();
+                out.push(
+                    Series::points("", x, y, Marker::Circle)
+                        .color(mode_color(k))
+                        .width(1),
+                );
+            } else {
+                out.push(whirl_line(String::new(), run, w, mode_color(k)).width(2));
             }
         }
     }
-    Ok(())
+    out
+}
+
+/// The legend, as series without data (drawn by the plot's legend only):
+/// one entry per mode (colour, with the whirls it takes), the whirl line
+/// styles; then the 1X line up to `rpm_max` and the heading of the
+/// critical speeds (the entries are their dots).
+fn legend_series(report: &CampbellReport, rpm_max: f64) -> Vec<Series> {
+    // A series with neither line nor marker is a heading of the legend.
+    let heading = |text: &str| Series {
+        line: false,
+        ..Series::line(text, vec![], vec![])
+    };
+    let mut out = vec![heading("modes")];
+    for (k, m) in report.modes.iter().enumerate() {
+        let mut whirls: Vec<Whirl> = Vec::new();
+        for p in m.iter().flatten() {
+            if !whirls.contains(&p.whirl) {
+                whirls.push(p.whirl);
+            }
+        }
+        let code: String = whirls.iter().map(|w| whirl_letter(*w)).collect();
+        out.push(
+            Series::line(format!("mode {} ({code})", k + 1), vec![], vec![]).color(mode_color(k)),
+        );
+    }
+    out.push(heading("whirl"));
+    for w in [Whirl::Forward, Whirl::Backward, Whirl::Mixed] {
+        let label = format!("{} ({})", whirl_name(w), whirl_letter(w));
+        out.push(whirl_line(label, vec![], w, (60, 60, 60)));
+    }
+    out.push(
+        Series::line("1X (speed)", vec![0.0, rpm_max], vec![0.0, rpm_max / 60.0])
+            .color((0, 0, 0))
+            .width(1),
+    );
+    out.push(heading("critical speeds"));
+    out.push(heading("(damped freq. = speed)"));
+    if report.critical.is_empty() {
+        out.push(heading("none in range"));
+    }
+    out
 }
 
 /// The Campbell diagram as SVG: top panel damped natural frequency (Hz)
 /// against speed (rpm), one colour per tracked mode, line style per whirl
 /// (forward solid, backward dashed, mixed dotted), the 1X line and the
 /// critical speeds (damped crossings, every whirl) as circles on it in the
-/// mode's colour; bottom panel the log decrement of each mode. Title
-/// `Campbell diagram: LABEL`; the legend (modes, whirl styles, the critical
-/// speeds in rpm) sits in a strip right of the panels, outside the data.
-pub fn plot(report: &CampbellReport, path: &Path, rpm_max: f64) -> Result<(), PlotError> {
-    let pstr = path.display().to_string();
-    let be = |e: String| PlotError::Backend {
-        path: pstr.clone(),
-        reason: e,
-    };
+/// mode's colour, with a dashed vertical line; bottom panel the log
+/// decrement of each mode. Title `Campbell diagram: LABEL`; the legend
+/// (modes, whirl styles, the critical speeds in rpm) sits right of the
+/// panels, outside the data ([`panel_plot`]).
+pub fn diagram_plot(report: &CampbellReport, path: &Path, rpm_max: f64) -> Result<(), PlotError> {
     if !(rpm_max.is_finite() && rpm_max > 0.0) {
         return Err(PlotError::Data {
-            path: pstr.clone(),
+            path: path.display().to_string(),
             reason: format!("speed range up to {rpm_max} rpm"),
         });
     }
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (1150, 860)).into_drawing_area();
-        draw_all(report, &root, rpm_max).map_err(be)?;
-        root.present().map_err(|e| be(e.to_string()))?;
-    }
-    crate::io::output::write_atomic(path, svg.as_bytes()).map_err(|e| match e {
-        crate::io::output::OutputError::Io { source, .. } => be(format!("cannot write: {source}")),
-        other => be(other.to_string()),
-    })?;
-    Ok(())
-}
-
-fn draw_all(report: &CampbellReport, root: &Area<'_>, rpm_max: f64) -> Result<(), String> {
-    let err = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
-    root.fill(&WHITE).map_err(err)?;
-    let root = root
-        .titled(
-            &format!("Campbell diagram: {}", report.label),
-            ("sans-serif", 24),
-        )
-        .map_err(err)?;
-    let (panels, legend) = root.split_horizontally(880);
-    let (top, bottom) = panels.split_vertically(540);
-    let rpm = &report.speeds_rpm;
+    let vlines: Vec<VLine> = report
+        .critical
+        .iter()
+        .map(|c| VLine {
+            x: c.rpm,
+            label: String::new(),
+        })
+        .collect();
 
     // Top: frequency.
     let f_max = report
@@ -514,54 +529,36 @@ fn draw_all(report: &CampbellReport, root: &Area<'_>, rpm_max: f64) -> Result<()
         .map(|m| m.frequency_hz)
         .filter(|f| f.is_finite())
         .fold(rpm_max / 60.0, f64::max);
-    let mut chart = ChartBuilder::on(&top)
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..rpm_max, 0.0..1.05 * f_max)
-        .map_err(|e| e.to_string())?;
-    chart
-        .configure_mesh()
-        .x_desc("speed (rpm)")
-        .y_desc("damped natural frequency (Hz)")
-        .x_label_formatter(&|v| tick_label(*v))
-        .y_label_formatter(&|v| tick_label(*v))
-        .light_line_style(RGBColor(235, 235, 235))
-        .draw()
-        .map_err(|e| e.to_string())?;
+    let mut top = legend_series(report, rpm_max);
+    top.extend(mode_curves(report, |p| p.frequency_hz));
+    // The critical speeds: each a dot in its mode's colour, ringed in black,
+    // with its legend entry.
     for c in &report.critical {
-        let grey = ShapeStyle::from(&RGBColor(170, 170, 170)).stroke_width(1);
-        chart
-            .draw_series(DashedLineSeries::new(
-                vec![(c.rpm, 0.0), (c.rpm, 1.05 * f_max)],
-                4,
-                4,
-                grey,
-            ))
-            .map_err(|e| e.to_string())?;
+        let label = format!(
+            "{:.0} rpm  mode {} {}",
+            c.rpm,
+            c.mode + 1,
+            whirl_letter(c.whirl)
+        );
+        let (x, y) = (vec![c.rpm], vec![c.rpm / 60.0]);
+        top.push(
+            Series::points(label, x.clone(), y.clone(), Marker::Circle)
+                .color(mode_color(c.mode))
+                .width(5),
+        );
+        top.push(
+            Series::points("", x, y, Marker::Ring)
+                .color((0, 0, 0))
+                .width(4),
+        );
     }
-    for (k, m) in report.modes.iter().enumerate() {
-        draw_runs(
-            &mut chart,
-            whirl_runs(rpm, m, |p| p.frequency_hz),
-            mode_color(k),
-        )?;
-    }
-    chart
-        .draw_series(LineSeries::new(
-            vec![(0.0, 0.0), (rpm_max, rpm_max / 60.0)],
-            ShapeStyle::from(&BLACK).stroke_width(1),
-        ))
-        .map_err(|e| e.to_string())?;
-    for c in &report.critical {
-        let p = (c.rpm, c.rpm / 60.0);
-        chart
-            .draw_series([
-                Circle::new(p, 6, mode_color(c.mode).filled()),
-                Circle::new(p, 6, ShapeStyle::from(&BLACK).stroke_width(1)),
-            ])
-            .map_err(|e| e.to_string())?;
-    }
+    let top_opts = PlotOptions {
+        x_range: Some((0.0, rpm_max)),
+        y_range: Some((0.0, 1.05 * f_max)),
+        vlines: vlines.clone(),
+        panel_weight: 2,
+        ..PlotOptions::default()
+    };
 
     // Bottom: log decrement.
     let decs: Vec<f64> = report
@@ -578,134 +575,37 @@ fn draw_all(report: &CampbellReport, root: &Area<'_>, rpm_max: f64) -> Result<()
     // of at least 0.01 keeps them on a readable zero line.
     let pad = (0.05 * (d_hi - d_lo)).max(0.005);
     let (d_lo, d_hi) = (d_lo - if d_lo < 0.0 { pad } else { 0.0 }, d_hi + pad);
-    let mut chart = ChartBuilder::on(&bottom)
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..rpm_max, d_lo..d_hi)
-        .map_err(|e| e.to_string())?;
-    chart
-        .configure_mesh()
-        .x_desc("speed (rpm)")
-        .y_desc("log decrement")
-        .x_label_formatter(&|v| tick_label(*v))
-        .y_label_formatter(&|v| tick_label(*v))
-        .light_line_style(RGBColor(235, 235, 235))
-        .draw()
-        .map_err(|e| e.to_string())?;
-    for c in &report.critical {
-        let grey = ShapeStyle::from(&RGBColor(170, 170, 170)).stroke_width(1);
-        chart
-            .draw_series(DashedLineSeries::new(
-                vec![(c.rpm, d_lo), (c.rpm, d_hi)],
-                4,
-                4,
-                grey,
-            ))
-            .map_err(|e| e.to_string())?;
-    }
-    for (k, m) in report.modes.iter().enumerate() {
-        draw_runs(&mut chart, whirl_runs(rpm, m, |p| p.log_dec), mode_color(k))?;
-    }
-    draw_legend(report, &legend).map_err(err)
-}
-
-/// The legend strip: one entry per mode (colour, with the whirls it takes),
-/// the whirl line styles, the 1X line and the critical speeds.
-fn draw_legend(
-    report: &CampbellReport,
-    area: &Area<'_>,
-) -> Result<(), DrawingAreaErrorKind<std::io::Error>> {
-    let font = ("sans-serif", 15).into_font();
-    let bold = ("sans-serif", 16).into_font().style(FontStyle::Bold);
-    let (x0, mut y) = (12i32, 20i32);
-    let line = 21;
-    let sample = |area: &Area<'_>, y: i32, color: RGBColor, d: Option<(u32, u32)>| {
-        let style = ShapeStyle::from(&color).stroke_width(2);
-        match d {
-            None => area.draw(&PathElement::new(vec![(x0, y), (x0 + 34, y)], style)),
-            Some((size, gap)) => {
-                let mut x = x0;
-                while x < x0 + 34 {
-                    let x1 = (x + size as i32).min(x0 + 34);
-                    area.draw(&PathElement::new(vec![(x, y), (x1, y)], style))?;
-                    x += (size + gap) as i32;
-                }
-                Ok(())
-            }
-        }
+    let bottom = mode_curves(report, |p| p.log_dec);
+    let bottom_opts = PlotOptions {
+        y_range: Some((d_lo, d_hi)),
+        vlines,
+        ..PlotOptions::default()
     };
-    area.draw(&Text::new("modes", (x0, y - 8), bold.clone()))?;
-    y += line;
-    for (k, m) in report.modes.iter().enumerate() {
-        let mut whirls: Vec<Whirl> = Vec::new();
-        for p in m.iter().flatten() {
-            if !whirls.contains(&p.whirl) {
-                whirls.push(p.whirl);
-            }
-        }
-        let code: String = whirls.iter().map(|w| whirl_letter(*w)).collect();
-        sample(area, y, mode_color(k), None)?;
-        area.draw(&Text::new(
-            format!("mode {} ({code})", k + 1),
-            (x0 + 44, y - 8),
-            font.clone(),
-        ))?;
-        y += line;
-    }
-    y += line / 2;
-    area.draw(&Text::new("whirl", (x0, y - 8), bold.clone()))?;
-    y += line;
-    for w in [Whirl::Forward, Whirl::Backward, Whirl::Mixed] {
-        sample(area, y, RGBColor(60, 60, 60), dash(w))?;
-        area.draw(&Text::new(
-            format!("{} ({})", whirl_name(w), whirl_letter(w)),
-            (x0 + 44, y - 8),
-            font.clone(),
-        ))?;
-        y += line;
-    }
-    sample(area, y, BLACK, None)?;
-    area.draw(&Text::new("1X (speed)", (x0 + 44, y - 8), font.clone()))?;
-    y += line + line / 2;
-    area.draw(&Text::new("critical speeds", (x0, y - 8), bold.clone()))?;
-    y += line - 4;
-    area.draw(&Text::new(
-        "(damped freq. = speed)",
-        (x0, y - 8),
-        font.clone(),
-    ))?;
-    y += line;
-    if report.critical.is_empty() {
-        area.draw(&Text::new("none in range", (x0, y - 8), font.clone()))?;
-    }
-    for c in &report.critical {
-        area.draw(&Circle::new((x0 + 17, y), 6, mode_color(c.mode).filled()))?;
-        area.draw(&Circle::new(
-            (x0 + 17, y),
-            6,
-            ShapeStyle::from(&BLACK).stroke_width(1),
-        ))?;
-        area.draw(&Text::new(
-            format!(
-                "{:.0} rpm  mode {} {}",
-                c.rpm,
-                c.mode + 1,
-                whirl_letter(c.whirl)
-            ),
-            (x0 + 44, y - 8),
-            font.clone(),
-        ))?;
-        y += line;
-    }
-    Ok(())
+    panel_plot(
+        path,
+        &format!("Campbell diagram: {}", report.label),
+        "speed (rpm)",
+        &[
+            Panel {
+                y_label: "damped natural frequency (Hz)",
+                series: &top,
+                opts: &top_opts,
+            },
+            Panel {
+                y_label: "log decrement",
+                series: &bottom,
+                opts: &bottom_opts,
+            },
+        ],
+        (1150, 860),
+    )
 }
 
 /// Most modes [`mode_shape_plot`] draws (more curves are not readable).
 pub const MAX_SHAPE_MODES: usize = 6;
 
 /// The mode shapes `modes` (the shaft DOFs of [`crate::fe::campbell::Mode::shape`], as
-/// [`crate::fe::campbell::campbell_with`] returns them at one speed) of
+/// [`crate::fe::campbell::diagram_with`] returns them at one speed) of
 /// `model` at `rpm`, as SVG: the displacement along the shaft (axial
 /// position x in m from the left end) in y (top panel) and z (bottom
 /// panel). Each shape is scaled so that its largest translation
@@ -722,7 +622,6 @@ pub fn mode_shape_plot(
     modes: &[crate::fe::campbell::Mode],
     rpm: f64,
 ) -> Result<(), PlotError> {
-    use crate::report::plot::{panel_plot, Panel, PlotOptions, Series, VLine};
     let data_err = |reason: String| PlotError::Data {
         path: path.display().to_string(),
         reason,
@@ -762,7 +661,7 @@ pub fn mode_shape_plot(
             (0..n_nodes).map(|n| m.shape[4 * n + dir] * scale).collect()
         };
         let (y, z) = (at(0), at(1));
-        let color = MODE_COLORS[k % MODE_COLORS.len()];
+        let color = mode_color(k);
         let name = format!(
             "{:.2} Hz, {}, log dec {:.3}",
             rad_s_to_hz(m.frequency),

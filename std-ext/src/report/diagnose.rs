@@ -35,7 +35,7 @@ pub struct HypothesisJson {
 
 /// Bearings and unbalance of one model.
 #[derive(Debug, Clone, Serialize)]
-pub struct Estimates {
+pub struct ModelEstimates {
     /// Bearings at the last speed.
     pub bearings: Vec<BearingResult>,
     /// Plane unbalances.
@@ -66,7 +66,7 @@ pub struct DiagnoseJson {
     /// The identified size of each effect.
     pub findings: Vec<Finding>,
     /// The nominal model's estimates.
-    pub nominal: Estimates,
+    pub nominal: ModelEstimates,
     /// Every hypothesis fitted.
     pub hypotheses: Vec<HypothesisJson>,
     /// What the data can show.
@@ -98,7 +98,7 @@ pub fn json(d: &Diagnosis) -> DiagnoseJson {
         bearings,
         unbalance,
         findings: d.findings(),
-        nominal: Estimates {
+        nominal: ModelEstimates {
             bearings: nb,
             unbalance: nu,
         },

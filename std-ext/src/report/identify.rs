@@ -590,13 +590,13 @@ pub fn write_plots(
     if crate::fe::campbell::check_size(4 * ident.n_nodes(), 2 * speeds.len()).is_err() {
         return Ok(files);
     }
-    let copts = crate::fe::campbell::CampbellOptions {
+    let copts = crate::fe::campbell::ModeSelection {
         max_frequency: Some(2.0 * crate::units::rpm_to_rad_s(rpm_max)),
         max_modes: 8,
     };
     let diagram = |m: &RotorModel| -> Result<_, ReportError> {
         let fe = crate::fe::assembly::FeModel::new(m)?;
-        Ok(crate::fe::campbell::campbell_with(&fe, &speeds, &copts)?)
+        Ok(crate::fe::campbell::diagram_with(&fe, &speeds, &copts)?)
     };
     let di = diagram(&ident)?;
     let mut series = Vec::new();

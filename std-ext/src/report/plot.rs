@@ -186,6 +186,9 @@ pub struct PlotOptions {
     pub equal_aspect: bool,
     /// Texts at data points.
     pub annotations: Vec<Annotation>,
+    /// Height of this panel of a [`panel_plot`] relative to the others'
+    /// (default 1: equal heights).
+    pub panel_weight: u32,
 }
 
 impl Default for PlotOptions {
@@ -198,6 +201,7 @@ impl Default for PlotOptions {
             vlines: Vec::new(),
             equal_aspect: false,
             annotations: Vec::new(),
+            panel_weight: 1,
         }
     }
 }
@@ -507,7 +511,7 @@ pub fn panel_plot(
             let (c, l) = body.split_horizontally(w.saturating_sub(lw));
             (c, Some(l))
         };
-        let areas = charts.split_evenly((panels.len(), 1));
+        let areas = split_by_weight(&charts, panels);
         let last = panels.len() - 1;
         for (k, ((p, area), r)) in panels.iter().zip(&areas).zip(&ranges).enumerate() {
             let mut r = *r;
@@ -541,8 +545,33 @@ pub fn panel_plot(
     Ok(())
 }
 
+/// The panels' areas, top to bottom: equal heights, or heights in
+/// proportion to [`PlotOptions::panel_weight`] when the weights differ.
+fn split_by_weight<'a>(
+    charts: &DrawingArea<SVGBackend<'a>, Shift>,
+    panels: &[Panel<'_>],
+) -> Vec<DrawingArea<SVGBackend<'a>, Shift>> {
+    let weights: Vec<u32> = panels.iter().map(|p| p.opts.panel_weight.max(1)).collect();
+    if weights.iter().all(|&w| w == weights[0]) {
+        return charts.split_evenly((panels.len(), 1));
+    }
+    let (_, h) = charts.dim_in_pixel();
+    let total: u32 = weights.iter().sum();
+    let mut at = 0u32;
+    let breaks: Vec<i32> = weights[..weights.len() - 1]
+        .iter()
+        .map(|w| {
+            at += w;
+            (u64::from(h) * u64::from(at) / u64::from(total)) as i32
+        })
+        .collect();
+    charts.split_by_breakpoints::<i32, i32, _, _>([], breaks)
+}
+
 /// Draws the legend entries in `area` (pixel coordinates), each with a
-/// sample of its series' line (solid or dashed, its width) and marker.
+/// sample of its series' line (solid or dashed, its width) and marker; an
+/// entry with neither (a series with no line and no marker) is a heading,
+/// its text in bold from the left edge.
 fn draw_legend(
     area: &DrawingArea<SVGBackend<'_>, Shift>,
     entries: &[LegendEntry],
@@ -579,10 +608,19 @@ fn draw_legend(
         if let Some(m) = e.marker {
             draw_marker(area, m, (30, y), (e.width + 1) as i32, style)?;
         }
+        let heading = !e.line && e.marker.is_none();
+        let font = ("sans-serif", LEGEND_FONT).into_font();
         area.draw(&Text::new(
             e.label.clone(),
-            (x1 + 8, y - LEGEND_FONT as i32 / 2 - 1),
-            ("sans-serif", LEGEND_FONT).into_font(),
+            (
+                if heading { x0 } else { x1 + 8 },
+                y - LEGEND_FONT as i32 / 2 - 1,
+            ),
+            if heading {
+                font.style(FontStyle::Bold)
+            } else {
+                font
+            },
         ))
         .map_err(|e| e.to_string())?;
     }
