@@ -510,7 +510,8 @@ impl fmt::Display for Rejection {
     }
 }
 
-/// Revolutions closed so far, by outcome.
+/// Revolutions closed so far, by outcome (a revolution still waiting for
+/// its end event, at the end of a recording, is not counted).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Counts {
     /// Accepted (averaged).
