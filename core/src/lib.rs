@@ -29,6 +29,8 @@ pub mod crc32;
 pub mod factor;
 pub mod givens;
 pub mod identify;
+pub mod keyphasor;
+pub mod ordertrack;
 pub mod parametrization;
 pub mod prefilter;
 pub mod qrdrls;

@@ -4,4 +4,5 @@
 
 mod common;
 
+mod ordertrack;
 mod qrdrls;
