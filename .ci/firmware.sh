@@ -28,7 +28,9 @@ banner() {
 
 echo "-- firmware build (thumbv7em-none-eabihf, release)"
 rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 || true
-(cd "$FW" && cargo build --release)
+# Every build names its target directory, so that the ELF paths above hold
+# whatever CARGO_TARGET_DIR says.
+(cd "$FW" && cargo build --release --target-dir target)
 
 # Section sizes (bytes) and the two data arrays (table, measured sweep).
 sec() {
