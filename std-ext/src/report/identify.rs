@@ -36,15 +36,6 @@ pub fn error_cell(x: f64, truth: f64, unit: &str, phase: bool) -> String {
 /// unit, for phases and where the model value is 0).
 pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> String {
     use std::fmt::Write;
-    struct Row {
-        name: String,
-        value: f64,
-        rls: Option<f64>,
-        std: Option<f64>,
-        model: Option<f64>,
-        phase: bool,
-        unit: &'static str,
-    }
     let mut s = String::new();
     let omega = id.last.omega;
     let st = id.options.structure;
@@ -62,6 +53,76 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         id.frozen,
         crate::units::rad_s_to_rpm(omega)
     );
+    let rows = table_rows(id, reference, std.as_ref(), rls);
+    let absolute = write_rows(&mut s, rows, rls.is_some());
+    if reference.is_some() {
+        let _ = writeln!(
+            s,
+            "error: relative, |value - model| / |model|; phases: absolute, in deg{}",
+            if absolute {
+                "; where the model value is 0: absolute, |value - model|, with its unit"
+            } else {
+                ""
+            }
+        );
+    }
+    if st.formulation == Formulation::Paper {
+        write_consistency(&mut s, id);
+    }
+    if std.is_some() {
+        let _ = writeln!(
+            s,
+            "std: one standard deviation ({}); 95 % interval: value +- 1.96 std",
+            if rls.is_some() {
+                "inverse Fisher information at the estimate"
+            } else {
+                "sandwich covariance of the QRD/RLS estimate"
+            }
+        );
+    }
+    if let Some(d) = id.refinement.as_ref().and_then(|r| r.design.as_ref()) {
+        write_design(&mut s, d);
+    }
+    if let Some(c) = &id.check {
+        write_fit_check(&mut s, id, c);
+    }
+    if let Some(r) = id.refinement.as_ref().filter(|r| !r.runout.is_empty()) {
+        let names = crate::io::measurement::default_channel_names(id.param.n_bearings());
+        let _ = writeln!(s, "runout fitted (m, deg; one standard deviation):");
+        for ((z, sd), n) in r.runout.iter().zip(&names) {
+            let _ = writeln!(
+                s,
+                "  {n:<6} {:.3e} at {:7.2} deg  +- {:.2e}",
+                z.norm(),
+                z.arg().to_degrees(),
+                sd
+            );
+        }
+    }
+    s
+}
+
+/// One quantity of [`report_table`]: its estimate, QRD/RLS estimate,
+/// standard deviation and model value.
+struct Row {
+    name: String,
+    value: f64,
+    rls: Option<f64>,
+    std: Option<f64>,
+    model: Option<f64>,
+    phase: bool,
+    unit: &'static str,
+}
+
+/// The table's quantities: per bearing its stiffnesses and dampings, per
+/// plane its unbalance m e and phase.
+fn table_rows(
+    id: &Identification,
+    reference: Option<&RotorModel>,
+    std: Option<&StdSet>,
+    rls: Option<&crate::estimate::EstimateSet>,
+) -> Vec<Row> {
+    let omega = id.last.omega;
     let mut rows = Vec::new();
     for (m, b) in id.last.bearings.iter().enumerate() {
         let node = id
@@ -73,7 +134,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         let truth = reference
             .and_then(|r| r.bearings.get(m))
             .map(|rb| rb.law.at(omega));
-        let sd = std.as_ref().and_then(|x| x.bearings.get(m));
+        let sd = std.and_then(|x| x.bearings.get(m));
         for (e, name) in COEF.iter().enumerate() {
             rows.push(Row {
                 name: format!("b{}@{node} k{name}", m + 1),
@@ -100,7 +161,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
     for (k, u) in id.last.unbalance.iter().enumerate() {
         let node = id.param.plane_nodes.get(k).copied().unwrap_or(k);
         let truth = reference.and_then(|r| r.unbalance.iter().find(|t| t.node == node));
-        let sd = std.as_ref().and_then(|x| x.unbalance.get(k));
+        let sd = std.and_then(|x| x.unbalance.get(k));
         rows.push(Row {
             name: format!("n{} me", node + 1),
             value: u.me,
@@ -120,11 +181,19 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             unit: "deg",
         });
     }
+    rows
+}
+
+/// Writes the table's header and `rows` (with the QRD/RLS columns when
+/// `with_rls`); returns whether some error is absolute (a model value of
+/// 0 that is not a phase).
+fn write_rows(s: &mut String, rows: Vec<Row>, with_rls: bool) -> bool {
+    use std::fmt::Write;
     let _ = writeln!(
         s,
         "{:<14} {:>14} {:>10} {:>14} {:>14}{}",
         "quantity",
-        if rls.is_some() {
+        if with_rls {
             "output-error"
         } else {
             "identified"
@@ -132,7 +201,7 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
         "std",
         "model",
         "error",
-        if rls.is_some() {
+        if with_rls {
             format!(" {:>14} {:>14}", "QRD/RLS", "error")
         } else {
             String::new()
@@ -171,123 +240,100 @@ pub fn report_table(id: &Identification, reference: Option<&RotorModel>) -> Stri
             err_of(r.value)
         );
     }
-    if reference.is_some() {
-        let _ = writeln!(
-            s,
-            "error: relative, |value - model| / |model|; phases: absolute, in deg{}",
-            if absolute {
-                "; where the model value is 0: absolute, |value - model|, with its unit"
-            } else {
-                ""
-            }
-        );
-    }
-    if st.formulation == Formulation::Paper {
-        let _ = writeln!(
-            s,
-            "consistency (physically zero): Im Z0 (N/m), Re Z1 (N s/m)"
-        );
-        for (m, b) in id.last.bearings.iter().enumerate() {
-            if let (Some(i0), Some(r1)) = (b.im_z0, b.re_z1) {
-                let _ = writeln!(
-                    s,
-                    "b{} Im Z0 {:.3e} {:.3e} {:.3e} {:.3e}   Re Z1 {:.3e} {:.3e} {:.3e} {:.3e}",
-                    m + 1,
-                    i0[0],
-                    i0[1],
-                    i0[2],
-                    i0[3],
-                    r1[0],
-                    r1[1],
-                    r1[2],
-                    r1[3]
-                );
-            }
-        }
-    }
-    if std.is_some() {
-        let _ = writeln!(
-            s,
-            "std: one standard deviation ({}); 95 % interval: value +- 1.96 std",
-            if rls.is_some() {
-                "inverse Fisher information at the estimate"
-            } else {
-                "sandwich covariance of the QRD/RLS estimate"
-            }
-        );
-    }
-    if let Some(d) = id.refinement.as_ref().and_then(|r| r.design.as_ref()) {
-        let _ = writeln!(
-            s,
-            "design of the test (Cramer-Rao bounds at the noise level):"
-        );
-        for p in &d.parameters {
+    absolute
+}
+
+/// Writes the paper formulation's consistency terms (Im Z0, Re Z1, zero
+/// for a physical bearing) per bearing.
+fn write_consistency(s: &mut String, id: &Identification) {
+    use std::fmt::Write;
+    let _ = writeln!(
+        s,
+        "consistency (physically zero): Im Z0 (N/m), Re Z1 (N s/m)"
+    );
+    for (m, b) in id.last.bearings.iter().enumerate() {
+        if let (Some(i0), Some(r1)) = (b.im_z0, b.re_z1) {
             let _ = writeln!(
                 s,
-                "  {:<14} bound {:.2e} ({:.2e} of {:.3e}), measured between {:.0} and {:.0} rpm",
-                p.name,
-                p.crb,
-                p.crb / p.reference.max(f64::MIN_POSITIVE),
-                p.reference,
-                p.band_rpm.0,
-                p.band_rpm.1
-            );
-        }
-        for n in &d.notes {
-            let _ = writeln!(s, "  {n}");
-        }
-    }
-    if let Some(c) = &id.check {
-        let _ = writeln!(
-            s,
-            "noise level (from the data, without the model) {}; misfit {:.3e}; chi2/dof {}",
-            c.noise_level.map_or("-".into(), |x| format!("{x:.3e}")),
-            c.residual,
-            c.chi2_per_dof.map_or("-".into(), |x| format!("{x:.2}"))
-        );
-        let names = crate::io::measurement::default_channel_names(id.param.n_bearings());
-        if let Some(m) = c
-            .noise
-            .as_ref()
-            .filter(|m| m.has_floor() || m.source != NoiseSource::Estimated)
-        {
-            let floors: Vec<String> = m.floor_m.iter().map(|f| format!("{f:.2e}")).collect();
-            let _ = writeln!(
-                s,
-                "noise model ({}): floor {} m ({}), relative {:.3e}",
-                m.source.name(),
-                floors.join(", "),
-                names.join(", "),
-                m.relative
-            );
-        }
-        if !c.outliers.is_empty() {
-            let _ = writeln!(s, "outliers excluded from the fit: {}", c.outliers.len());
-            for o in &c.outliers {
-                let _ = writeln!(
-                    s,
-                    "  {} at {:.1} rpm: {:.1} standard deviations",
-                    names.get(o.channel).map_or("?", String::as_str),
-                    crate::units::rad_s_to_rpm(o.omega),
-                    o.sigmas
-                );
-            }
-        }
-    }
-    if let Some(r) = id.refinement.as_ref().filter(|r| !r.runout.is_empty()) {
-        let names = crate::io::measurement::default_channel_names(id.param.n_bearings());
-        let _ = writeln!(s, "runout fitted (m, deg; one standard deviation):");
-        for ((z, sd), n) in r.runout.iter().zip(&names) {
-            let _ = writeln!(
-                s,
-                "  {n:<6} {:.3e} at {:7.2} deg  +- {:.2e}",
-                z.norm(),
-                z.arg().to_degrees(),
-                sd
+                "b{} Im Z0 {:.3e} {:.3e} {:.3e} {:.3e}   Re Z1 {:.3e} {:.3e} {:.3e} {:.3e}",
+                m + 1,
+                i0[0],
+                i0[1],
+                i0[2],
+                i0[3],
+                r1[0],
+                r1[1],
+                r1[2],
+                r1[3]
             );
         }
     }
-    s
+}
+
+/// Writes the design of the test: each parameter's Cramer-Rao bound and
+/// the speeds that measure it, then the design's notes.
+fn write_design(s: &mut String, d: &crate::estimate::design::TestDesign) {
+    use std::fmt::Write;
+    let _ = writeln!(
+        s,
+        "design of the test (Cramer-Rao bounds at the noise level):"
+    );
+    for p in &d.parameters {
+        let _ = writeln!(
+            s,
+            "  {:<14} bound {:.2e} ({:.2e} of {:.3e}), measured between {:.0} and {:.0} rpm",
+            p.name,
+            p.crb,
+            p.crb / p.reference.max(f64::MIN_POSITIVE),
+            p.reference,
+            p.band_rpm.0,
+            p.band_rpm.1
+        );
+    }
+    for n in &d.notes {
+        let _ = writeln!(s, "  {n}");
+    }
+}
+
+/// Writes the check of the fit: noise level, misfit and chi2/dof, the noise
+/// model, and the outliers left out.
+fn write_fit_check(s: &mut String, id: &Identification, c: &crate::estimate::refine::FitCheck) {
+    use std::fmt::Write;
+    let _ = writeln!(
+        s,
+        "noise level (from the data, without the model) {}; misfit {:.3e}; chi2/dof {}",
+        c.noise_level.map_or("-".into(), |x| format!("{x:.3e}")),
+        c.residual,
+        c.chi2_per_dof.map_or("-".into(), |x| format!("{x:.2}"))
+    );
+    let names = crate::io::measurement::default_channel_names(id.param.n_bearings());
+    if let Some(m) = c
+        .noise
+        .as_ref()
+        .filter(|m| m.has_floor() || m.source != NoiseSource::Estimated)
+    {
+        let floors: Vec<String> = m.floor_m.iter().map(|f| format!("{f:.2e}")).collect();
+        let _ = writeln!(
+            s,
+            "noise model ({}): floor {} m ({}), relative {:.3e}",
+            m.source.name(),
+            floors.join(", "),
+            names.join(", "),
+            m.relative
+        );
+    }
+    if !c.outliers.is_empty() {
+        let _ = writeln!(s, "outliers excluded from the fit: {}", c.outliers.len());
+        for o in &c.outliers {
+            let _ = writeln!(
+                s,
+                "  {} at {:.1} rpm: {:.1} standard deviations",
+                names.get(o.channel).map_or("?", String::as_str),
+                crate::units::rad_s_to_rpm(o.omega),
+                o.sigmas
+            );
+        }
+    }
 }
 
 /// A reference curve drawn as a pale band 8 px wide in a light tint of
