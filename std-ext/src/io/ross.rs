@@ -929,6 +929,24 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
         );
     }
     let _ = writeln!(s);
+    write_shaft_elements(&mut s, model);
+    for (i, d) in model.disks.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "[\"DiskElement_Disk {i}\"]\nn = {}\nm = {}\nId = {}\nIp = {}\ntag = \"Disk {i}\"\nscale_factor = 1.0\n",
+            d.node,
+            f(d.mass),
+            f(d.id),
+            f(d.ip)
+        );
+    }
+    write_bearings(&mut s, model)?;
+    Ok(s)
+}
+
+/// [`to_ross_toml`]'s `ShaftElement` tables: the shaft elements, then
+/// their coaxial layers (on the same `n`), each with its material.
+fn write_shaft_elements(s: &mut String, model: &RotorModel) {
     let shear = model.theory == BeamTheory::Timoshenko;
     let sections = model
         .shaft
@@ -962,56 +980,14 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
             f(e.material.g),
         );
     }
-    for (i, d) in model.disks.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "[\"DiskElement_Disk {i}\"]\nn = {}\nm = {}\nId = {}\nIp = {}\ntag = \"Disk {i}\"\nscale_factor = 1.0\n",
-            d.node,
-            f(d.mass),
-            f(d.id),
-            f(d.ip)
-        );
-    }
+}
+
+/// [`to_ross_toml`]'s bearings, each pedestal after its bearing as a
+/// `PointMass` on a new node past the shaft with a bearing to ground.
+/// Polynomial and dynamic-stiffness laws are refused.
+fn write_bearings(s: &mut String, model: &RotorModel) -> Result<(), RossError> {
+    let damping = model.rotor_damping;
     let mut next_node = model.n_nodes();
-    let bearing_table = |s: &mut String,
-                         tag: &str,
-                         n: usize,
-                         link: Option<usize>,
-                         speeds: Option<(&[f64], TableInterpolation)>,
-                         co: &[BearingCoefficients]| {
-        let _ = writeln!(s, "[\"BearingElement_{tag}\"]\nn = {n}");
-        if let Some(p) = link {
-            let _ = writeln!(s, "n_link = {p}");
-        }
-        let names_k = ["kxx", "kxy", "kyx", "kyy"];
-        let names_c = ["cxx", "cxy", "cyx", "cyy"];
-        for (j, name) in names_k.iter().enumerate() {
-            let v: Vec<f64> = co.iter().map(|c| c.k[j]).collect();
-            let _ = writeln!(s, "{name} = {}", arr(&v));
-        }
-        for (j, name) in names_c.iter().enumerate() {
-            let v: Vec<f64> = co.iter().map(|c| c.c[j]).collect();
-            let _ = writeln!(s, "{name} = {}", arr(&v));
-        }
-        // Axial and mass coefficients, zero (as ROSS 2.x writes them).
-        let zeros = vec![0.0; co.len()];
-        for key in ["kzz", "czz", "mxx", "mxy", "myx", "myy", "mzz"] {
-            let _ = writeln!(s, "{key} = {}", arr(&zeros));
-        }
-        if let Some((w, kind)) = speeds {
-            let _ = writeln!(s, "speed = {}", arr(w));
-            match kind {
-                TableInterpolation::LinearHold => {}
-                TableInterpolation::LinearExtrapolate => {
-                    let _ = writeln!(s, "interpolation = \"linear\"");
-                }
-                TableInterpolation::Pchip => {
-                    let _ = writeln!(s, "interpolation = \"pchip\"");
-                }
-            }
-        }
-        let _ = writeln!(s, "tag = \"{tag}\"\nscale_factor = 1\n");
-    };
     for (i, b) in model.bearings.iter().enumerate() {
         type Axis<'a> = Option<(&'a [f64], TableInterpolation)>;
         let (speeds, co): (Axis, Vec<BearingCoefficients>) = match &b.law {
@@ -1035,7 +1011,7 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
             next_node += 1;
             next_node - 1
         });
-        bearing_table(&mut s, &format!("Bearing {i}"), b.node, link, speeds, &co);
+        write_bearing_element(s, &format!("Bearing {i}"), b.node, link, speeds, &co);
         if let (Some(p), Some(ped)) = (link, b.pedestal) {
             // `m` for one mass; `mx`, `my` (and `mz`, axial, unused here:
             // equal to `my`) for two, as ROSS writes a PointMass.
@@ -1063,10 +1039,55 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
                     ped.c[1] - damping.alpha * ped.mass[1],
                 ],
             };
-            bearing_table(&mut s, &format!("Support {i}"), p, None, None, &[g]);
+            write_bearing_element(s, &format!("Support {i}"), p, None, None, &[g]);
         }
     }
-    Ok(s)
+    Ok(())
+}
+
+/// One `BearingElement` table: on node `n` (linked to node `link`), the
+/// coefficients `co`, one set or one per speed of `speeds` with its
+/// interpolation.
+fn write_bearing_element(
+    s: &mut String,
+    tag: &str,
+    n: usize,
+    link: Option<usize>,
+    speeds: Option<(&[f64], TableInterpolation)>,
+    co: &[BearingCoefficients],
+) {
+    let _ = writeln!(s, "[\"BearingElement_{tag}\"]\nn = {n}");
+    if let Some(p) = link {
+        let _ = writeln!(s, "n_link = {p}");
+    }
+    let names_k = ["kxx", "kxy", "kyx", "kyy"];
+    let names_c = ["cxx", "cxy", "cyx", "cyy"];
+    for (j, name) in names_k.iter().enumerate() {
+        let v: Vec<f64> = co.iter().map(|c| c.k[j]).collect();
+        let _ = writeln!(s, "{name} = {}", arr(&v));
+    }
+    for (j, name) in names_c.iter().enumerate() {
+        let v: Vec<f64> = co.iter().map(|c| c.c[j]).collect();
+        let _ = writeln!(s, "{name} = {}", arr(&v));
+    }
+    // Axial and mass coefficients, zero (as ROSS 2.x writes them).
+    let zeros = vec![0.0; co.len()];
+    for key in ["kzz", "czz", "mxx", "mxy", "myx", "myy", "mzz"] {
+        let _ = writeln!(s, "{key} = {}", arr(&zeros));
+    }
+    if let Some((w, kind)) = speeds {
+        let _ = writeln!(s, "speed = {}", arr(w));
+        match kind {
+            TableInterpolation::LinearHold => {}
+            TableInterpolation::LinearExtrapolate => {
+                let _ = writeln!(s, "interpolation = \"linear\"");
+            }
+            TableInterpolation::Pchip => {
+                let _ = writeln!(s, "interpolation = \"pchip\"");
+            }
+        }
+    }
+    let _ = writeln!(s, "tag = \"{tag}\"\nscale_factor = 1\n");
 }
 
 /// Speeds of the table that [`tabulate_for_ross`] writes for a bearing law
