@@ -32,6 +32,8 @@
 //! singular `F` still gives an analysis.
 
 use nalgebra::DMatrix;
+use num_complex::Complex64;
+use rotorid_core::parametrization::BearingEstimate;
 
 use crate::estimate::noise::NoiseModel;
 use crate::estimate::output_error::{fisher_information_weighted, OutputErrorError, Weighting};
@@ -120,19 +122,7 @@ pub fn analyse_weighted(
 ) -> Result<TestDesign, OutputErrorError> {
     let np = pr.n_params();
     let floor = 1e-6;
-    let fisher_information = |pr: &Predictor,
-                              samples: &[Sample],
-                              terms: &[Terms],
-                              theta: &[f64],
-                              floor: f64|
-     -> Result<DMatrix<f64>, OutputErrorError> {
-        let w = match model {
-            Some(m) => Weighting::of_noise(samples, floor, m),
-            None => Weighting::proportional(samples, floor),
-        };
-        fisher_information_weighted(pr, samples, terms, theta, &w)
-    };
-    let total = fisher_information(pr, samples, terms, theta, floor)?;
+    let total = fisher_information(pr, samples, terms, theta, floor, model)?;
     let Spectral { cov: pseudo, null } = spectral_inverse(&total);
     let cov = invert(&total).unwrap_or(pseudo);
     // Per-speed diagonals, in speed order.
@@ -146,75 +136,20 @@ pub fn analyse_weighted(
             std::slice::from_ref(&terms[n]),
             theta,
             floor,
+            model,
         )?;
         diag.push((0..np).map(|i| f[(i, i)]).collect::<Vec<f64>>());
     }
     let scale = |i: usize| pr.param.scale(pr.params[i].unknown);
-    let name = |i: usize| {
-        let base = pr.param.name(pr.params[i].unknown);
-        if pr.param.structure.is_complex() {
-            format!(
-                "{base} {}",
-                if pr.params[i].imaginary { "im" } else { "re" }
-            )
-        } else {
-            base
-        }
-    };
+    let name = |i: usize| parameter_name(pr, i);
     let w = pr.weights(theta);
-    let physical = |j: usize| w[j] * pr.param.scale(j);
     let nb = pr.param.n_bearings();
     let top = samples.iter().map(|s| s.omega).fold(0.0, f64::max);
     // The bearing laws at the top speed (direct entries yy, zz: 0 and 3).
     let laws: Vec<Option<_>> = (0..nb).map(|m| pr.param.bearing(&w, m, top)).collect();
-    let reference = |i: usize| -> f64 {
-        use rotorid_core::parametrization::{BearingTerm, Unknown};
-        let st = &pr.param.structure;
-        match pr.param.unknown(pr.params[i].unknown) {
-            Some(Unknown::Bearing { bearing, term, .. }) => {
-                let own = [(0, 0), (1, 1)]
-                    .iter()
-                    .filter_map(|&(r, c)| st.bearing_index(bearing, r, c, term))
-                    .map(|j| physical(j).norm())
-                    .fold(0.0, f64::max);
-                let law = laws.get(bearing).copied().flatten();
-                let direct = |v: [f64; 4]| v[0].abs().max(v[3].abs());
-                let at_top = match (term, law) {
-                    (BearingTerm::K { power }, Some(l)) => direct(l.k) / top.powi(power as i32),
-                    (BearingTerm::C { power }, Some(l)) => direct(l.c) / top.powi(power as i32),
-                    (BearingTerm::Z { power: 0 }, Some(l)) => [0, 3]
-                        .iter()
-                        .map(|&e| l.k[e].hypot(top * l.c[e]))
-                        .fold(0.0, f64::max),
-                    _ => 0.0,
-                };
-                own.max(if at_top.is_finite() { at_top } else { 0.0 })
-            }
-            Some(Unknown::Unbalance { plane, .. }) => {
-                let j = st.plane_index(nb, plane);
-                if st.is_complex() {
-                    physical(j).norm()
-                } else {
-                    physical(j).re.hypot(physical(j + 1).re)
-                }
-            }
-            None => 0.0,
-        }
-    };
     let mut parameters = Vec::with_capacity(np);
     for i in 0..np {
-        let sum: f64 = diag.iter().map(|d| d[i]).sum();
-        let (mut lo, mut hi, mut acc) = (None, None, 0.0);
-        for (k, d) in diag.iter().enumerate() {
-            acc += d[i];
-            let rpm = rad_s_to_rpm(samples[order[k]].omega);
-            if lo.is_none() && acc >= 0.1 * sum {
-                lo = Some(rpm);
-            }
-            if hi.is_none() && acc >= 0.9 * sum {
-                hi = Some(rpm);
-            }
-        }
+        let band_rpm = information_band(&diag, i, samples, &order);
         parameters.push(ParameterDesign {
             name: name(i),
             value: theta[i] * scale(i),
@@ -223,8 +158,8 @@ pub fn analyse_weighted(
             } else {
                 noise * cov[(i, i)].max(0.0).sqrt() * scale(i)
             },
-            reference: reference(i),
-            band_rpm: (lo.unwrap_or(0.0), hi.unwrap_or(0.0)),
+            reference: reference_magnitude(pr, &w, &laws, top, i),
+            band_rpm,
         });
     }
     let mut correlated = Vec::new();
@@ -236,63 +171,24 @@ pub fn analyse_weighted(
             }
         }
     }
-    let mut notes = Vec::new();
-    let relative = |p: &ParameterDesign| p.crb / p.reference.max(f64::MIN_POSITIVE);
-    for p in &parameters {
-        if p.crb.is_infinite() {
-            notes.push(format!(
-                "{}: in a combination of parameters these data do not see (near-null space of the Fisher information): these data do not determine it",
-                p.name
-            ));
-        } else if relative(p) > UNDETERMINED {
-            notes.push(format!(
-                "{}: Cramér-Rao bound {:.0} % of its reference magnitude {:.3e}: these data do not determine it",
-                p.name,
-                100.0 * relative(p),
-                p.reference
-            ));
-        }
-    }
-    for (a, b, r) in &correlated {
-        notes.push(format!(
-            "{a} and {b} are hard to tell apart (correlation {r:+.3})"
-        ));
-    }
+    let mut notes = design_notes(&parameters, &correlated);
     // Where the least well determined parameter is measured, and what twice
     // the speeds there would gain for every parameter.
     let worst = (0..np)
         .filter(|&i| !null[i])
-        .max_by(|&a, &b| relative(&parameters[a]).total_cmp(&relative(&parameters[b])));
+        .max_by(|&a, &b| relative_bound(&parameters[a]).total_cmp(&relative_bound(&parameters[b])));
     if let Some(w) = worst {
-        let (lo, hi) = parameters[w].band_rpm;
-        let band: Vec<usize> = (0..samples.len())
-            .filter(|&n| {
-                let r = rad_s_to_rpm(samples[n].omega);
-                r >= lo && r <= hi
-            })
-            .collect();
-        if !band.is_empty() && band.len() < samples.len() {
-            let s_band: Vec<Sample> = band.iter().map(|&n| samples[n].clone()).collect();
-            let t_band: Vec<Terms> = band.iter().map(|&n| terms[n].clone()).collect();
-            let f_band = fisher_information(pr, &s_band, &t_band, theta, floor)?;
-            if let Some(c2) = invert(&(&total + f_band)) {
-                let gain = |i: usize| 1.0 - (c2[(i, i)] / cov[(i, i)]).max(0.0).sqrt();
-                let g: Vec<f64> = (0..np).map(gain).collect();
-                notes.push(format!(
-                    "{} is measured mostly between {lo:.0} and {hi:.0} rpm ({} of {} speeds): twice the speeds there (a slower sweep) would lower its bound by {:.0} % (every bound by {:.0} to {:.0} %)",
-                    parameters[w].name,
-                    band.len(),
-                    samples.len(),
-                    100.0 * g[w],
-                    100.0 * g.iter().copied().fold(f64::INFINITY, f64::min),
-                    100.0 * g.iter().copied().fold(0.0, f64::max),
-                ));
-            }
+        let fisher_band =
+            |s: &[Sample], t: &[Terms]| fisher_information(pr, s, t, theta, floor, model);
+        if let Some(note) =
+            slower_sweep_note(samples, terms, &total, &cov, &parameters, w, fisher_band)?
+        {
+            notes.push(note);
         }
     }
     let undetermined = parameters
         .iter()
-        .filter(|p| p.crb.is_infinite() || relative(p) > UNKNOWN_MAGNITUDE)
+        .filter(|p| p.crb.is_infinite() || relative_bound(p) > UNKNOWN_MAGNITUDE)
         .map(|p| p.name.clone())
         .collect();
     Ok(TestDesign {
@@ -301,6 +197,185 @@ pub fn analyse_weighted(
         notes,
         undetermined,
     })
+}
+
+/// The Fisher information of `samples` at `theta`, weighted by the noise
+/// model `model` (`None`: proportional noise) with the relative `floor`.
+fn fisher_information(
+    pr: &Predictor,
+    samples: &[Sample],
+    terms: &[Terms],
+    theta: &[f64],
+    floor: f64,
+    model: Option<&NoiseModel>,
+) -> Result<DMatrix<f64>, OutputErrorError> {
+    let w = match model {
+        Some(m) => Weighting::of_noise(samples, floor, m),
+        None => Weighting::proportional(samples, floor),
+    };
+    fisher_information_weighted(pr, samples, terms, theta, &w)
+}
+
+/// The name of parameter `i` (with `re` or `im` for a complex structure).
+fn parameter_name(pr: &Predictor, i: usize) -> String {
+    let base = pr.param.name(pr.params[i].unknown);
+    if pr.param.structure.is_complex() {
+        format!(
+            "{base} {}",
+            if pr.params[i].imaginary { "im" } else { "re" }
+        )
+    } else {
+        base
+    }
+}
+
+/// The speeds (rpm) between which parameter `i` gathers 10 % and 90 % of
+/// its information: `diag` holds the per-speed diagonals of the Fisher
+/// information in the speed order `order` of `samples`.
+fn information_band(
+    diag: &[Vec<f64>],
+    i: usize,
+    samples: &[Sample],
+    order: &[usize],
+) -> (f64, f64) {
+    let sum: f64 = diag.iter().map(|d| d[i]).sum();
+    let (mut lo, mut hi, mut acc) = (None, None, 0.0);
+    for (k, d) in diag.iter().enumerate() {
+        acc += d[i];
+        let rpm = rad_s_to_rpm(samples[order[k]].omega);
+        if lo.is_none() && acc >= 0.1 * sum {
+            lo = Some(rpm);
+        }
+        if hi.is_none() && acc >= 0.9 * sum {
+            hi = Some(rpm);
+        }
+    }
+    (lo.unwrap_or(0.0), hi.unwrap_or(0.0))
+}
+
+/// The magnitude parameter `i`'s bound is measured against: for a bearing
+/// term the larger of its direct estimates and its part of the estimated
+/// law `laws` at the top speed `top`; for an unbalance its estimated
+/// magnitude (`w`: the estimate's weights).
+fn reference_magnitude(
+    pr: &Predictor,
+    w: &[Complex64],
+    laws: &[Option<BearingEstimate<f64>>],
+    top: f64,
+    i: usize,
+) -> f64 {
+    use rotorid_core::parametrization::{BearingTerm, Unknown};
+    let physical = |j: usize| w[j] * pr.param.scale(j);
+    let nb = pr.param.n_bearings();
+    let st = &pr.param.structure;
+    match pr.param.unknown(pr.params[i].unknown) {
+        Some(Unknown::Bearing { bearing, term, .. }) => {
+            let own = [(0, 0), (1, 1)]
+                .iter()
+                .filter_map(|&(r, c)| st.bearing_index(bearing, r, c, term))
+                .map(|j| physical(j).norm())
+                .fold(0.0, f64::max);
+            let law = laws.get(bearing).copied().flatten();
+            let direct = |v: [f64; 4]| v[0].abs().max(v[3].abs());
+            let at_top = match (term, law) {
+                (BearingTerm::K { power }, Some(l)) => direct(l.k) / top.powi(power as i32),
+                (BearingTerm::C { power }, Some(l)) => direct(l.c) / top.powi(power as i32),
+                (BearingTerm::Z { power: 0 }, Some(l)) => [0, 3]
+                    .iter()
+                    .map(|&e| l.k[e].hypot(top * l.c[e]))
+                    .fold(0.0, f64::max),
+                _ => 0.0,
+            };
+            own.max(if at_top.is_finite() { at_top } else { 0.0 })
+        }
+        Some(Unknown::Unbalance { plane, .. }) => {
+            let j = st.plane_index(nb, plane);
+            if st.is_complex() {
+                physical(j).norm()
+            } else {
+                physical(j).re.hypot(physical(j + 1).re)
+            }
+        }
+        None => 0.0,
+    }
+}
+
+/// A parameter's Cramér-Rao bound relative to its reference magnitude.
+fn relative_bound(p: &ParameterDesign) -> f64 {
+    p.crb / p.reference.max(f64::MIN_POSITIVE)
+}
+
+/// The notes on the parameters these data do not determine and on the
+/// `correlated` pairs.
+fn design_notes(
+    parameters: &[ParameterDesign],
+    correlated: &[(String, String, f64)],
+) -> Vec<String> {
+    let mut notes = Vec::new();
+    for p in parameters {
+        if p.crb.is_infinite() {
+            notes.push(format!(
+                "{}: in a combination of parameters these data do not see (near-null space of the Fisher information): these data do not determine it",
+                p.name
+            ));
+        } else if relative_bound(p) > UNDETERMINED {
+            notes.push(format!(
+                "{}: Cramér-Rao bound {:.0} % of its reference magnitude {:.3e}: these data do not determine it",
+                p.name,
+                100.0 * relative_bound(p),
+                p.reference
+            ));
+        }
+    }
+    for (a, b, r) in correlated {
+        notes.push(format!(
+            "{a} and {b} are hard to tell apart (correlation {r:+.3})"
+        ));
+    }
+    notes
+}
+
+/// The note on the least well determined parameter `w`: the speeds where
+/// it is measured and what twice those speeds would lower every bound by
+/// (`total`, `cov`: the Fisher information and covariance of all the
+/// data; `fisher_band`: the Fisher information of some of them). `None`
+/// when the band is empty or all the speeds, or the sum is singular.
+fn slower_sweep_note(
+    samples: &[Sample],
+    terms: &[Terms],
+    total: &DMatrix<f64>,
+    cov: &DMatrix<f64>,
+    parameters: &[ParameterDesign],
+    w: usize,
+    fisher_band: impl Fn(&[Sample], &[Terms]) -> Result<DMatrix<f64>, OutputErrorError>,
+) -> Result<Option<String>, OutputErrorError> {
+    let np = parameters.len();
+    let (lo, hi) = parameters[w].band_rpm;
+    let band: Vec<usize> = (0..samples.len())
+        .filter(|&n| {
+            let r = rad_s_to_rpm(samples[n].omega);
+            r >= lo && r <= hi
+        })
+        .collect();
+    if !band.is_empty() && band.len() < samples.len() {
+        let s_band: Vec<Sample> = band.iter().map(|&n| samples[n].clone()).collect();
+        let t_band: Vec<Terms> = band.iter().map(|&n| terms[n].clone()).collect();
+        let f_band = fisher_band(&s_band, &t_band)?;
+        if let Some(c2) = invert(&(total + f_band)) {
+            let gain = |i: usize| 1.0 - (c2[(i, i)] / cov[(i, i)]).max(0.0).sqrt();
+            let g: Vec<f64> = (0..np).map(gain).collect();
+            return Ok(Some(format!(
+                "{} is measured mostly between {lo:.0} and {hi:.0} rpm ({} of {} speeds): twice the speeds there (a slower sweep) would lower its bound by {:.0} % (every bound by {:.0} to {:.0} %)",
+                parameters[w].name,
+                band.len(),
+                samples.len(),
+                100.0 * g[w],
+                100.0 * g.iter().copied().fold(f64::INFINITY, f64::min),
+                100.0 * g.iter().copied().fold(0.0, f64::max),
+            )));
+        }
+    }
+    Ok(None)
 }
 
 /// The inverse of a Fisher information on the directions the data see,

@@ -1138,6 +1138,7 @@ pub fn fit_output_error_with(
 
 /// [`fit_output_error_with`], the runout solved for (`iv_runout`) or held
 /// in the instrumental-variable passes.
+// Long (~300 lines): one pass through the fit's stages sharing its state (the pass at `theta` and its weights, `at` and `reweighted`); pieces would each take and return all of it.
 fn fit_from(
     pr: &Predictor,
     samples: &[Sample],

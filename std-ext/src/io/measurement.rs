@@ -517,68 +517,10 @@ pub fn parse_csv_conventions(
             });
         }
         if !std_names.is_empty() {
-            let mut row = Vec::with_capacity(std_names.len());
-            for (col, name) in &std_names {
-                let f = all[*col];
-                let v: f64 = f.parse().map_err(|_| MeasurementError::Field {
-                    line: line_no,
-                    index: col + 1,
-                    column: name.clone(),
-                    reason: format!("not a number: {:?}", clip(f)),
-                })?;
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(MeasurementError::Field {
-                        line: line_no,
-                        index: col + 1,
-                        column: name.clone(),
-                        reason: format!(
-                            "a standard deviation must be finite and > 0, got {}",
-                            clip(f)
-                        ),
-                    });
-                }
-                // In metres, 0-pk: a huge rms value or a subnormal one in
-                // mils can leave the finite positive range.
-                let metres = conventions.amplitude_to_metres(v);
-                if !(metres.is_finite() && metres > 0.0) {
-                    return Err(MeasurementError::Field {
-                        line: line_no,
-                        index: col + 1,
-                        column: name.clone(),
-                        reason: format!(
-                            "{} ({} {}) is {metres:e} m, not a standard deviation",
-                            clip(f),
-                            conventions.amplitude_unit,
-                            conventions.amplitude
-                        ),
-                    });
-                }
-                row.push(metres);
-            }
-            sample_std.push(row);
+            sample_std.push(row_std(line_no, &all, &std_names, &conventions)?);
         }
         let fields: Vec<&str> = kept.iter().map(|&i| all[i]).collect();
-        // 1-based column in the file of the `i`-th kept field (0-based).
-        let file_col = |i: usize| kept.get(i).map_or(i, |k| *k) + 1;
-        let mut values = Vec::with_capacity(fields.len());
-        for (col, (f, name)) in fields.iter().zip(names.iter()).enumerate() {
-            let field_err = |reason: String| MeasurementError::Field {
-                line: line_no,
-                index: file_col(col),
-                column: name.clone(),
-                reason,
-            };
-            let v: f64 = f
-                .parse()
-                .map_err(|_| field_err(format!("not a number: {:?}", clip(f))))?;
-            if !v.is_finite() {
-                return Err(field_err(format!("not finite: {:?}", clip(f))));
-            }
-            if (name == "speed_rpm" || name.ends_with("_amp")) && v < 0.0 {
-                return Err(field_err(format!("must be >= 0, got {}", clip(f))));
-            }
-            values.push(v);
-        }
+        let values = row_values(line_no, &fields, names, &kept)?;
         let mut q = values[1..]
             .chunks_exact(2)
             .map(|p| match layout {
@@ -587,27 +529,7 @@ pub fn parse_csv_conventions(
             })
             .collect::<Vec<_>>();
         debug_assert_eq!(q.len(), 2 * n_b + 2 * node_probes.len());
-        let omega = rpm_to_rad_s(values[0]);
-        if !omega.is_finite() {
-            return Err(MeasurementError::Field {
-                line: line_no,
-                index: 1,
-                column: "speed_rpm".into(),
-                reason: format!("too large: {}", clip(fields[0])),
-            });
-        }
-        if let Some(col) = q
-            .iter()
-            .position(|z| !(z.re.is_finite() && z.im.is_finite()))
-        {
-            // An amplitude near f64::MAX times cos/sin of its phase.
-            return Err(MeasurementError::Field {
-                line: line_no,
-                index: file_col(1 + 2 * col),
-                column: names[1 + 2 * col].clone(),
-                reason: format!("too large: {}", clip(fields[1 + 2 * col])),
-            });
-        }
+        let omega = row_omega(line_no, &values, &q, &fields, names, &kept)?;
         if !node_probes.is_empty() {
             node_q.push(q.split_off(2 * n_b));
         }
@@ -649,6 +571,127 @@ pub fn parse_csv_conventions(
             conventions_line: declared.map(|(l, _)| l),
         },
     ))
+}
+
+/// The `_std` values of a data row (`all`, every field of line `line_no`)
+/// in metres 0-pk: the columns `std_names` (0-based index, name), each
+/// finite and > 0 in the file's `conventions` and in metres.
+fn row_std(
+    line_no: usize,
+    all: &[&str],
+    std_names: &[(usize, String)],
+    conventions: &Conventions,
+) -> Result<Vec<f64>, MeasurementError> {
+    let mut row = Vec::with_capacity(std_names.len());
+    for (col, name) in std_names {
+        let f = all[*col];
+        let v: f64 = f.parse().map_err(|_| MeasurementError::Field {
+            line: line_no,
+            index: col + 1,
+            column: name.clone(),
+            reason: format!("not a number: {:?}", clip(f)),
+        })?;
+        if !(v.is_finite() && v > 0.0) {
+            return Err(MeasurementError::Field {
+                line: line_no,
+                index: col + 1,
+                column: name.clone(),
+                reason: format!(
+                    "a standard deviation must be finite and > 0, got {}",
+                    clip(f)
+                ),
+            });
+        }
+        // In metres, 0-pk: a huge rms value or a subnormal one in
+        // mils can leave the finite positive range.
+        let metres = conventions.amplitude_to_metres(v);
+        if !(metres.is_finite() && metres > 0.0) {
+            return Err(MeasurementError::Field {
+                line: line_no,
+                index: col + 1,
+                column: name.clone(),
+                reason: format!(
+                    "{} ({} {}) is {metres:e} m, not a standard deviation",
+                    clip(f),
+                    conventions.amplitude_unit,
+                    conventions.amplitude
+                ),
+            });
+        }
+        row.push(metres);
+    }
+    Ok(row)
+}
+
+/// 1-based column in the file of the `i`-th (0-based) of the `kept` (value)
+/// fields.
+fn file_column(kept: &[usize], i: usize) -> usize {
+    kept.get(i).map_or(i, |k| *k) + 1
+}
+
+/// The numbers of a data row's value `fields` (columns `names`; `kept`:
+/// their 0-based columns in the file), finite, speeds and amplitudes >= 0.
+fn row_values(
+    line_no: usize,
+    fields: &[&str],
+    names: &[String],
+    kept: &[usize],
+) -> Result<Vec<f64>, MeasurementError> {
+    let mut values = Vec::with_capacity(fields.len());
+    for (col, (f, name)) in fields.iter().zip(names.iter()).enumerate() {
+        let field_err = |reason: String| MeasurementError::Field {
+            line: line_no,
+            index: file_column(kept, col),
+            column: name.clone(),
+            reason,
+        };
+        let v: f64 = f
+            .parse()
+            .map_err(|_| field_err(format!("not a number: {:?}", clip(f))))?;
+        if !v.is_finite() {
+            return Err(field_err(format!("not finite: {:?}", clip(f))));
+        }
+        if (name == "speed_rpm" || name.ends_with("_amp")) && v < 0.0 {
+            return Err(field_err(format!("must be >= 0, got {}", clip(f))));
+        }
+        values.push(v);
+    }
+    Ok(values)
+}
+
+/// A data row's speed (rad/s) from its `values`, once it and the row's
+/// phasors `q` are found finite (`fields`, `names`, `kept` as for
+/// [`row_values`], to name the culprit).
+fn row_omega(
+    line_no: usize,
+    values: &[f64],
+    q: &[Complex64],
+    fields: &[&str],
+    names: &[String],
+    kept: &[usize],
+) -> Result<f64, MeasurementError> {
+    let omega = rpm_to_rad_s(values[0]);
+    if !omega.is_finite() {
+        return Err(MeasurementError::Field {
+            line: line_no,
+            index: 1,
+            column: "speed_rpm".into(),
+            reason: format!("too large: {}", clip(fields[0])),
+        });
+    }
+    if let Some(col) = q
+        .iter()
+        .position(|z| !(z.re.is_finite() && z.im.is_finite()))
+    {
+        // An amplitude near f64::MAX times cos/sin of its phase.
+        return Err(MeasurementError::Field {
+            line: line_no,
+            index: file_column(kept, 1 + 2 * col),
+            column: names[1 + 2 * col].clone(),
+            reason: format!("too large: {}", clip(fields[1 + 2 * col])),
+        });
+    }
+    Ok(omega)
 }
 
 /// The header `line` without its `_std` columns, and those columns (0-based

@@ -493,19 +493,77 @@ fn parse_channel(field: &str, s: &str, n_bearings: usize) -> Result<Channel, Mod
 pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
     let raw: RawFile = deserialize_toml(text)?;
 
-    let theory = match raw.theory.as_deref() {
-        None | Some("timoshenko") => BeamTheory::Timoshenko,
-        Some("euler-bernoulli") => BeamTheory::EulerBernoulli,
-        Some(other) => {
-            return Err(ModelFileError::field(
-                "theory",
-                format!("unknown beam theory `{other}` (timoshenko, euler-bernoulli)"),
-            ))
-        }
-    };
+    let theory = beam_theory(raw.theory.as_deref())?;
+    let materials = materials(&raw.materials)?;
+    let shaft = shaft_elements(&raw.shaft, &materials)?;
+    let n_nodes = shaft.len() + 1;
 
+    let mut disks = Vec::new();
+    for (i, d) in raw.disk.iter().enumerate() {
+        disks.push(disk(i, d, n_nodes, &materials)?);
+    }
+
+    let (bearings, probes) = bearings(&raw.bearing, n_nodes)?;
+
+    let mut planes = Vec::new();
+    for (i, &p) in raw.planes.iter().enumerate() {
+        planes.push(node(&format!("planes[{}]", i + 1), p, n_nodes)?);
+    }
+
+    let unbalance = raw
+        .unbalance
+        .iter()
+        .enumerate()
+        .map(|(i, u)| unbalance_entry(&format!("unbalance[{}]", i + 1), u, n_nodes))
+        .collect::<Result<Vec<_>, _>>()?;
+
+    let bow = shaft_bow(&raw.bow, n_nodes)?;
+    let probe_reference = probe_reference(raw.probes.as_deref())?;
+    let model = RotorModel {
+        name: raw.name.unwrap_or_else(|| "model".into()),
+        theory,
+        shaft,
+        disks,
+        bearings,
+        planes,
+        unbalance,
+        bow,
+        probes: probe_reference,
+        rotor_damping: ProportionalDamping::default(),
+        shaft_layers: Vec::new(),
+    };
+    model.validate()?;
+
+    let effects = match &raw.simulate {
+        Some(s) => effects(s, model.bearings.len(), n_nodes)?,
+        None => Effects::default(),
+    };
+    Ok(ModelFile {
+        model,
+        effects,
+        probes,
+    })
+}
+
+/// The top-level `theory` key: Timoshenko (the default) or Euler-Bernoulli.
+fn beam_theory(theory: Option<&str>) -> Result<BeamTheory, ModelFileError> {
+    match theory {
+        None | Some("timoshenko") => Ok(BeamTheory::Timoshenko),
+        Some("euler-bernoulli") => Ok(BeamTheory::EulerBernoulli),
+        Some(other) => Err(ModelFileError::field(
+            "theory",
+            format!("unknown beam theory `{other}` (timoshenko, euler-bernoulli)"),
+        )),
+    }
+}
+
+/// The `[materials.<name>]` tables: E, density and either Poisson's ratio
+/// or the shear modulus, by name.
+fn materials(
+    raw: &BTreeMap<String, RawMaterial>,
+) -> Result<BTreeMap<String, Material>, ModelFileError> {
     let mut materials = BTreeMap::new();
-    for (name, m) in &raw.materials {
+    for (name, m) in raw {
         let f = |k: &str| format!("materials.{name}.{k}");
         let e = plausible(&f("e"), m.e, YOUNG)?;
         let rho = plausible(&f("rho"), m.rho, DENSITY)?;
@@ -535,23 +593,38 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         };
         materials.insert(name.clone(), mat);
     }
-    let material = |field: String, name: &str| -> Result<Material, ModelFileError> {
-        materials.get(name).cloned().ok_or_else(|| {
-            ModelFileError::field(
-                field,
-                format!(
-                    "unknown material `{name}` (defined: {})",
-                    materials.keys().cloned().collect::<Vec<_>>().join(", ")
-                ),
-            )
-        })
-    };
+    Ok(materials)
+}
 
-    if raw.shaft.is_empty() {
+/// The material `name` refers to (reported against `field` when it is not
+/// defined).
+fn material(
+    materials: &BTreeMap<String, Material>,
+    field: String,
+    name: &str,
+) -> Result<Material, ModelFileError> {
+    materials.get(name).cloned().ok_or_else(|| {
+        ModelFileError::field(
+            field,
+            format!(
+                "unknown material `{name}` (defined: {})",
+                materials.keys().cloned().collect::<Vec<_>>().join(", ")
+            ),
+        )
+    })
+}
+
+/// The `[[shaft]]` sections, each cut into its `elements` equal shaft
+/// elements.
+fn shaft_elements(
+    sections: &[RawSection],
+    materials: &BTreeMap<String, Material>,
+) -> Result<Vec<ShaftElement>, ModelFileError> {
+    if sections.is_empty() {
         return Err(ModelFileError::field("shaft", "needs at least one section"));
     }
     let mut shaft = Vec::new();
-    for (i, s) in raw.shaft.iter().enumerate() {
+    for (i, s) in sections.iter().enumerate() {
         let f = |k: &str| format!("shaft[{}].{k}", i + 1);
         let length = plausible(&f("length"), s.length, LENGTH)?;
         let od = plausible(&f("outer_diameter"), s.outer_diameter, DIAMETER)?;
@@ -583,7 +656,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
                 ),
             ));
         }
-        let mat = material(f("material"), &s.material)?;
+        let mat = material(materials, f("material"), &s.material)?;
         for _ in 0..s.elements {
             shaft.push(ShaftElement {
                 length: length / s.elements as f64,
@@ -593,86 +666,111 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
             });
         }
     }
-    let n_nodes = shaft.len() + 1;
+    Ok(shaft)
+}
 
-    let mut disks = Vec::new();
-    for (i, d) in raw.disk.iter().enumerate() {
-        let f = |k: &str| format!("disk[{}].{k}", i + 1);
-        let n = node(&f("node"), d.node, n_nodes)?;
-        let geometry = d.outer_diameter.is_some() || d.thickness.is_some();
-        let inertia = d.mass.is_some() || d.id.is_some() || d.ip.is_some();
-        let disk =
-            match (geometry, inertia) {
-                (true, true) => return Err(ModelFileError::field(
-                    f("mass"),
-                    "give either geometry (outer_diameter, thickness, ...) or mass/id/ip, not both",
-                )),
-                (false, false) => {
-                    return Err(ModelFileError::field(
-                        f("mass"),
-                        "missing: give mass, id, ip or outer_diameter, thickness and a density",
-                    ))
-                }
-                (false, true) => {
-                    let get = |k: &str, v: Option<f64>| -> Result<f64, ModelFileError> {
-                        let range = if k == "mass" { MASS } else { INERTIA };
-                        match v {
-                            Some(v) => plausible(&f(k), v, range),
-                            None => Err(ModelFileError::field(f(k), "missing")),
-                        }
-                    };
-                    if d.material.is_some() || d.rho.is_some() || d.inner_diameter.is_some() {
-                        return Err(ModelFileError::field(
-                            f("material"),
-                            "only used with the geometry form (outer_diameter, thickness)",
-                        ));
-                    }
-                    Disk {
-                        node: n,
-                        mass: get("mass", d.mass)?,
-                        id: get("id", d.id)?,
-                        ip: get("ip", d.ip)?,
-                    }
-                }
-                (true, false) => {
-                    let od = match d.outer_diameter {
-                        Some(v) => plausible(&f("outer_diameter"), v, DIAMETER)?,
-                        None => return Err(ModelFileError::field(f("outer_diameter"), "missing")),
-                    };
-                    let t = match d.thickness {
-                        Some(v) => plausible(&f("thickness"), v, DIAMETER)?,
-                        None => return Err(ModelFileError::field(f("thickness"), "missing")),
-                    };
-                    let id = finite_nonneg(&f("inner_diameter"), d.inner_diameter.unwrap_or(0.0))?;
-                    if id >= od {
-                        return Err(ModelFileError::field(
-                            f("inner_diameter"),
-                            format!("must be smaller than outer_diameter ({od}), got {id}"),
-                        ));
-                    }
-                    let rho = match (&d.material, d.rho) {
-                        (Some(m), None) => material(f("material"), m)?.rho,
-                        (None, Some(r)) => plausible(&f("rho"), r, DENSITY)?,
-                        (Some(_), Some(_)) => {
-                            return Err(ModelFileError::field(
-                                f("rho"),
-                                "give either material or rho, not both",
-                            ))
-                        }
-                        (None, None) => {
-                            return Err(ModelFileError::field(
-                                f("material"),
-                                "missing: give material or rho for a disk from geometry",
-                            ))
-                        }
-                    };
-                    Disk::from_geometry(n, rho, od, id, t)
-                }
-            };
-        disks.push(disk);
+/// The `i`-th (0-based) `[[disk]]`: given by its mass and inertias, or by
+/// its geometry and a density.
+fn disk(
+    i: usize,
+    d: &RawDisk,
+    n_nodes: usize,
+    materials: &BTreeMap<String, Material>,
+) -> Result<Disk, ModelFileError> {
+    let f = |k: &str| format!("disk[{}].{k}", i + 1);
+    let n = node(&f("node"), d.node, n_nodes)?;
+    let geometry = d.outer_diameter.is_some() || d.thickness.is_some();
+    let inertia = d.mass.is_some() || d.id.is_some() || d.ip.is_some();
+    match (geometry, inertia) {
+        (true, true) => Err(ModelFileError::field(
+            f("mass"),
+            "give either geometry (outer_diameter, thickness, ...) or mass/id/ip, not both",
+        )),
+        (false, false) => Err(ModelFileError::field(
+            f("mass"),
+            "missing: give mass, id, ip or outer_diameter, thickness and a density",
+        )),
+        (false, true) => disk_from_inertia(&f, n, d),
+        (true, false) => disk_from_geometry(&f, n, d, materials),
     }
+}
 
-    if raw.bearing.is_empty() {
+/// A disk given by `mass`, `id` and `ip` (fields named by `f`).
+fn disk_from_inertia(
+    f: &impl Fn(&str) -> String,
+    n: usize,
+    d: &RawDisk,
+) -> Result<Disk, ModelFileError> {
+    let get = |k: &str, v: Option<f64>| -> Result<f64, ModelFileError> {
+        let range = if k == "mass" { MASS } else { INERTIA };
+        match v {
+            Some(v) => plausible(&f(k), v, range),
+            None => Err(ModelFileError::field(f(k), "missing")),
+        }
+    };
+    if d.material.is_some() || d.rho.is_some() || d.inner_diameter.is_some() {
+        return Err(ModelFileError::field(
+            f("material"),
+            "only used with the geometry form (outer_diameter, thickness)",
+        ));
+    }
+    Ok(Disk {
+        node: n,
+        mass: get("mass", d.mass)?,
+        id: get("id", d.id)?,
+        ip: get("ip", d.ip)?,
+    })
+}
+
+/// A disk given by `outer_diameter`, `thickness`, an optional
+/// `inner_diameter` and a `material` or `rho` (fields named by `f`).
+fn disk_from_geometry(
+    f: &impl Fn(&str) -> String,
+    n: usize,
+    d: &RawDisk,
+    materials: &BTreeMap<String, Material>,
+) -> Result<Disk, ModelFileError> {
+    let od = match d.outer_diameter {
+        Some(v) => plausible(&f("outer_diameter"), v, DIAMETER)?,
+        None => return Err(ModelFileError::field(f("outer_diameter"), "missing")),
+    };
+    let t = match d.thickness {
+        Some(v) => plausible(&f("thickness"), v, DIAMETER)?,
+        None => return Err(ModelFileError::field(f("thickness"), "missing")),
+    };
+    let id = finite_nonneg(&f("inner_diameter"), d.inner_diameter.unwrap_or(0.0))?;
+    if id >= od {
+        return Err(ModelFileError::field(
+            f("inner_diameter"),
+            format!("must be smaller than outer_diameter ({od}), got {id}"),
+        ));
+    }
+    let rho = match (&d.material, d.rho) {
+        (Some(m), None) => material(materials, f("material"), m)?.rho,
+        (None, Some(r)) => plausible(&f("rho"), r, DENSITY)?,
+        (Some(_), Some(_)) => {
+            return Err(ModelFileError::field(
+                f("rho"),
+                "give either material or rho, not both",
+            ))
+        }
+        (None, None) => {
+            return Err(ModelFileError::field(
+                f("material"),
+                "missing: give material or rho for a disk from geometry",
+            ))
+        }
+    };
+    Ok(Disk::from_geometry(n, rho, od, id, t))
+}
+
+/// The `[[bearing]]` tables, sorted by node, with their declared probes in
+/// the same order (channel names checked unique).
+fn bearings(
+    raw: &[RawBearing],
+    n_nodes: usize,
+) -> Result<(Vec<Bearing>, Vec<Option<ProbePair>>), ModelFileError> {
+    if raw.is_empty() {
         return Err(ModelFileError::field(
             "bearing",
             "needs at least one bearing",
@@ -680,7 +778,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
     }
     let mut bearings = Vec::new();
     let mut probe_pairs = Vec::new();
-    for (i, b) in raw.bearing.iter().enumerate() {
+    for (i, b) in raw.iter().enumerate() {
         let f = |k: &str| format!("bearing[{}].{k}", i + 1);
         let pair = match &b.probes {
             Some(p) => Some(probe_pair(&f("probes"), p)?),
@@ -688,86 +786,7 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
         };
         probe_pairs.push((b.node, i, pair));
         let n = node(&f("node"), b.node, n_nodes)?;
-        let law = match (&b.k, &b.c, &b.table, &b.polynomial) {
-            (Some(k), Some(c), None, None) => {
-                check4(&f("k"), k)?;
-                check4(&f("c"), c)?;
-                plausible4(&f("k"), k, STIFFNESS_MAX, "N/m")?;
-                plausible4(&f("c"), c, DAMPING_MAX, "N s/m")?;
-                BearingLaw::Constant(BearingCoefficients { k: *k, c: *c })
-            }
-            (None, None, Some(t), None) => {
-                if t.rpm.is_empty() || t.rpm.len() != t.k.len() || t.rpm.len() != t.c.len() {
-                    return Err(ModelFileError::field(
-                        f("table"),
-                        format!(
-                            "rpm, k and c need the same non-zero length (got {}, {}, {})",
-                            t.rpm.len(),
-                            t.k.len(),
-                            t.c.len()
-                        ),
-                    ));
-                }
-                for (j, r) in t.rpm.iter().enumerate() {
-                    finite_nonneg(&f(&format!("table.rpm[{}]", j + 1)), *r)?;
-                    if j > 0 && *r <= t.rpm[j - 1] {
-                        return Err(ModelFileError::field(
-                            f(&format!("table.rpm[{}]", j + 1)),
-                            "speeds must be strictly increasing",
-                        ));
-                    }
-                }
-                let mut coefficients = Vec::new();
-                for (j, (k, c)) in t.k.iter().zip(t.c.iter()).enumerate() {
-                    check4(&f(&format!("table.k[{}]", j + 1)), k)?;
-                    check4(&f(&format!("table.c[{}]", j + 1)), c)?;
-                    plausible4(&f(&format!("table.k[{}]", j + 1)), k, STIFFNESS_MAX, "N/m")?;
-                    plausible4(&f(&format!("table.c[{}]", j + 1)), c, DAMPING_MAX, "N s/m")?;
-                    coefficients.push(BearingCoefficients { k: *k, c: *c });
-                }
-                BearingLaw::Table {
-                    speeds: t.rpm.iter().map(|&r| rpm_to_rad_s(r)).collect(),
-                    coefficients,
-                    interpolation: TableInterpolation::LinearHold,
-                }
-            }
-            (None, None, None, Some(p)) => {
-                if p.k.is_empty() && p.c.is_empty() {
-                    return Err(ModelFileError::field(
-                        f("polynomial"),
-                        "k and c are both empty",
-                    ));
-                }
-                for (j, row) in p.k.iter().enumerate() {
-                    check4(&f(&format!("polynomial.k[{}]", j + 1)), row)?;
-                }
-                for (j, row) in p.c.iter().enumerate() {
-                    check4(&f(&format!("polynomial.c[{}]", j + 1)), row)?;
-                }
-                BearingLaw::Polynomial {
-                    k: p.k.clone(),
-                    c: p.c.clone(),
-                }
-            }
-            (Some(_), None, None, None) => {
-                return Err(ModelFileError::field(f("c"), "missing (k given without c)"))
-            }
-            (None, Some(_), None, None) => {
-                return Err(ModelFileError::field(f("k"), "missing (c given without k)"))
-            }
-            (None, None, None, None) => {
-                return Err(ModelFileError::field(
-                    f("k"),
-                    "missing: give k and c, or a table, or a polynomial",
-                ))
-            }
-            _ => {
-                return Err(ModelFileError::field(
-                    f("table"),
-                    "give exactly one of: k and c, table, polynomial",
-                ))
-            }
-        };
+        let law = bearing_law(&f, b)?;
         let ped = match &b.pedestal {
             Some(p) => Some(pedestal(&f("pedestal"), p)?),
             None => None,
@@ -780,7 +799,107 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
     }
     bearings.sort_by_key(|b| b.node);
     probe_pairs.sort_by_key(|p| p.0);
-    // Channel names must be unique over the model (the file's columns).
+    unique_channel_names(&probe_pairs)?;
+    let probes: Vec<Option<ProbePair>> = probe_pairs.into_iter().map(|p| p.2).collect();
+    Ok((bearings, probes))
+}
+
+/// A bearing's law: constant `k` and `c`, a `table` over speed or a
+/// `polynomial` (fields named by `f`).
+fn bearing_law(f: &impl Fn(&str) -> String, b: &RawBearing) -> Result<BearingLaw, ModelFileError> {
+    Ok(match (&b.k, &b.c, &b.table, &b.polynomial) {
+        (Some(k), Some(c), None, None) => {
+            check4(&f("k"), k)?;
+            check4(&f("c"), c)?;
+            plausible4(&f("k"), k, STIFFNESS_MAX, "N/m")?;
+            plausible4(&f("c"), c, DAMPING_MAX, "N s/m")?;
+            BearingLaw::Constant(BearingCoefficients { k: *k, c: *c })
+        }
+        (None, None, Some(t), None) => bearing_table(f, t)?,
+        (None, None, None, Some(p)) => {
+            if p.k.is_empty() && p.c.is_empty() {
+                return Err(ModelFileError::field(
+                    f("polynomial"),
+                    "k and c are both empty",
+                ));
+            }
+            for (j, row) in p.k.iter().enumerate() {
+                check4(&f(&format!("polynomial.k[{}]", j + 1)), row)?;
+            }
+            for (j, row) in p.c.iter().enumerate() {
+                check4(&f(&format!("polynomial.c[{}]", j + 1)), row)?;
+            }
+            BearingLaw::Polynomial {
+                k: p.k.clone(),
+                c: p.c.clone(),
+            }
+        }
+        (Some(_), None, None, None) => {
+            return Err(ModelFileError::field(f("c"), "missing (k given without c)"))
+        }
+        (None, Some(_), None, None) => {
+            return Err(ModelFileError::field(f("k"), "missing (c given without k)"))
+        }
+        (None, None, None, None) => {
+            return Err(ModelFileError::field(
+                f("k"),
+                "missing: give k and c, or a table, or a polynomial",
+            ))
+        }
+        _ => {
+            return Err(ModelFileError::field(
+                f("table"),
+                "give exactly one of: k and c, table, polynomial",
+            ))
+        }
+    })
+}
+
+/// A bearing's `table`: coefficients at strictly increasing speeds (rpm),
+/// interpolated linearly and held beyond the ends.
+fn bearing_table(f: &impl Fn(&str) -> String, t: &RawTable) -> Result<BearingLaw, ModelFileError> {
+    if t.rpm.is_empty() || t.rpm.len() != t.k.len() || t.rpm.len() != t.c.len() {
+        return Err(ModelFileError::field(
+            f("table"),
+            format!(
+                "rpm, k and c need the same non-zero length (got {}, {}, {})",
+                t.rpm.len(),
+                t.k.len(),
+                t.c.len()
+            ),
+        ));
+    }
+    for (j, r) in t.rpm.iter().enumerate() {
+        finite_nonneg(&f(&format!("table.rpm[{}]", j + 1)), *r)?;
+        if j > 0 && *r <= t.rpm[j - 1] {
+            return Err(ModelFileError::field(
+                f(&format!("table.rpm[{}]", j + 1)),
+                "speeds must be strictly increasing",
+            ));
+        }
+    }
+    let mut coefficients = Vec::new();
+    for (j, (k, c)) in t.k.iter().zip(t.c.iter()).enumerate() {
+        check4(&f(&format!("table.k[{}]", j + 1)), k)?;
+        check4(&f(&format!("table.c[{}]", j + 1)), c)?;
+        plausible4(&f(&format!("table.k[{}]", j + 1)), k, STIFFNESS_MAX, "N/m")?;
+        plausible4(&f(&format!("table.c[{}]", j + 1)), c, DAMPING_MAX, "N s/m")?;
+        coefficients.push(BearingCoefficients { k: *k, c: *c });
+    }
+    Ok(BearingLaw::Table {
+        speeds: t.rpm.iter().map(|&r| rpm_to_rad_s(r)).collect(),
+        coefficients,
+        interpolation: TableInterpolation::LinearHold,
+    })
+}
+
+/// Channel names must be unique over the model (the file's columns): the
+/// declared probe names and the `b<K>_y`, `b<K>_z` of bearings without
+/// probes. `probe_pairs` holds (node, 0-based file index, probes) in node
+/// order.
+fn unique_channel_names(
+    probe_pairs: &[(usize, usize, Option<ProbePair>)],
+) -> Result<(), ModelFileError> {
     let mut seen: Vec<String> = Vec::new();
     for (b, (_, i, pair)) in probe_pairs.iter().enumerate() {
         let names: Vec<(String, String)> = match pair {
@@ -810,112 +929,87 @@ pub fn parse_model_file(text: &str) -> Result<ModelFile, ModelFileError> {
             seen.push(n);
         }
     }
-    let probes: Vec<Option<ProbePair>> = probe_pairs.into_iter().map(|p| p.2).collect();
+    Ok(())
+}
 
-    let mut planes = Vec::new();
-    for (i, &p) in raw.planes.iter().enumerate() {
-        planes.push(node(&format!("planes[{}]", i + 1), p, n_nodes)?);
+/// The `[[bow]]` points, sorted by node (`None` when there are none).
+fn shaft_bow(raw: &[RawBow], n_nodes: usize) -> Result<Option<ShaftBow>, ModelFileError> {
+    if raw.is_empty() {
+        return Ok(None);
     }
+    let mut points = Vec::new();
+    for (i, p) in raw.iter().enumerate() {
+        let f = |k: &str| format!("bow[{}].{k}", i + 1);
+        points.push(BowPoint {
+            node: node(&f("node"), p.node, n_nodes)?,
+            amplitude: finite(&f("amplitude"), p.amplitude)?,
+            phase: finite(&f("phase_deg"), p.phase_deg)?.to_radians(),
+        });
+    }
+    points.sort_by_key(|p| p.node);
+    Ok(Some(ShaftBow { points }))
+}
 
-    let unbalance = raw
-        .unbalance
-        .iter()
-        .enumerate()
-        .map(|(i, u)| unbalance_entry(&format!("unbalance[{}]", i + 1), u, n_nodes))
-        .collect::<Result<Vec<_>, _>>()?;
+/// The top-level `probes` key: relative (the default) or absolute.
+fn probe_reference(probes: Option<&str>) -> Result<ProbeReference, ModelFileError> {
+    match probes {
+        None | Some("relative") => Ok(ProbeReference::Relative),
+        Some("absolute") => Ok(ProbeReference::Absolute),
+        Some(other) => Err(ModelFileError::field(
+            "probes",
+            format!("expected \"relative\" or \"absolute\", got \"{other}\""),
+        )),
+    }
+}
 
-    let bow = if raw.bow.is_empty() {
-        None
-    } else {
-        let mut points = Vec::new();
-        for (i, p) in raw.bow.iter().enumerate() {
-            let f = |k: &str| format!("bow[{}].{k}", i + 1);
-            points.push(BowPoint {
-                node: node(&f("node"), p.node, n_nodes)?,
-                amplitude: finite(&f("amplitude"), p.amplitude)?,
-                phase: finite(&f("phase_deg"), p.phase_deg)?.to_radians(),
-            });
-        }
-        points.sort_by_key(|p| p.node);
-        Some(ShaftBow { points })
-    };
-
-    let probe_reference = match raw.probes.as_deref() {
-        None | Some("relative") => ProbeReference::Relative,
-        Some("absolute") => ProbeReference::Absolute,
-        Some(other) => {
-            return Err(ModelFileError::field(
-                "probes",
-                format!("expected \"relative\" or \"absolute\", got \"{other}\""),
-            ))
-        }
-    };
-    let model = RotorModel {
-        name: raw.name.unwrap_or_else(|| "model".into()),
-        theory,
-        shaft,
-        disks,
-        bearings,
-        planes,
-        unbalance,
-        bow,
-        probes: probe_reference,
-        rotor_damping: ProportionalDamping::default(),
-        shaft_layers: Vec::new(),
-    };
-    model.validate()?;
-
+/// The `[simulate]` section's effects, for a model of `n_bearings`
+/// bearings and `n_nodes` nodes.
+fn effects(s: &RawSimulate, n_bearings: usize, n_nodes: usize) -> Result<Effects, ModelFileError> {
     let mut effects = Effects::default();
-    if let Some(s) = &raw.simulate {
-        if let Some(e) = s.e_scale {
-            effects.e_scale = plausible(
-                "simulate.e_scale",
-                e,
-                Range {
-                    lo: 1e-3,
-                    hi: 1e3,
-                    unit: "(factor)",
-                },
-            )?;
-        }
-        if let Some(l) = &s.bearing_speed_law {
-            let rpm_ref = finite_pos("simulate.bearing_speed_law.rpm_ref", l.rpm_ref)?;
-            let law = match l.law.as_str() {
-                "quadratic" => SpeedLaw::Quadratic,
-                "linear" => SpeedLaw::Linear,
-                other => {
-                    return Err(ModelFileError::field(
-                        "simulate.bearing_speed_law.law",
-                        format!("unknown law `{other}` (quadratic, linear)"),
-                    ))
-                }
-            };
-            effects.bearing_speed_law = Some(SpeedScaling { rpm_ref, law });
-        }
-        if let Some(p) = &s.pedestal {
-            effects.pedestal = Some(pedestal("simulate.pedestal", p)?);
-        }
-        for (i, r) in s.runout.iter().enumerate() {
-            let f = |k: &str| format!("simulate.runout[{}].{k}", i + 1);
-            effects.runout.push(Runout {
-                channel: parse_channel(&f("channel"), &r.channel, model.bearings.len())?,
-                amplitude: finite_nonneg(&f("amplitude"), r.amplitude)?,
-                phase: finite(&f("phase_deg"), r.phase_deg)?.to_radians(),
-            });
-        }
-        for (i, u) in s.extra_unbalance.iter().enumerate() {
-            effects.extra_unbalance.push(unbalance_entry(
-                &format!("simulate.extra_unbalance[{}]", i + 1),
-                u,
-                n_nodes,
-            )?);
-        }
+    if let Some(e) = s.e_scale {
+        effects.e_scale = plausible(
+            "simulate.e_scale",
+            e,
+            Range {
+                lo: 1e-3,
+                hi: 1e3,
+                unit: "(factor)",
+            },
+        )?;
     }
-    Ok(ModelFile {
-        model,
-        effects,
-        probes,
-    })
+    if let Some(l) = &s.bearing_speed_law {
+        let rpm_ref = finite_pos("simulate.bearing_speed_law.rpm_ref", l.rpm_ref)?;
+        let law = match l.law.as_str() {
+            "quadratic" => SpeedLaw::Quadratic,
+            "linear" => SpeedLaw::Linear,
+            other => {
+                return Err(ModelFileError::field(
+                    "simulate.bearing_speed_law.law",
+                    format!("unknown law `{other}` (quadratic, linear)"),
+                ))
+            }
+        };
+        effects.bearing_speed_law = Some(SpeedScaling { rpm_ref, law });
+    }
+    if let Some(p) = &s.pedestal {
+        effects.pedestal = Some(pedestal("simulate.pedestal", p)?);
+    }
+    for (i, r) in s.runout.iter().enumerate() {
+        let f = |k: &str| format!("simulate.runout[{}].{k}", i + 1);
+        effects.runout.push(Runout {
+            channel: parse_channel(&f("channel"), &r.channel, n_bearings)?,
+            amplitude: finite_nonneg(&f("amplitude"), r.amplitude)?,
+            phase: finite(&f("phase_deg"), r.phase_deg)?.to_radians(),
+        });
+    }
+    for (i, u) in s.extra_unbalance.iter().enumerate() {
+        effects.extra_unbalance.push(unbalance_entry(
+            &format!("simulate.extra_unbalance[{}]", i + 1),
+            u,
+            n_nodes,
+        )?);
+    }
+    Ok(effects)
 }
 
 /// Longest probe name.

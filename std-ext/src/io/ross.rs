@@ -444,10 +444,42 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
             "neither a `ross_version` key nor a ShaftElement table: not a ROSS rotor file".into(),
         ));
     }
-    let mut shafts: Vec<(String, RossShaft)> = Vec::new();
-    let mut disks: Vec<(String, RossDisk)> = Vec::new();
-    let mut bearings: Vec<(String, RossBearing)> = Vec::new();
-    let mut masses: Vec<(String, RossPointMass)> = Vec::new();
+    let rotor_damping = rotor_damping(&table)?;
+    let elements = RossElements::sort(&table)?;
+    if elements.shafts.is_empty() {
+        return Err(RossError::Format("no ShaftElement in the file".into()));
+    }
+
+    // Shaft: group by n, merge coaxial layers, check contiguity.
+    let (theory, by_n) = shaft_by_n(&elements.shafts)?;
+    let (shaft, shaft_layers) = merge_layers(by_n)?;
+    let n_nodes = shaft.len() + 1;
+
+    let out_disks = disks(&elements.disks, n_nodes)?;
+    let out_bearings = bearings(&elements, n_nodes, &rotor_damping)?;
+    let planes = out_disks.iter().map(|d| d.node).collect::<Vec<_>>();
+    let mut planes_dedup = planes.clone();
+    planes_dedup.dedup();
+    let model = RotorModel {
+        name: "ross".into(),
+        theory: theory.map(|t| t.0).unwrap_or_default(),
+        shaft,
+        disks: out_disks,
+        bearings: out_bearings,
+        planes: planes_dedup,
+        unbalance: Vec::new(),
+        bow: None,
+        probes: crate::model::ProbeReference::Relative,
+        rotor_damping,
+        shaft_layers,
+    };
+    model.validate()?;
+    Ok(model)
+}
+
+/// The rotor damping of the `[parameters]` table (alpha M + beta K; none
+/// when the table is absent). Modal damping is refused.
+fn rotor_damping(table: &toml::Table) -> Result<ProportionalDamping, RossError> {
     let parameters: RossParameters = match table.get("parameters") {
         Some(v) => element("parameters", v)?,
         None => RossParameters::default(),
@@ -468,111 +500,110 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
             reason: "alpha and beta must be finite".into(),
         });
     }
-    for (key, value) in &table {
-        if key == "ross_version" || key == "parameters" {
-            continue;
-        }
-        let class = key.split('_').next().unwrap_or("");
-        if !value.is_table() {
-            return Err(unsupported(
-                key,
-                "top-level key that is not an element table",
-            ));
-        }
-        match class {
-            "ShaftElement" => shafts.push((key.clone(), element(key, value)?)),
-            "DiskElement" => disks.push((key.clone(), element(key, value)?)),
-            "BearingElement" => {
-                let magnetic: Vec<&str> = MAGNETIC_KEYS
-                    .iter()
-                    .copied()
-                    .filter(|k| value.get(*k).is_some())
-                    .collect();
-                if !magnetic.is_empty() {
-                    let more = if magnetic.len() > 3 { ", ..." } else { "" };
+    Ok(rotor_damping)
+}
+
+/// A ROSS file's element tables by class, each with its table name, in
+/// file (key) order.
+struct RossElements {
+    shafts: Vec<(String, RossShaft)>,
+    disks: Vec<(String, RossDisk)>,
+    bearings: Vec<(String, RossBearing)>,
+    masses: Vec<(String, RossPointMass)>,
+}
+
+impl RossElements {
+    /// Reads every element table of `table` by the class its name starts
+    /// with; seals, magnetic bearings and other classes are refused.
+    fn sort(table: &toml::Table) -> Result<Self, RossError> {
+        let mut elements = RossElements {
+            shafts: Vec::new(),
+            disks: Vec::new(),
+            bearings: Vec::new(),
+            masses: Vec::new(),
+        };
+        for (key, value) in table {
+            if key == "ross_version" || key == "parameters" {
+                continue;
+            }
+            let class = key.split('_').next().unwrap_or("");
+            if !value.is_table() {
+                return Err(unsupported(
+                    key,
+                    "top-level key that is not an element table",
+                ));
+            }
+            match class {
+                "ShaftElement" => elements.shafts.push((key.clone(), element(key, value)?)),
+                "DiskElement" => elements.disks.push((key.clone(), element(key, value)?)),
+                "BearingElement" => {
+                    not_magnetic(key, value)?;
+                    elements.bearings.push((key.clone(), element(key, value)?))
+                }
+                "PointMass" => elements.masses.push((key.clone(), element(key, value)?)),
+                "SealElement" | "LabyrinthSeal" | "HoleePatternSeal" | "HolePatternSeal" => {
+                    return Err(unsupported(
+                        key,
+                        "seal elements (rotorid's bearings are the measured supports)",
+                    ))
+                }
+                "MagneticBearingElement" => {
+                    return Err(unsupported(
+                        key,
+                        "magnetic bearings are not supported (controller dynamics)",
+                    ))
+                }
+                other => {
                     return Err(unsupported(
                         key,
                         format!(
-                            "magnetic bearings are not supported (a MagneticBearingElement, saved with its controller keys {}{more})",
-                            magnetic[..magnetic.len().min(3)].join(", ")
+                            "element class `{other}` (supported: ShaftElement, DiskElement, BearingElement, PointMass)"
                         ),
-                    ));
+                    ))
                 }
-                bearings.push((key.clone(), element(key, value)?))
-            }
-            "PointMass" => masses.push((key.clone(), element(key, value)?)),
-            "SealElement" | "LabyrinthSeal" | "HoleePatternSeal" | "HolePatternSeal" => {
-                return Err(unsupported(
-                    key,
-                    "seal elements (rotorid's bearings are the measured supports)",
-                ))
-            }
-            "MagneticBearingElement" => {
-                return Err(unsupported(
-                    key,
-                    "magnetic bearings are not supported (controller dynamics)",
-                ))
-            }
-            other => {
-                return Err(unsupported(
-                    key,
-                    format!(
-                        "element class `{other}` (supported: ShaftElement, DiskElement, BearingElement, PointMass)"
-                    ),
-                ))
             }
         }
+        Ok(elements)
     }
-    if shafts.is_empty() {
-        return Err(RossError::Format("no ShaftElement in the file".into()));
-    }
+}
 
-    // Shaft: group by n, merge coaxial layers, check contiguity.
+/// Refuses a `BearingElement_*` table that carries the controller keys of a
+/// `MagneticBearingElement` (which ROSS saves under the bearing class name).
+fn not_magnetic(key: &str, value: &toml::Value) -> Result<(), RossError> {
+    let magnetic: Vec<&str> = MAGNETIC_KEYS
+        .iter()
+        .copied()
+        .filter(|k| value.get(*k).is_some())
+        .collect();
+    if !magnetic.is_empty() {
+        let more = if magnetic.len() > 3 { ", ..." } else { "" };
+        return Err(unsupported(
+            key,
+            format!(
+                "magnetic bearings are not supported (a MagneticBearingElement, saved with its controller keys {}{more})",
+                magnetic[..magnetic.len().min(3)].join(", ")
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The shaft elements by their `n` (coaxial layers share one), with the
+/// beam theory and the first element that set it.
+#[allow(clippy::type_complexity)]
+fn shaft_by_n(
+    shafts: &[(String, RossShaft)],
+) -> Result<
+    (
+        Option<(BeamTheory, String)>,
+        BTreeMap<usize, Vec<(String, ShaftElement)>>,
+    ),
+    RossError,
+> {
     let mut theory: Option<(BeamTheory, String)> = None;
     let mut by_n: BTreeMap<usize, Vec<(String, ShaftElement)>> = BTreeMap::new();
-    for (name, s) in &shafts {
-        let idr = s.idr.unwrap_or(s.idl);
-        let odr = s.odr.unwrap_or(s.odl);
-        if idr != s.idl || odr != s.odl {
-            return Err(unsupported(
-                name,
-                format!(
-                    "tapered element (idl {} idr {}, odl {} odr {}); split it into uniform elements",
-                    s.idl, idr, s.odl, odr
-                ),
-            ));
-        }
-        for (key, v) in [
-            ("alpha", s.alpha),
-            ("beta", s.beta),
-            ("axial_force", s.axial_force),
-            ("torque", s.torque),
-        ] {
-            if let Some(v) = v {
-                if v != 0.0 {
-                    return Err(unsupported(name, format!("{key} = {v} (must be 0)")));
-                }
-            }
-        }
-        if s.rotary_inertia == Some(false) {
-            return Err(unsupported(name, "rotary_inertia = false"));
-        }
-        if s.gyroscopic == Some(false) {
-            return Err(unsupported(name, "gyroscopic = false"));
-        }
-        let t = if s.shear_effects.unwrap_or(true) {
-            if let Some(m) = &s.shear_method_calc {
-                if m != "cowper" {
-                    return Err(unsupported(
-                        name,
-                        format!("shear_method_calc = \"{m}\" (rotorid uses Cowper's coefficient)"),
-                    ));
-                }
-            }
-            BeamTheory::Timoshenko
-        } else {
-            BeamTheory::EulerBernoulli
-        };
+    for (name, s) in shafts {
+        let t = shaft_theory(name, s)?;
         match &theory {
             None => theory = Some((t, name.clone())),
             Some((t0, first)) if *t0 != t => {
@@ -601,6 +632,62 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
             },
         ));
     }
+    Ok((theory, by_n))
+}
+
+/// Checks that a shaft element is one rotorid models (uniform, no axial
+/// force or torque, rotary inertia and gyroscopic terms on) and returns its
+/// beam theory.
+fn shaft_theory(name: &str, s: &RossShaft) -> Result<BeamTheory, RossError> {
+    let idr = s.idr.unwrap_or(s.idl);
+    let odr = s.odr.unwrap_or(s.odl);
+    if idr != s.idl || odr != s.odl {
+        return Err(unsupported(
+            name,
+            format!(
+                "tapered element (idl {} idr {}, odl {} odr {}); split it into uniform elements",
+                s.idl, idr, s.odl, odr
+            ),
+        ));
+    }
+    for (key, v) in [
+        ("alpha", s.alpha),
+        ("beta", s.beta),
+        ("axial_force", s.axial_force),
+        ("torque", s.torque),
+    ] {
+        if let Some(v) = v {
+            if v != 0.0 {
+                return Err(unsupported(name, format!("{key} = {v} (must be 0)")));
+            }
+        }
+    }
+    if s.rotary_inertia == Some(false) {
+        return Err(unsupported(name, "rotary_inertia = false"));
+    }
+    if s.gyroscopic == Some(false) {
+        return Err(unsupported(name, "gyroscopic = false"));
+    }
+    Ok(if s.shear_effects.unwrap_or(true) {
+        if let Some(m) = &s.shear_method_calc {
+            if m != "cowper" {
+                return Err(unsupported(
+                    name,
+                    format!("shear_method_calc = \"{m}\" (rotorid uses Cowper's coefficient)"),
+                ));
+            }
+        }
+        BeamTheory::Timoshenko
+    } else {
+        BeamTheory::EulerBernoulli
+    })
+}
+
+/// The shaft elements (numbered 0, 1, 2, ... without gaps) and the coaxial
+/// layers added to them.
+fn merge_layers(
+    by_n: BTreeMap<usize, Vec<(String, ShaftElement)>>,
+) -> Result<(Vec<ShaftElement>, Vec<ShaftLayer>), RossError> {
     let mut shaft = Vec::new();
     let mut shaft_layers = Vec::new();
     for (expect, (n, mut layers)) in by_n.into_iter().enumerate() {
@@ -633,10 +720,13 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         }
         shaft.push(base);
     }
-    let n_nodes = shaft.len() + 1;
+    Ok((shaft, shaft_layers))
+}
 
+/// The disks, on shaft nodes, sorted by node.
+fn disks(disks: &[(String, RossDisk)], n_nodes: usize) -> Result<Vec<Disk>, RossError> {
     let mut out_disks = Vec::new();
-    for (name, d) in &disks {
+    for (name, d) in disks {
         if d.n >= n_nodes {
             return Err(RossError::Field {
                 element: name.clone(),
@@ -651,10 +741,19 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         });
     }
     out_disks.sort_by_key(|d| d.node);
+    Ok(out_disks)
+}
 
+/// The shaft bearings, sorted by node, with the pedestals made of a point
+/// mass linked to a bearing and held to ground by another.
+fn bearings(
+    elements: &RossElements,
+    n_nodes: usize,
+    rotor_damping: &ProportionalDamping,
+) -> Result<Vec<Bearing>, RossError> {
     // Point masses are pedestal nodes; index them by node.
     let mut pm_by_node: BTreeMap<usize, &(String, RossPointMass)> = BTreeMap::new();
-    for pm in &masses {
+    for pm in &elements.masses {
         if pm.1.n < n_nodes {
             return Err(unsupported(
                 &pm.0,
@@ -667,7 +766,7 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
     }
     let mut ground: BTreeMap<usize, &(String, RossBearing)> = BTreeMap::new();
     let mut shaft_bearings = Vec::new();
-    for b in &bearings {
+    for b in &elements.bearings {
         if b.1.n < n_nodes {
             shaft_bearings.push(b);
         } else if pm_by_node.contains_key(&b.1.n) {
@@ -712,44 +811,7 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
                 if !used_pm.insert(p) {
                     return Err(unsupported(pm_name, "point mass linked to two bearings"));
                 }
-                // `mz` (axial) acts on a DOF the lateral model does not have.
-                // As ROSS's PointMass: `m` alone is the mass in every
-                // direction; once `mx`, `my` or `mz` is given, `mx`, `my`
-                // are the masses (ROSS x, y = our y, z) and `m` is unused.
-                let mass = match (pm.m, pm.mx, pm.my, pm.mz) {
-                    (Some(m), None, None, None) => [m, m],
-                    (_, Some(mx), Some(my), _) => [mx, my],
-                    _ => {
-                        return Err(RossError::Field {
-                            element: pm_name.clone(),
-                            reason: "point mass needs m, or both mx and my".into(),
-                        })
-                    }
-                };
-                let mass = [
-                    plausible(pm_name, "mx", mass[0], MASS)?,
-                    plausible(pm_name, "my", mass[1], MASS)?,
-                ];
-                let gl = bearing_law(g_name, g)?;
-                let BearingLaw::Constant(gc) = gl else {
-                    return Err(unsupported(g_name, "speed-dependent pedestal support"));
-                };
-                if gc.k[1] != 0.0 || gc.k[2] != 0.0 || gc.c[1] != 0.0 || gc.c[2] != 0.0 {
-                    return Err(unsupported(
-                        g_name,
-                        "cross-coupled pedestal support (kxy, kyx, cxy, cyx must be 0)",
-                    ));
-                }
-                // ROSS's rotor damping alpha M0 covers the point masses too:
-                // alpha m of viscous damping to ground on each direction.
-                Some(Pedestal {
-                    mass,
-                    k: [gc.k[0], gc.k[3]],
-                    c: [
-                        gc.c[0] + rotor_damping.alpha * mass[0],
-                        gc.c[3] + rotor_damping.alpha * mass[1],
-                    ],
-                })
+                Some(pedestal(pm_name, pm, g_name, g, rotor_damping)?)
             }
         };
         out_bearings.push(Bearing {
@@ -767,24 +829,57 @@ pub fn parse_ross(text: &str) -> Result<RotorModel, RossError> {
         }
     }
     out_bearings.sort_by_key(|b| b.node);
-    let planes = out_disks.iter().map(|d| d.node).collect::<Vec<_>>();
-    let mut planes_dedup = planes.clone();
-    planes_dedup.dedup();
-    let model = RotorModel {
-        name: "ross".into(),
-        theory: theory.map(|t| t.0).unwrap_or_default(),
-        shaft,
-        disks: out_disks,
-        bearings: out_bearings,
-        planes: planes_dedup,
-        unbalance: Vec::new(),
-        bow: None,
-        probes: crate::model::ProbeReference::Relative,
-        rotor_damping,
-        shaft_layers,
+    Ok(out_bearings)
+}
+
+/// The pedestal of point mass `pm` held to ground by bearing `g`: its
+/// masses, and the ground support's direct stiffness and damping (plus the
+/// rotor's alpha m).
+fn pedestal(
+    pm_name: &str,
+    pm: &RossPointMass,
+    g_name: &str,
+    g: &RossBearing,
+    rotor_damping: &ProportionalDamping,
+) -> Result<Pedestal, RossError> {
+    // `mz` (axial) acts on a DOF the lateral model does not have.
+    // As ROSS's PointMass: `m` alone is the mass in every
+    // direction; once `mx`, `my` or `mz` is given, `mx`, `my`
+    // are the masses (ROSS x, y = our y, z) and `m` is unused.
+    let mass = match (pm.m, pm.mx, pm.my, pm.mz) {
+        (Some(m), None, None, None) => [m, m],
+        (_, Some(mx), Some(my), _) => [mx, my],
+        _ => {
+            return Err(RossError::Field {
+                element: pm_name.to_string(),
+                reason: "point mass needs m, or both mx and my".into(),
+            })
+        }
     };
-    model.validate()?;
-    Ok(model)
+    let mass = [
+        plausible(pm_name, "mx", mass[0], MASS)?,
+        plausible(pm_name, "my", mass[1], MASS)?,
+    ];
+    let gl = bearing_law(g_name, g)?;
+    let BearingLaw::Constant(gc) = gl else {
+        return Err(unsupported(g_name, "speed-dependent pedestal support"));
+    };
+    if gc.k[1] != 0.0 || gc.k[2] != 0.0 || gc.c[1] != 0.0 || gc.c[2] != 0.0 {
+        return Err(unsupported(
+            g_name,
+            "cross-coupled pedestal support (kxy, kyx, cxy, cyx must be 0)",
+        ));
+    }
+    // ROSS's rotor damping alpha M0 covers the point masses too:
+    // alpha m of viscous damping to ground on each direction.
+    Ok(Pedestal {
+        mass,
+        k: [gc.k[0], gc.k[3]],
+        c: [
+            gc.c[0] + rotor_damping.alpha * mass[0],
+            gc.c[3] + rotor_damping.alpha * mass[1],
+        ],
+    })
 }
 
 /// Float in a form TOML reads back exactly (Rust's shortest round-trip
@@ -834,6 +929,24 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
         );
     }
     let _ = writeln!(s);
+    write_shaft_elements(&mut s, model);
+    for (i, d) in model.disks.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "[\"DiskElement_Disk {i}\"]\nn = {}\nm = {}\nId = {}\nIp = {}\ntag = \"Disk {i}\"\nscale_factor = 1.0\n",
+            d.node,
+            f(d.mass),
+            f(d.id),
+            f(d.ip)
+        );
+    }
+    write_bearings(&mut s, model)?;
+    Ok(s)
+}
+
+/// [`to_ross_toml`]'s `ShaftElement` tables: the shaft elements, then
+/// their coaxial layers (on the same `n`), each with its material.
+fn write_shaft_elements(s: &mut String, model: &RotorModel) {
     let shear = model.theory == BeamTheory::Timoshenko;
     let sections = model
         .shaft
@@ -867,56 +980,14 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
             f(e.material.g),
         );
     }
-    for (i, d) in model.disks.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "[\"DiskElement_Disk {i}\"]\nn = {}\nm = {}\nId = {}\nIp = {}\ntag = \"Disk {i}\"\nscale_factor = 1.0\n",
-            d.node,
-            f(d.mass),
-            f(d.id),
-            f(d.ip)
-        );
-    }
+}
+
+/// [`to_ross_toml`]'s bearings, each pedestal after its bearing as a
+/// `PointMass` on a new node past the shaft with a bearing to ground.
+/// Polynomial and dynamic-stiffness laws are refused.
+fn write_bearings(s: &mut String, model: &RotorModel) -> Result<(), RossError> {
+    let damping = model.rotor_damping;
     let mut next_node = model.n_nodes();
-    let bearing_table = |s: &mut String,
-                         tag: &str,
-                         n: usize,
-                         link: Option<usize>,
-                         speeds: Option<(&[f64], TableInterpolation)>,
-                         co: &[BearingCoefficients]| {
-        let _ = writeln!(s, "[\"BearingElement_{tag}\"]\nn = {n}");
-        if let Some(p) = link {
-            let _ = writeln!(s, "n_link = {p}");
-        }
-        let names_k = ["kxx", "kxy", "kyx", "kyy"];
-        let names_c = ["cxx", "cxy", "cyx", "cyy"];
-        for (j, name) in names_k.iter().enumerate() {
-            let v: Vec<f64> = co.iter().map(|c| c.k[j]).collect();
-            let _ = writeln!(s, "{name} = {}", arr(&v));
-        }
-        for (j, name) in names_c.iter().enumerate() {
-            let v: Vec<f64> = co.iter().map(|c| c.c[j]).collect();
-            let _ = writeln!(s, "{name} = {}", arr(&v));
-        }
-        // Axial and mass coefficients, zero (as ROSS 2.x writes them).
-        let zeros = vec![0.0; co.len()];
-        for key in ["kzz", "czz", "mxx", "mxy", "myx", "myy", "mzz"] {
-            let _ = writeln!(s, "{key} = {}", arr(&zeros));
-        }
-        if let Some((w, kind)) = speeds {
-            let _ = writeln!(s, "speed = {}", arr(w));
-            match kind {
-                TableInterpolation::LinearHold => {}
-                TableInterpolation::LinearExtrapolate => {
-                    let _ = writeln!(s, "interpolation = \"linear\"");
-                }
-                TableInterpolation::Pchip => {
-                    let _ = writeln!(s, "interpolation = \"pchip\"");
-                }
-            }
-        }
-        let _ = writeln!(s, "tag = \"{tag}\"\nscale_factor = 1\n");
-    };
     for (i, b) in model.bearings.iter().enumerate() {
         type Axis<'a> = Option<(&'a [f64], TableInterpolation)>;
         let (speeds, co): (Axis, Vec<BearingCoefficients>) = match &b.law {
@@ -940,7 +1011,7 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
             next_node += 1;
             next_node - 1
         });
-        bearing_table(&mut s, &format!("Bearing {i}"), b.node, link, speeds, &co);
+        write_bearing_element(s, &format!("Bearing {i}"), b.node, link, speeds, &co);
         if let (Some(p), Some(ped)) = (link, b.pedestal) {
             // `m` for one mass; `mx`, `my` (and `mz`, axial, unused here:
             // equal to `my`) for two, as ROSS writes a PointMass.
@@ -968,10 +1039,55 @@ pub fn to_ross_toml(model: &RotorModel) -> Result<String, RossError> {
                     ped.c[1] - damping.alpha * ped.mass[1],
                 ],
             };
-            bearing_table(&mut s, &format!("Support {i}"), p, None, None, &[g]);
+            write_bearing_element(s, &format!("Support {i}"), p, None, None, &[g]);
         }
     }
-    Ok(s)
+    Ok(())
+}
+
+/// One `BearingElement` table: on node `n` (linked to node `link`), the
+/// coefficients `co`, one set or one per speed of `speeds` with its
+/// interpolation.
+fn write_bearing_element(
+    s: &mut String,
+    tag: &str,
+    n: usize,
+    link: Option<usize>,
+    speeds: Option<(&[f64], TableInterpolation)>,
+    co: &[BearingCoefficients],
+) {
+    let _ = writeln!(s, "[\"BearingElement_{tag}\"]\nn = {n}");
+    if let Some(p) = link {
+        let _ = writeln!(s, "n_link = {p}");
+    }
+    let names_k = ["kxx", "kxy", "kyx", "kyy"];
+    let names_c = ["cxx", "cxy", "cyx", "cyy"];
+    for (j, name) in names_k.iter().enumerate() {
+        let v: Vec<f64> = co.iter().map(|c| c.k[j]).collect();
+        let _ = writeln!(s, "{name} = {}", arr(&v));
+    }
+    for (j, name) in names_c.iter().enumerate() {
+        let v: Vec<f64> = co.iter().map(|c| c.c[j]).collect();
+        let _ = writeln!(s, "{name} = {}", arr(&v));
+    }
+    // Axial and mass coefficients, zero (as ROSS 2.x writes them).
+    let zeros = vec![0.0; co.len()];
+    for key in ["kzz", "czz", "mxx", "mxy", "myx", "myy", "mzz"] {
+        let _ = writeln!(s, "{key} = {}", arr(&zeros));
+    }
+    if let Some((w, kind)) = speeds {
+        let _ = writeln!(s, "speed = {}", arr(w));
+        match kind {
+            TableInterpolation::LinearHold => {}
+            TableInterpolation::LinearExtrapolate => {
+                let _ = writeln!(s, "interpolation = \"linear\"");
+            }
+            TableInterpolation::Pchip => {
+                let _ = writeln!(s, "interpolation = \"pchip\"");
+            }
+        }
+    }
+    let _ = writeln!(s, "tag = \"{tag}\"\nscale_factor = 1\n");
 }
 
 /// Speeds of the table that [`tabulate_for_ross`] writes for a bearing law

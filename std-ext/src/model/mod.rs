@@ -706,33 +706,32 @@ impl RotorModel {
     /// coefficients, nodes on the shaft, bearings sorted and distinct,
     /// planes on the shaft. The error names the field (1-based nodes).
     pub fn validate(&self) -> Result<(), ModelError> {
-        let pos = |field: String, v: f64| -> Result<(), ModelError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(ModelError::invalid(
-                    field,
-                    format!("must be finite and > 0, got {v}"),
-                ))
-            }
-        };
-        let finite = |field: String, v: f64| -> Result<(), ModelError> {
-            if v.is_finite() {
-                Ok(())
-            } else {
-                Err(ModelError::invalid(
-                    field,
-                    format!("must be finite, got {v}"),
-                ))
-            }
-        };
+        self.validate_shaft()?;
+        let n = self.n_nodes();
+        for (i, d) in self.disks.iter().enumerate() {
+            let f = |name: &str| format!("disk[{}].{name}", i + 1);
+            on_shaft(f("node"), d.node, n)?;
+            positive(f("mass"), d.mass)?;
+            positive(f("id"), d.id)?;
+            positive(f("ip"), d.ip)?;
+        }
+        self.validate_bearings(n)?;
+        self.validate_shaft_layers()?;
+        finite("rotor_damping.alpha".into(), self.rotor_damping.alpha)?;
+        finite("rotor_damping.beta".into(), self.rotor_damping.beta)?;
+        self.validate_loads(n)
+    }
+
+    /// [`Self::validate`]'s shaft elements: at least one, with positive
+    /// dimensions and material constants, hollow or solid.
+    fn validate_shaft(&self) -> Result<(), ModelError> {
         if self.shaft.is_empty() {
             return Err(ModelError::invalid("shaft", "needs at least one element"));
         }
         for (i, e) in self.shaft.iter().enumerate() {
             let f = |name: &str| format!("shaft[{}].{name}", i + 1);
-            pos(f("length"), e.length)?;
-            pos(f("outer_diameter"), e.outer_diameter)?;
+            positive(f("length"), e.length)?;
+            positive(f("outer_diameter"), e.outer_diameter)?;
             if !(e.inner_diameter.is_finite()
                 && e.inner_diameter >= 0.0
                 && e.inner_diameter < e.outer_diameter)
@@ -742,97 +741,33 @@ impl RotorModel {
                     format!("must be in [0, outer_diameter), got {}", e.inner_diameter),
                 ));
             }
-            pos(f("material.e"), e.material.e)?;
-            pos(f("material.g"), e.material.g)?;
-            pos(f("material.rho"), e.material.rho)?;
+            positive(f("material.e"), e.material.e)?;
+            positive(f("material.g"), e.material.g)?;
+            positive(f("material.rho"), e.material.rho)?;
         }
-        let n = self.n_nodes();
-        let on_shaft = |field: String, node: usize| -> Result<(), ModelError> {
-            if node < n {
-                Ok(())
-            } else {
-                Err(ModelError::invalid(
-                    field,
-                    format!("node {} is not on the shaft (nodes 1..={n})", node + 1),
-                ))
-            }
-        };
-        for (i, d) in self.disks.iter().enumerate() {
-            let f = |name: &str| format!("disk[{}].{name}", i + 1);
-            on_shaft(f("node"), d.node)?;
-            pos(f("mass"), d.mass)?;
-            pos(f("id"), d.id)?;
-            pos(f("ip"), d.ip)?;
-        }
+        Ok(())
+    }
+
+    /// [`Self::validate`]'s bearings: at least one, on the shaft's `n`
+    /// nodes, sorted by node, with finite laws and physical pedestals.
+    fn validate_bearings(&self, n: usize) -> Result<(), ModelError> {
         if self.bearings.is_empty() {
             return Err(ModelError::invalid("bearing", "needs at least one bearing"));
         }
         for (i, b) in self.bearings.iter().enumerate() {
             let f = |name: &str| format!("bearing[{}].{name}", i + 1);
-            on_shaft(f("node"), b.node)?;
+            on_shaft(f("node"), b.node, n)?;
             if i > 0 && b.node <= self.bearings[i - 1].node {
                 return Err(ModelError::invalid(
                     f("node"),
                     "bearings must be sorted by node, one per node",
                 ));
             }
-            let check = |c: &BearingCoefficients, at: &str| -> Result<(), ModelError> {
-                for j in 0..4 {
-                    finite(f(&format!("{at}k[{}]", j + 1)), c.k[j])?;
-                    finite(f(&format!("{at}c[{}]", j + 1)), c.c[j])?;
-                }
-                Ok(())
-            };
-            match &b.law {
-                BearingLaw::Constant(c) => check(c, "")?,
-                BearingLaw::Table {
-                    speeds,
-                    coefficients,
-                    ..
-                } => {
-                    if speeds.is_empty() || speeds.len() != coefficients.len() {
-                        return Err(ModelError::invalid(
-                            f("speed"),
-                            "table needs one or more speeds and one coefficient set per speed",
-                        ));
-                    }
-                    for (j, s) in speeds.iter().enumerate() {
-                        if !(s.is_finite() && *s >= 0.0) || (j > 0 && *s <= speeds[j - 1]) {
-                            return Err(ModelError::invalid(
-                                f("speed"),
-                                "speeds must be finite, >= 0 and strictly increasing",
-                            ));
-                        }
-                    }
-                    for (j, c) in coefficients.iter().enumerate() {
-                        check(c, &format!("table[{}].", j + 1))?;
-                    }
-                }
-                BearingLaw::DynamicStiffness { z } => {
-                    for (p, row) in z.iter().enumerate() {
-                        for (j, v) in row.iter().enumerate() {
-                            finite(f(&format!("z_poly[{}][{}].re", p + 1, j + 1)), v.re)?;
-                            finite(f(&format!("z_poly[{}][{}].im", p + 1, j + 1)), v.im)?;
-                        }
-                    }
-                }
-                BearingLaw::Polynomial { k, c } => {
-                    for (p, row) in k.iter().enumerate() {
-                        for (j, v) in row.iter().enumerate() {
-                            finite(f(&format!("k_poly[{}][{}]", p + 1, j + 1)), *v)?;
-                        }
-                    }
-                    for (p, row) in c.iter().enumerate() {
-                        for (j, v) in row.iter().enumerate() {
-                            finite(f(&format!("c_poly[{}][{}]", p + 1, j + 1)), *v)?;
-                        }
-                    }
-                }
-            }
+            validate_law(&f, &b.law)?;
             if let Some(p) = &b.pedestal {
                 for j in 0..2 {
-                    pos(f(&format!("pedestal.mass[{}]", j + 1)), p.mass[j])?;
-                    pos(f(&format!("pedestal.k[{}]", j + 1)), p.k[j])?;
+                    positive(f(&format!("pedestal.mass[{}]", j + 1)), p.mass[j])?;
+                    positive(f(&format!("pedestal.k[{}]", j + 1)), p.k[j])?;
                     if !(p.c[j].is_finite() && p.c[j] >= 0.0) {
                         return Err(ModelError::invalid(
                             f(&format!("pedestal.c[{}]", j + 1)),
@@ -842,6 +777,12 @@ impl RotorModel {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// [`Self::validate`]'s coaxial shaft layers: each on an existing
+    /// element, of its length, with a valid section.
+    fn validate_shaft_layers(&self) -> Result<(), ModelError> {
         for (i, l) in self.shaft_layers.iter().enumerate() {
             let f = |name: &str| format!("shaft_layers[{}].{name}", i + 1);
             let Some(e) = self.shaft.get(l.element) else {
@@ -859,7 +800,7 @@ impl RotorModel {
                     ),
                 ));
             }
-            pos(f("outer_diameter"), l.section.outer_diameter)?;
+            positive(f("outer_diameter"), l.section.outer_diameter)?;
             if !(l.section.inner_diameter.is_finite()
                 && l.section.inner_diameter >= 0.0
                 && l.section.inner_diameter < l.section.outer_diameter)
@@ -869,14 +810,18 @@ impl RotorModel {
                     "must be in [0, outer_diameter)",
                 ));
             }
-            pos(f("material.e"), l.section.material.e)?;
-            pos(f("material.g"), l.section.material.g)?;
-            pos(f("material.rho"), l.section.material.rho)?;
+            positive(f("material.e"), l.section.material.e)?;
+            positive(f("material.g"), l.section.material.g)?;
+            positive(f("material.rho"), l.section.material.rho)?;
         }
-        finite("rotor_damping.alpha".into(), self.rotor_damping.alpha)?;
-        finite("rotor_damping.beta".into(), self.rotor_damping.beta)?;
+        Ok(())
+    }
+
+    /// [`Self::validate`]'s balancing planes, unbalances and shaft bow: on
+    /// the shaft's `n` nodes, finite, planes distinct, bow points sorted.
+    fn validate_loads(&self, n: usize) -> Result<(), ModelError> {
         for (i, &p) in self.planes.iter().enumerate() {
-            on_shaft(format!("planes[{}]", i + 1), p)?;
+            on_shaft(format!("planes[{}]", i + 1), p, n)?;
             if self.planes[..i].contains(&p) {
                 return Err(ModelError::invalid(
                     format!("planes[{}]", i + 1),
@@ -886,14 +831,14 @@ impl RotorModel {
         }
         for (i, u) in self.unbalance.iter().enumerate() {
             let f = |name: &str| format!("unbalance[{}].{name}", i + 1);
-            on_shaft(f("node"), u.node)?;
+            on_shaft(f("node"), u.node, n)?;
             finite(f("me"), u.me)?;
             finite(f("phase"), u.phase)?;
         }
         if let Some(bow) = &self.bow {
             for (i, p) in bow.points.iter().enumerate() {
                 let f = |name: &str| format!("bow[{}].{name}", i + 1);
-                on_shaft(f("node"), p.node)?;
+                on_shaft(f("node"), p.node, n)?;
                 finite(f("amplitude"), p.amplitude)?;
                 finite(f("phase"), p.phase)?;
                 if i > 0 && p.node <= bow.points[i - 1].node {
@@ -906,6 +851,102 @@ impl RotorModel {
         }
         Ok(())
     }
+}
+
+/// [`RotorModel::validate`]: `v` finite and > 0.
+fn positive(field: String, v: f64) -> Result<(), ModelError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(ModelError::invalid(
+            field,
+            format!("must be finite and > 0, got {v}"),
+        ))
+    }
+}
+
+/// [`RotorModel::validate`]: `v` finite.
+fn finite(field: String, v: f64) -> Result<(), ModelError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(ModelError::invalid(
+            field,
+            format!("must be finite, got {v}"),
+        ))
+    }
+}
+
+/// [`RotorModel::validate`]: `node` (0-based) one of the shaft's `n` nodes.
+fn on_shaft(field: String, node: usize, n: usize) -> Result<(), ModelError> {
+    if node < n {
+        Ok(())
+    } else {
+        Err(ModelError::invalid(
+            field,
+            format!("node {} is not on the shaft (nodes 1..={n})", node + 1),
+        ))
+    }
+}
+
+/// [`RotorModel::validate`]: a bearing law's coefficients, speeds and
+/// polynomial terms finite, a table's speeds >= 0 and strictly increasing
+/// (fields named by `f`).
+fn validate_law(f: &impl Fn(&str) -> String, law: &BearingLaw) -> Result<(), ModelError> {
+    let check = |c: &BearingCoefficients, at: &str| -> Result<(), ModelError> {
+        for j in 0..4 {
+            finite(f(&format!("{at}k[{}]", j + 1)), c.k[j])?;
+            finite(f(&format!("{at}c[{}]", j + 1)), c.c[j])?;
+        }
+        Ok(())
+    };
+    match law {
+        BearingLaw::Constant(c) => check(c, "")?,
+        BearingLaw::Table {
+            speeds,
+            coefficients,
+            ..
+        } => {
+            if speeds.is_empty() || speeds.len() != coefficients.len() {
+                return Err(ModelError::invalid(
+                    f("speed"),
+                    "table needs one or more speeds and one coefficient set per speed",
+                ));
+            }
+            for (j, s) in speeds.iter().enumerate() {
+                if !(s.is_finite() && *s >= 0.0) || (j > 0 && *s <= speeds[j - 1]) {
+                    return Err(ModelError::invalid(
+                        f("speed"),
+                        "speeds must be finite, >= 0 and strictly increasing",
+                    ));
+                }
+            }
+            for (j, c) in coefficients.iter().enumerate() {
+                check(c, &format!("table[{}].", j + 1))?;
+            }
+        }
+        BearingLaw::DynamicStiffness { z } => {
+            for (p, row) in z.iter().enumerate() {
+                for (j, v) in row.iter().enumerate() {
+                    finite(f(&format!("z_poly[{}][{}].re", p + 1, j + 1)), v.re)?;
+                    finite(f(&format!("z_poly[{}][{}].im", p + 1, j + 1)), v.im)?;
+                }
+            }
+        }
+        BearingLaw::Polynomial { k, c } => {
+            for (p, row) in k.iter().enumerate() {
+                for (j, v) in row.iter().enumerate() {
+                    finite(f(&format!("k_poly[{}][{}]", p + 1, j + 1)), *v)?;
+                }
+            }
+            for (p, row) in c.iter().enumerate() {
+                for (j, v) in row.iter().enumerate() {
+                    finite(f(&format!("c_poly[{}][{}]", p + 1, j + 1)), *v)?;
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -511,27 +511,21 @@ impl ModelTable {
     pub fn to_rust_source(&self, scalar: Scalar) -> Result<String, TablesError> {
         self.validate()?;
         self.check_scaling_fits(scalar)?;
-        let fmt = |x: f64| -> Result<String, TablesError> {
-            let s = match scalar {
-                Scalar::F32 => {
-                    let y = x as f32;
-                    if !y.is_finite() {
-                        return Err(TablesError::Invalid(
-                            "a value overflows f32; write the table in f64".into(),
-                        ));
-                    }
-                    format!("{y:?}")
-                }
-                Scalar::F64 => format!("{x:?}"),
-            };
-            Ok(s)
-        };
+        let mut s = String::new();
+        self.write_source_header(&mut s, scalar)?;
+        self.write_source_constants(&mut s, scalar)?;
+        self.write_source_table(&mut s, scalar)?;
+        Ok(s)
+    }
+
+    /// [`Self::to_rust_source`]'s opening comment and the model's nodes.
+    fn write_source_header(&self, w: &mut String, scalar: Scalar) -> Result<(), TablesError> {
+        let fmt = |x: f64| rust_literal(scalar, x);
         let (n_b, n_p, n_s) = (
             self.bearing_nodes.len(),
             self.plane_nodes.len(),
             self.terms.len(),
         );
-        let nq = 2 * n_b;
         let ty = scalar.rust_name();
         let list = |v: &[usize]| {
             v.iter()
@@ -539,8 +533,6 @@ impl ModelTable {
                 .collect::<Vec<_>>()
                 .join(", ")
         };
-        let mut s = String::new();
-        let w = &mut s;
         // writeln! into a String cannot fail.
         let _ = writeln!(
             w,
@@ -574,6 +566,20 @@ impl ModelTable {
             "pub const PLANE_NODES: [u16; {n_p}] = [{}];",
             list(&self.plane_nodes)
         );
+        Ok(())
+    }
+
+    /// [`Self::to_rust_source`]'s sizes, structure, scaling and identifier
+    /// type.
+    fn write_source_constants(&self, w: &mut String, scalar: Scalar) -> Result<(), TablesError> {
+        let fmt = |x: f64| rust_literal(scalar, x);
+        let (n_b, n_p, n_s) = (
+            self.bearing_nodes.len(),
+            self.plane_nodes.len(),
+            self.terms.len(),
+        );
+        let nq = 2 * n_b;
+        let ty = scalar.rust_name();
         let (ctor, id_alias) = match self.structure.formulation {
             Formulation::Physical => ("physical", "PhysicalIdentifier"),
             Formulation::Paper => ("paper", "PaperIdentifier"),
@@ -637,6 +643,14 @@ impl ModelTable {
             w,
             "pub type Id = rotorid_core::identify::{id_alias}<{ty}, NQ, NP, M, N, W, S>;"
         );
+        Ok(())
+    }
+
+    /// [`Self::to_rust_source`]'s `TABLE`: poles, speeds and the A and B
+    /// matrices per speed.
+    fn write_source_table(&self, w: &mut String, scalar: Scalar) -> Result<(), TablesError> {
+        let fmt = |x: f64| rust_literal(scalar, x);
+        let ty = scalar.rust_name();
         let _ = writeln!(w, "/// A (N/m) and B (1/s^2) per speed (rad/s), with the poles (rad/s) of the reduced model.");
         let _ = writeln!(
             w,
@@ -685,8 +699,26 @@ impl ModelTable {
             let _ = writeln!(w, "    ],");
         }
         let _ = writeln!(w, "}};");
-        Ok(s)
+        Ok(())
     }
+}
+
+/// `x` as a Rust literal of `scalar` (shortest round-trip form); an error
+/// where it overflows f32.
+fn rust_literal(scalar: Scalar, x: f64) -> Result<String, TablesError> {
+    let s = match scalar {
+        Scalar::F32 => {
+            let y = x as f32;
+            if !y.is_finite() {
+                return Err(TablesError::Invalid(
+                    "a value overflows f32; write the table in f64".into(),
+                ));
+            }
+            format!("{y:?}")
+        }
+        Scalar::F64 => format!("{x:?}"),
+    };
+    Ok(s)
 }
 
 /// Entries of a matrix in row-major order.
