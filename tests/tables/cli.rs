@@ -102,6 +102,11 @@ fn structure_and_scaling_from_the_command_line() {
         ]);
         assert!(o.success(), "{}", o.stderr);
         assert!(o.stdout.contains("paper 2"), "{}", o.stdout);
+        // A blob's summary gives the firmware its types (the macro's own
+        // doctest compiles the same invocation).
+        let types = "firmware types for this blob: \
+                     rotorid_core::identifier_types!(f64, paper(2), bearings: 2, planes: 3);";
+        assert_eq!(o.stdout.contains(types), out == &blob, "{}", o.stdout);
     }
     let model = RotorModel::paper();
     let speeds = uniform_rad_s(6000.0, 7500.0, 500.0).unwrap();

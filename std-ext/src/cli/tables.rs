@@ -145,7 +145,39 @@ pub fn run(args: &TablesArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         rpm_list(&table.poles.a),
         rpm_list(&table.poles.b),
     )?;
+    if !is_rust {
+        // The blob carries no Rust: the line that gives a firmware the
+        // same constants and `type Id` as the source output.
+        writeln!(
+            io.out,
+            "firmware types for this blob: {}",
+            identifier_types_line(
+                scalar.rust_name(),
+                structure,
+                table.bearing_nodes.len(),
+                table.plane_nodes.len()
+            )
+        )?;
+    }
     Ok(())
+}
+
+/// The `rotorid_core::identifier_types!` invocation of a blob written for
+/// `structure`, `nb` bearings and `np` planes in the scalar `scalar`.
+fn identifier_types_line(
+    scalar: &str,
+    structure: crate::core::parametrization::Structure,
+    nb: usize,
+    np: usize,
+) -> String {
+    let form = match structure.formulation {
+        crate::core::Formulation::Physical => "physical",
+        crate::core::Formulation::Paper => "paper",
+    };
+    format!(
+        "rotorid_core::identifier_types!({scalar}, {form}({}), bearings: {nb}, planes: {np});",
+        structure.order
+    )
 }
 
 /// Speeds in rad/s as rpm rounded to 0.01, for the summary line.
