@@ -18,7 +18,7 @@ use crate::diagnose::fit::{self, FitData};
 use crate::diagnose::input::{DiagnoseError, DiagnoseOptions};
 use crate::diagnose::terms::SpeedTerms;
 use crate::estimate::noise::NoiseModel;
-use crate::estimate::output_error::{fit_output_error, OutputErrorOptions};
+use crate::estimate::output_error::{fit_output_error_with, FitNoise, OutputErrorOptions};
 use crate::estimate::predictor::{Predictor, Terms};
 use crate::estimate::{identify_with, IdentifyError, Options};
 use crate::io::measurement::{Measurements, Sample};
@@ -270,7 +270,7 @@ pub const MIN_RELATIVE_NOISE: f64 = 1e-3;
 
 /// The output-error estimate of the nominal parameters on `samples` with
 /// the terms `terms` (same order): QRD/RLS start, then
-/// [`fit_output_error`]. Returns the predictor and its scaled parameters.
+/// [`fit_output_error_with`]. Returns the predictor and its scaled parameters.
 pub(crate) fn oe_start(
     model: &RotorModel,
     samples: &[Sample],
@@ -339,44 +339,35 @@ pub(crate) fn oe_start_with_runout(
     )?;
     let pr = Predictor::new(id.param.clone());
     let oe_terms: Vec<Terms> = terms.iter().map(|t| (t.a.clone(), t.b.clone())).collect();
-    let proportional = || match runout {
-        Some(r) => crate::estimate::output_error::fit_output_error_with(
+    let runout = runout.map(<[Complex64]>::to_vec);
+    let fit = |noise: FitNoise| {
+        fit_output_error_with(
             &pr,
             samples,
             &oe_terms,
             &id.scaled_weights,
             &OutputErrorOptions::default(),
-            &crate::estimate::output_error::FitNoise {
-                runout: Some(r.to_vec()),
-                ..Default::default()
-            },
-        ),
-        None => fit_output_error(
-            &pr,
-            samples,
-            &oe_terms,
-            &id.scaled_weights,
-            &OutputErrorOptions::default(),
-        ),
+            &noise,
+        )
+    };
+    // Proportional weights (with the runout unknowns when started from one).
+    let proportional = || {
+        fit(FitNoise {
+            runout: runout.clone(),
+            ..Default::default()
+        })
     };
     // With a floor, the fit under the noise model; where it cannot be
     // done (a model far from the data can make its weighted normal
     // equations singular), the proportional fit, and the noise model as
     // estimated without the model.
     let oe = match noise.filter(|m| m.has_floor()) {
-        Some(m) => crate::estimate::output_error::fit_output_error_with(
-            &pr,
-            samples,
-            &oe_terms,
-            &id.scaled_weights,
-            &OutputErrorOptions::default(),
-            &crate::estimate::output_error::FitNoise {
-                model: Some(m.clone()),
-                refine: true,
-                runout: runout.map(<[Complex64]>::to_vec),
-                ..Default::default()
-            },
-        )
+        Some(m) => fit(FitNoise {
+            model: Some(m.clone()),
+            refine: true,
+            runout: runout.clone(),
+            ..Default::default()
+        })
         .or_else(|_| proportional())?,
         None => proportional()?,
     };
