@@ -8,6 +8,7 @@ mod firmware;
 mod noise;
 mod output_error;
 mod paper;
+mod phase_reference;
 mod precision;
 mod prefilter;
 mod real_noise;
