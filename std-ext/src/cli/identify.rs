@@ -127,15 +127,12 @@ pub enum RunoutArg {
     None,
 }
 
-/// Runs `rotorid identify`: loads the model and the measurements, reduces
-/// the model at every measured speed, runs the identification (progress bar
-/// on the process's stderr when `io.progress` and the sweep is long), prints the table
-/// of identified values next to the model's with relative errors, and
-/// optionally writes the JSON and SVG plots.
-pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
+/// The identification options `args` ask for: the library's defaults, then
+/// the arguments, each checked (the message names the option). The
+/// command and the Python package build their options here.
+pub fn options(args: &IdentifyArgs) -> Result<crate::estimate::Options, CliError> {
     use crate::core::parametrization::{Structure, MAX_ORDER};
     use crate::estimate::{Estimator, Options, Precision};
-    use crate::report::identify::{report_table, write_plots};
 
     if !(1..=MAX_ORDER).contains(&args.order) {
         return Err(CliError::new(format!(
@@ -162,20 +159,6 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
             args.delta
         )));
     }
-    super::refuse_overwriting_inputs(
-        Some(&args.model),
-        &[("--measurements", &args.measurements)],
-        &[
-            ("--json", args.json.as_deref()),
-            ("--plot", args.plot.as_deref()),
-            ("--ross-out", args.ross_out.as_deref()),
-        ],
-    )?;
-    let model_file = super::load_model_arg(&args.model)?;
-    let file = args.measurements.display().to_string();
-    let read = super::read_measurements(&args.measurements, &model_file, &args.conventions)?;
-    let (meas, located, sample_std) = (read.measurements, read.located, read.sample_std);
-    let model = model_file.model;
     let structure = match args.formulation {
         FormulationArg::Physical => Structure::physical(args.order),
         FormulationArg::Paper => Structure::paper(args.order),
@@ -224,7 +207,32 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         (None, RunoutArg::Fit) => crate::estimate::RunoutHandling::Fit,
         (None, RunoutArg::None) => crate::estimate::RunoutHandling::None,
     };
+    Ok(opts)
+}
 
+/// Runs `rotorid identify`: loads the model and the measurements, reduces
+/// the model at every measured speed, runs the identification (progress bar
+/// on the process's stderr when `io.progress` and the sweep is long), prints the table
+/// of identified values next to the model's with relative errors, and
+/// optionally writes the JSON and SVG plots.
+pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
+    use crate::report::identify::{report_table, write_plots};
+
+    let mut opts = options(args)?;
+    super::refuse_overwriting_inputs(
+        Some(&args.model),
+        &[("--measurements", &args.measurements)],
+        &[
+            ("--json", args.json.as_deref()),
+            ("--plot", args.plot.as_deref()),
+            ("--ross-out", args.ross_out.as_deref()),
+        ],
+    )?;
+    let model_file = super::load_model_arg(&args.model)?;
+    let file = args.measurements.display().to_string();
+    let read = super::read_measurements(&args.measurements, &model_file, &args.conventions)?;
+    let (meas, located, sample_std) = (read.measurements, read.located, read.sample_std);
+    let model = model_file.model;
     let n = meas.samples.len();
     let bar = if io.progress && n >= 100 {
         let pb = indicatif::ProgressBar::new(n as u64);
