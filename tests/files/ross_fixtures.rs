@@ -372,6 +372,31 @@ fn refused_fixtures_say_why_in_one_line() {
     assert!(tapered.contains("tapered"), "{tapered}");
 }
 
+/// A file ROSS writes for one element (`BearingElement.save`, as the
+/// ROSS wheel's `tests/data/v2/bearing.toml`) is told from a rotor file:
+/// the error names the element's table and says which file to give.
+#[test]
+fn a_ross_element_file_is_not_taken_for_a_rotor() {
+    let path = crate::common::tmp("ross_element.toml");
+    std::fs::write(
+        &path,
+        "[BearingElement_brg]\ncolor = \"#355d7a\"\ncxx = [ 1000.0, 1200.0,]\n\
+         frequency = [ 100.0, 200.0,]\nkxx = [ 1000000.0, 1100000.0,]\nn = 0\n\
+         scale_factor = 1\ntag = \"brg\"\n",
+    )
+    .unwrap();
+    let e = load_model(&path).unwrap_err();
+    assert!(
+        matches!(&e, ModelFileError::RossElement(t) if t == "BearingElement_brg"),
+        "{e}"
+    );
+    assert!(e.to_string().contains("Rotor.save"), "{e}");
+    // A rotorid model file whose first table happens to be a bearing is
+    // still read as one.
+    let own = rotorid::io::model_file::ross_element_file("[[bearing]]\nnode = 1\n");
+    assert_eq!(own, None);
+}
+
 /// The pedestal pattern of `support_masses` (bearing -> `PointMass` by
 /// `n_link`, point mass -> ground): point mass 7 with `mx = 15`, `my = 20`
 /// kg is a pedestal with masses [15, 20] in our y, z (point mass 8, `m =

@@ -122,6 +122,10 @@ pub enum ModelFileError {
     /// A ROSS file that cannot be read.
     #[error("ROSS file: {0}")]
     Ross(#[from] RossError),
+    /// A file ROSS wrote for one element (`BearingElement.save`), not for
+    /// a rotor.
+    #[error("a ROSS file of one element ([{0}]), not of a rotor: rotorid reads the file of the ross.Rotor that holds it (Rotor.save)")]
+    RossElement(String),
     /// Neither a built-in model name nor an existing file.
     #[error(
         "unknown model `{0}`: not a built-in model (paper, paper-speed-dependent) nor a .toml file"
@@ -1101,6 +1105,23 @@ pub fn is_ross(text: &str) -> bool {
     }
 }
 
+/// The table name when the TOML text is a file ROSS wrote for a single
+/// element (`element.save(path)`: one top-level table
+/// `<ElementClass>_<tag>` holding the element's node `n`), not a rotor.
+pub fn ross_element_file(text: &str) -> Option<String> {
+    let t = toml::from_str::<toml::Table>(text).ok()?;
+    let mut keys = t.iter();
+    let (key, value) = keys.next()?;
+    let class = key.split('_').next()?;
+    let single = keys.next().is_none();
+    let element = class.ends_with("Element")
+        || ["Seal", "Bearing", "Damper", "Pad", "Disk"]
+            .iter()
+            .any(|k| class.ends_with(k));
+    (single && element && value.as_table().is_some_and(|v| v.contains_key("n")))
+        .then(|| key.clone())
+}
+
 /// Loads a model file, own format or ROSS (detected by its `ross_version`
 /// key), with the `[simulate]` effects (none for ROSS files).
 pub fn load_model_file(path: impl AsRef<Path>) -> Result<ModelFile, ModelFileError> {
@@ -1111,6 +1132,8 @@ pub fn load_model_file(path: impl AsRef<Path>) -> Result<ModelFile, ModelFileErr
     })?;
     if is_ross(&text) {
         Ok(ModelFile::plain(crate::io::ross::parse_ross(&text)?))
+    } else if let Some(table) = ross_element_file(&text) {
+        Err(ModelFileError::RossElement(table))
     } else {
         parse_model_file(&text)
     }
