@@ -26,6 +26,10 @@ mod sweep {
     include!("firmware/src/sweep.rs");
 }
 
+/// The coast-down's sample generator (the firmware's source).
+#[path = "firmware/src/coastdown.rs"]
+mod coastdown;
+
 #[path = "firmware/src/run.rs"]
 mod run;
 
@@ -101,8 +105,14 @@ fn main() {
     }
     let mut out = String::new();
     let result = match args.as_slice() {
-        [] => run::run(&mut out, &mut NoProbe),
-        [flag] if flag == "--givens" => givens::run::run(&mut out, &mut NoProbe),
+        [] => run::tracker()
+            .map_err(run::RunError::from)
+            .and_then(|t| run::run(&mut out, &mut NoProbe, &mut Box::new(t)))
+            .map_err(|e| e.to_string()),
+        [flag] if flag == "--givens" => givens::run::tracker()
+            .map_err(givens::run::RunError::from)
+            .and_then(|t| givens::run::run(&mut out, &mut NoProbe, &mut Box::new(t)))
+            .map_err(|e| e.to_string()),
         _ => {
             eprintln!("usage: firmware_host [--givens | --write-sweep PATH]");
             std::process::exit(2);

@@ -1048,11 +1048,9 @@ impl<T: Real, const NC: usize, const CAP: usize> OrderTracker<T, NC, CAP> {
         // tau of the first sample, c_a - 2: -(2 + frac_a).
         let tau0 = -(two + start.frac);
         let theta0 = w * tau0 + a * tau0 * tau0 / two;
-        let (s, c) = theta0.sin_cos();
-        let mut p = Complex::new(c, -s);
+        let mut p = Series::new(theta0.abs()).exp_neg_j(theta0);
         let d0 = w + a * (tau0 + T::lit(0.5));
-        let (s, c) = d0.sin_cos();
-        let e = Complex::new(c, -s);
+        let e = Series::new(d0.abs()).exp_neg_j(d0);
         let series = Series::new(a.abs() * count(len));
 
         let (lo, hi) = (self.config.adc_min, self.config.adc_max);
@@ -1333,7 +1331,7 @@ mod tests {
 
     #[test]
     fn the_series_is_exp_to_the_precision() {
-        for &e in &[0.0f64, 1e-9, 3e-5, 0.01, 0.2, 0.5, 1.0] {
+        for &e in &[0.0f64, 1e-9, 3e-5, 0.01, 0.2, 0.5, 1.0, 1.2, 1.5] {
             let series = Series::new(e);
             for x in [e, -e, 0.5 * e] {
                 let z = series.exp_neg_j(x);

@@ -30,6 +30,9 @@ mod sweep {
     include!("sweep.rs");
 }
 
+/// The coast-down's sample generator (shared with the host check).
+mod coastdown;
+
 mod run;
 
 /// The identifier: the generated `type Id` (square-root-free block
@@ -104,7 +107,43 @@ pub extern "C" fn rotorid_update_marker() {
     core::hint::black_box(());
 }
 
+/// A call the instruction-count trace finds by its address: executed right
+/// before and right after each `OrderTracker::push`.
+#[inline(never)]
+#[no_mangle]
+pub extern "C" fn rotorid_push_marker() {
+    core::hint::black_box(());
+}
+
+/// A call the instruction-count trace finds by its address: executed right
+/// before and right after each generated sample (`Coastdown::next_sample`).
+#[inline(never)]
+#[no_mangle]
+pub extern "C" fn rotorid_sample_marker() {
+    core::hint::black_box(());
+}
+
 impl run::Probe for StackProbe {
+    #[inline(always)]
+    fn before_push(&mut self) {
+        rotorid_push_marker();
+    }
+
+    #[inline(always)]
+    fn after_push(&mut self) {
+        rotorid_push_marker();
+    }
+
+    #[inline(always)]
+    fn before_sample(&mut self) {
+        rotorid_sample_marker();
+    }
+
+    #[inline(always)]
+    fn after_sample(&mut self) {
+        rotorid_sample_marker();
+    }
+
     #[inline(always)]
     fn before_update(&mut self) {
         let sp = cortex_m::register::msp::read() as usize;
@@ -132,6 +171,17 @@ impl run::Probe for StackProbe {
     }
 }
 
+/// The order tracker (4.5 KiB, most of it the revolution buffer) in a
+/// static (`.bss`), not on the stack; built in a frame of its own, so that
+/// the temporary of its construction is gone from the stack before the
+/// run. `None` on a second call.
+#[inline(never)]
+fn tracker() -> Option<&'static mut Result<run::Tracker, rotorid_core::ordertrack::ConfigError>> {
+    cortex_m::singleton!(
+        TRACKER: Result<run::Tracker, rotorid_core::ordertrack::ConfigError> = run::tracker()
+    )
+}
+
 #[entry]
 fn main() -> ! {
     let mut out = match hio::hstdout() {
@@ -143,8 +193,18 @@ fn main() -> ! {
             }
         }
     };
+    let tracker = match tracker() {
+        Some(Ok(t)) => t,
+        _ => {
+            let _ = writeln!(out, "error: the order tracker's configuration was refused");
+            debug::exit(debug::EXIT_FAILURE);
+            loop {
+                cortex_m::asm::wfi();
+            }
+        }
+    };
     let mut probe = StackProbe { sp: 0, peak: 0 };
-    let ok = match run::run(&mut out, &mut probe) {
+    let ok = match run::run(&mut out, &mut probe, tracker) {
         Ok(_) => {
             let _ = writeln!(
                 out,
