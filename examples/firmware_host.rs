@@ -33,6 +33,9 @@ mod coastdown;
 #[path = "firmware/src/run.rs"]
 mod run;
 
+/// The coast-down's deceleration (rad/s^2), the firmware's default.
+const DECELERATION: f32 = 150.0;
+
 /// The firmware's identifier type (the generated `type Id`, square-root-free
 /// block filter).
 type FwId = table::Id;

@@ -253,7 +253,12 @@ impl<'a, const NC: usize> Coastdown<'a, NC> {
         let mean = w - self.setup.deceleration * core::f32::consts::PI / w;
         self.y1 = self.lookup(mean);
         let (f, s) = (self.setup.noise_floor, self.setup.noise_relative);
-        for ((y2, s2), y1) in self.y2.iter_mut().zip(self.sigma.iter_mut()).zip(self.y1.iter()) {
+        for ((y2, s2), y1) in self
+            .y2
+            .iter_mut()
+            .zip(self.sigma.iter_mut())
+            .zip(self.y1.iter())
+        {
             *y2 = self.setup.x2_ratio * *y1;
             *s2 = sqrt(f * f + s * s * y1.norm_sqr());
         }

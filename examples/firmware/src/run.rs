@@ -18,9 +18,9 @@
 //! about 10 KiB of flash.)
 
 use super::FwId as Id;
+use crate::coastdown::{Coastdown, Setup};
 use crate::sweep::SWEEP;
 use crate::table::{SCALING, STRUCTURE, TABLE};
-use crate::coastdown::{Coastdown, Setup};
 use core::fmt::{self, Write};
 use rotorid_core::identify::{Config, Estimates, IdentifierError};
 use rotorid_core::ordertrack::{Config as TrackerConfig, ConfigError, OrderTracker};
@@ -79,15 +79,15 @@ pub fn tracker() -> Result<Tracker, ConfigError> {
     Tracker::new(tracker_config())
 }
 
-/// The coast-down: 12 100 to 2 900 rpm at 150 rad/s^2 (6.4 s, about 800
-/// revolutions, 65 800 samples), a 2X of 5 % of the 1X, probe gaps of
+/// The coast-down: 12 100 to 2 900 rpm at `crate::DECELERATION`
+/// (150 rad/s^2: 6.4 s, 801 revolutions, 65 770 samples), a 2X of 5 % of the 1X, probe gaps of
 /// 1.35..1.45 mm, probe noise 5 um + 2 % of the 1X per sample.
 pub fn coastdown_setup() -> Setup<NC> {
     Setup {
         sample_rate: SAMPLE_RATE,
         speed_start: rpm(12_100.0),
         speed_end: rpm(2900.0),
-        deceleration: 150.0,
+        deceleration: crate::DECELERATION,
         x2_ratio: rotorid_core::Complex::new(0.027, 0.042),
         gap: [25.0e-3, 25.5e-3, 26.0e-3, 25.5e-3],
         noise_floor: 5e-6,
@@ -272,7 +272,11 @@ fn run_samples<W: Write, P: Probe>(
 /// The estimates as lines starting with `tag`: each bearing's `k`, `c`,
 /// each plane's unbalance phasor (and, as comments, its magnitude and
 /// phase).
-fn print_estimates<W: Write>(out: &mut W, tag: &str, est: &Estimates<f32, { crate::table::NQ }, { crate::table::NP }>) {
+fn print_estimates<W: Write>(
+    out: &mut W,
+    tag: &str,
+    est: &Estimates<f32, { crate::table::NQ }, { crate::table::NP }>,
+) {
     for (m, b) in est.bearings.iter().enumerate() {
         for (j, name) in COEFFICIENTS.iter().enumerate() {
             let _ = writeln!(
