@@ -18,9 +18,9 @@
 
 #[allow(dead_code)]
 #[path = "../../examples/firmware/src/coastdown.rs"]
-mod coastdown;
+mod generator;
 
-use coastdown::{Coastdown, Setup};
+use generator::{Coastdown, Setup};
 use rotorid::model::RotorModel;
 use rotorid::simulate::{at_balance_grade, simulate, SimOptions};
 use rotorid::units::rpm_to_rad_s;
@@ -174,12 +174,12 @@ fn probe_noise_gives_the_analytic_scatter_of_the_averages() {
         assert_eq!(a.start, b.start);
         // Samples per revolution, from the group's span.
         let m = b.end.since(&b.start) as f64 / b.revolutions as f64;
-        for c in 0..4 {
+        for (c, s2) in sig2.iter().enumerate() {
             let d = Complex::new(
                 (b.x1[c].re - a.x1[c].re) as f64,
                 (b.x1[c].im - a.x1[c].im) as f64,
             );
-            let analytic = 4.0 * sig2[c] / (m * N as f64);
+            let analytic = 4.0 * s2 / (m * N as f64);
             z2 += d.norm_sqr() / analytic;
             count += 1.0;
             if (a.x1_std[c] as f64).powi(2) < 0.1 * analytic {

@@ -195,19 +195,19 @@ impl<'a, const NC: usize> Coastdown<'a, NC> {
     }
 
     /// Revolutions started so far.
-    #[allow(dead_code)] // used by the host test (tests/signals/coastdown.rs)
+    #[allow(dead_code)] // used by the host test (tests/identify/coastdown.rs)
     pub fn revolutions(&self) -> u32 {
         self.revolutions
     }
 
     /// This revolution's 1X phasors (m).
-    #[allow(dead_code)] // used by the host test (tests/signals/coastdown.rs)
+    #[allow(dead_code)] // used by the host test (tests/identify/coastdown.rs)
     pub fn x1(&self) -> &[Complex<f32>; NC] {
         &self.y1
     }
 
     /// This revolution's per-sample noise levels `sigma_c` (m).
-    #[allow(dead_code)] // used by the host test (tests/signals/coastdown.rs)
+    #[allow(dead_code)] // used by the host test (tests/identify/coastdown.rs)
     pub fn sigma(&self) -> &[f32; NC] {
         &self.sigma
     }
