@@ -1,8 +1,10 @@
 //! The host half of the Cortex-M4F firmware (`examples/firmware/`): runs the
-//! firmware's identification (`examples/firmware/src/run.rs`, the same
-//! source) over the same generated f32 table and sweep on the host, and
-//! prints the same `est` lines; `.ci/firmware.sh` checks that the QEMU run
-//! prints them identically.
+//! firmware's identifications (`examples/firmware/src/run.rs` and the
+//! coast-down generator `examples/firmware/src/coastdown.rs`, the same
+//! sources) over the same generated f32 table and sweep on the host, from
+//! the sweep's vectors and from the generated samples through the order
+//! tracker, and prints the same `est` lines; `.ci/firmware.sh` checks that
+//! the QEMU run prints them identically.
 //!
 //! ```sh
 //! cargo run --release --example firmware_host
