@@ -2,13 +2,17 @@
 # The Cortex-M4F firmware (examples/firmware): build it for
 # thumbv7em-none-eabihf, print its footprint, run it under QEMU's MPS2-AN386
 # board model (Cortex-M4 with FPU) and check that its estimates equal those
-# of the host f32 run of the same code (examples/firmware_host.rs); the same
+# of the host f32 run of the same code (examples/firmware_host.rs: the
+# sweep's vectors, and a coast-down's samples through the order tracker,
+# revolution counts included); the same
 # for the build with the Givens block filter (--features givens).
 #
 #   .ci/firmware.sh            build, footprint, QEMU run, comparison
 #   FIRMWARE_ICOUNT=1 .ci/firmware.sh
-#                              also counts the instructions of each update
-#                              (QEMU one instruction per block, exec trace)
+#                              also counts the instructions of each
+#                              identifier update, order-tracker push and
+#                              generated sample (QEMU one instruction per
+#                              block, exec trace; about 7 minutes)
 #
 # Without qemu-system-arm (and no way to install it) the build and the
 # footprint still run and a loud warning says the QEMU check was skipped.
