@@ -2,13 +2,17 @@
 # The Cortex-M4F firmware (examples/firmware): build it for
 # thumbv7em-none-eabihf, print its footprint, run it under QEMU's MPS2-AN386
 # board model (Cortex-M4 with FPU) and check that its estimates equal those
-# of the host f32 run of the same code (examples/firmware_host.rs); the same
+# of the host f32 run of the same code (examples/firmware_host.rs: the
+# sweep's vectors, and a coast-down's samples through the order tracker,
+# revolution counts included); the same
 # for the build with the Givens block filter (--features givens).
 #
 #   .ci/firmware.sh            build, footprint, QEMU run, comparison
 #   FIRMWARE_ICOUNT=1 .ci/firmware.sh
-#                              also counts the instructions of each update
-#                              (QEMU one instruction per block, exec trace)
+#                              also counts the instructions of each
+#                              identifier update, order-tracker push and
+#                              generated sample (QEMU one instruction per
+#                              block, exec trace; about 7 minutes)
 #
 # Without qemu-system-arm (and no way to install it) the build and the
 # footprint still run and a loud warning says the QEMU check was skipped.
@@ -107,33 +111,52 @@ if [ ! -s "$OUT/target_gv.est" ] || ! diff -u "$OUT/host_gv.est" "$OUT/target_gv
 fi
 echo "Givens-filter firmware (QEMU) and host f32 estimates identical: $(wc -l <"$OUT/target_gv.est") lines"
 
+# Instructions between the two calls of each marker function around the
+# identifier update, the order tracker's push and the generated sample (the
+# three never nest): count, mean, min and max per call; per channel-sample
+# (4 probes) for the push and the generator.
 icount() {
-  local ELF=$1
-  addr=$(readelf -sW "$ELF" | awk '$8 == "rotorid_update_marker" { print $2 }')
-  marker=$(printf '%08x' $((16#$addr & ~1)))
+  local ELF=$1 markers="" name addr
+  for name in rotorid_update_marker rotorid_push_marker rotorid_sample_marker; do
+    addr=$(readelf -sW "$ELF" | awk -v n="$name" '$8 == n { print $2 }')
+    markers="$markers $name=$(printf '%08x' $((16#$addr & ~1)))"
+  done
   rm -f "$OUT/trace"
   mkfifo "$OUT/trace"
-  awk -v m="$marker" '
+  awk -v markers="$markers" '
+    BEGIN { k = split(markers, kv, " "); for (i = 1; i <= k; i++) { split(kv[i], p, "="); name[p[2]] = p[1] } }
     /^Trace/ {
       split($0, a, "[][/]"); pc = a[3];
-      if (pc == m) { if (inside) { n++; s += c; if (c > mx) mx = c; if (!mn || c < mn) mn = c; inside = 0 } else { inside = 1; c = 0 } }
-      else if (inside) c++
+      if (pc in name) {
+        if (cur == pc) { n[pc]++; s[pc] += c; if (c > mx[pc]) mx[pc] = c; if (!(pc in mn) || c < mn[pc]) mn[pc] = c; cur = "" }
+        else { cur = pc; c = 0 }
+      } else if (cur != "") c++
     }
-    END { if (n) printf "updates %d: mean %.0f, min %d, max %d instructions (from one marker call to the next)\n", n, s / n, mn, mx }
+    END {
+      for (m in n) {
+        printf "%s: %d calls, mean %.1f, min %d, max %d instructions", name[m], n[m], s[m] / n[m], mn[m], mx[m]
+        if (name[m] != "rotorid_update_marker") printf " (%.2f per channel-sample, 4 probes)", s[m] / n[m] / 4
+        printf "\n"
+      }
+    }
   ' "$OUT/trace" &
   awk_pid=$!
-  timeout 1200 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -semihosting -nographic \
+  timeout 1800 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -semihosting -nographic \
     -singlestep -d exec,nochain -D "$OUT/trace" -kernel "$ELF" >/dev/null
   wait "$awk_pid"
 }
 
 if [ "${FIRMWARE_ICOUNT:-0}" = 1 ]; then
-  echo "-- instructions per update (QEMU, one instruction per translation block, exec trace)"
-  echo "square-root-free block filter (the firmware, generated type Id):"
-  icount "$ELF"
-  echo "Givens block filter (--features givens):"
-  icount "$GV_ELF"
-  echo "dense filter (--features dense, same program otherwise):"
-  (cd "$FW" && cargo build --release --features dense --target-dir target/dense)
+  echo "-- instructions per update, per tracker push and per generated sample (QEMU, one instruction per translation block, exec trace)"
+  # The trace runs at about 70 000 instructions a second: these builds run
+  # the coast-down four times faster (--features short, the same speeds).
+  echo "square-root-free block filter (the firmware, generated type Id; --features short):"
+  (cd "$FW" && cargo build --release --features short --target-dir target/short)
+  icount "$FW/target/short/thumbv7em-none-eabihf/release/rotorid-firmware"
+  echo "Givens block filter (--features givens,short):"
+  (cd "$FW" && cargo build --release --features givens,short --target-dir target/givens-short)
+  icount "$FW/target/givens-short/thumbv7em-none-eabihf/release/rotorid-firmware"
+  echo "dense filter (--features dense,short, same program otherwise):"
+  (cd "$FW" && cargo build --release --features dense,short --target-dir target/dense)
   icount "$FW/target/dense/thumbv7em-none-eabihf/release/rotorid-firmware"
 fi

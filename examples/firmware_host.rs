@@ -1,8 +1,10 @@
 //! The host half of the Cortex-M4F firmware (`examples/firmware/`): runs the
-//! firmware's identification (`examples/firmware/src/run.rs`, the same
-//! source) over the same generated f32 table and sweep on the host, and
-//! prints the same `est` lines; `.ci/firmware.sh` checks that the QEMU run
-//! prints them identically.
+//! firmware's identifications (`examples/firmware/src/run.rs` and the
+//! coast-down generator `examples/firmware/src/coastdown.rs`, the same
+//! sources) over the same generated f32 table and sweep on the host, from
+//! the sweep's vectors and from the generated samples through the order
+//! tracker, and prints the same `est` lines; `.ci/firmware.sh` checks that
+//! the QEMU run prints them identically.
 //!
 //! ```sh
 //! cargo run --release --example firmware_host
@@ -26,8 +28,15 @@ mod sweep {
     include!("firmware/src/sweep.rs");
 }
 
+/// The coast-down's sample generator (the firmware's source).
+#[path = "firmware/src/coastdown.rs"]
+mod coastdown;
+
 #[path = "firmware/src/run.rs"]
 mod run;
+
+/// The coast-down's deceleration (rad/s^2), the firmware's default.
+const DECELERATION: f32 = 150.0;
 
 /// The firmware's identifier type (the generated `type Id`, square-root-free
 /// block filter).
@@ -101,8 +110,14 @@ fn main() {
     }
     let mut out = String::new();
     let result = match args.as_slice() {
-        [] => run::run(&mut out, &mut NoProbe),
-        [flag] if flag == "--givens" => givens::run::run(&mut out, &mut NoProbe),
+        [] => run::tracker()
+            .map_err(run::RunError::from)
+            .and_then(|t| run::run(&mut out, &mut NoProbe, &mut Box::new(t)))
+            .map_err(|e| e.to_string()),
+        [flag] if flag == "--givens" => givens::run::tracker()
+            .map_err(givens::run::RunError::from)
+            .and_then(|t| givens::run::run(&mut out, &mut NoProbe, &mut Box::new(t)))
+            .map_err(|e| e.to_string()),
         _ => {
             eprintln!("usage: firmware_host [--givens | --write-sweep PATH]");
             std::process::exit(2);

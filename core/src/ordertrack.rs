@@ -57,10 +57,13 @@
 //! [`OrderTracker::new`]); with `CAP` above twice the longest revolution
 //! expected, a missing pulse is told as such ([`Rejection::PeriodJump`])
 //! rather than dropped as [`Rejection::NoEvent`]. For `NC = 4` and
-//! `CAP = 1024` the state is 16 816 bytes in `f32` (the buffer and 432
-//! bytes; 33 440 in `f64`); on the Cortex-M4F (`opt-level = "z"`, LTO) the
-//! code takes about 5 KiB beside libm's `sincosf` and `sqrtf`, and the
-//! per-sample path has no `f64` (software) arithmetic. Accumulating with a
+//! `CAP = 1024` the state is 16 864 bytes in `f32` (the buffer and 480
+//! bytes, the rule's constant weights included; 33 536 in `f64`); on the
+//! Cortex-M4F (`opt-level = "z"`, LTO) the code takes about 5 KiB beside
+//! `sqrtf`, the per-sample path has no `f64` (software) arithmetic and
+//! no function of a math library runs per revolution but `sqrt` and
+//! `hypot` for the standard errors (the rotations come from the series
+//! below), so the vectors are the same bits on every IEEE machine. Accumulating with a
 //! provisional angle and correcting afterwards would spare the buffer but
 //! not the accuracy: the correction of a speed change of 0.2 % per
 //! revolution needs several orders of its expansion to reach 1e-6.
@@ -107,7 +110,7 @@
 //! a i`, so
 //!
 //! ```text
-//! p_0 = exp(-j theta(tau_0)),     E = exp(-j d_0)     (sine and cosine once a revolution),
+//! p_0 = exp(-j theta(tau_0)),     E = exp(-j d_0)     (once a revolution, by the same series),
 //! D_i = E exp(-j a i),            exp(-j e) = cos e - j sin e by their series in e = a i,
 //! p_(i+1) = p_i D_i (3 - |p_i D_i|^2) / 2,
 //! ```
@@ -825,6 +828,8 @@ pub struct OrderTracker<T, const NC: usize, const CAP: usize> {
     seq: u64,
     counts: Counts,
     avg: Averager<T, NC>,
+    /// The integration rule's constant weights ([`Rule`]).
+    rule: Rule<T>,
 }
 
 impl<T: Real, const NC: usize, const CAP: usize> OrderTracker<T, NC, CAP> {
@@ -842,6 +847,7 @@ impl<T: Real, const NC: usize, const CAP: usize> OrderTracker<T, NC, CAP> {
             seq: 0,
             counts: Counts::default(),
             avg: Averager::new(),
+            rule: Rule::new(),
         })
     }
 
@@ -1043,16 +1049,14 @@ impl<T: Real, const NC: usize, const CAP: usize> OrderTracker<T, NC, CAP> {
             .checked_add(len)
             .and_then(|e| self.buf.get(s0..e))
             .ok_or(Rejection::NoReference)?;
-        let (head, tail) = end_weights(start.frac, end.frac);
+        let (head, tail) = self.rule.end_weights(start.frac, end.frac);
 
         // tau of the first sample, c_a - 2: -(2 + frac_a).
         let tau0 = -(two + start.frac);
         let theta0 = w * tau0 + a * tau0 * tau0 / two;
-        let (s, c) = theta0.sin_cos();
-        let mut p = Complex::new(c, -s);
+        let mut p = Series::new(theta0.abs()).exp_neg_j(theta0);
         let d0 = w + a * (tau0 + T::lit(0.5));
-        let (s, c) = d0.sin_cos();
-        let e = Complex::new(c, -s);
+        let e = Series::new(d0.abs()).exp_neg_j(d0);
         let series = Series::new(a.abs() * count(len));
 
         let (lo, hi) = (self.config.adc_min, self.config.adc_max);
@@ -1080,10 +1084,14 @@ impl<T: Real, const NC: usize, const CAP: usize> OrderTracker<T, NC, CAP> {
             let q2 = q1 * p;
             let sums = x1.iter_mut().zip(x2.iter_mut());
             for ((y, y0), (s1, s2)) in row.iter().zip(reference.iter()).zip(sums) {
-                if !y.is_finite() {
-                    non_finite = true;
-                } else if *y <= lo || *y >= hi {
-                    clipped = true;
+                // One test on the common path: NaN fails both comparisons,
+                // an infinity the one on its side.
+                if !(*y > lo && *y < hi) {
+                    if y.is_finite() {
+                        clipped = true;
+                    } else {
+                        non_finite = true;
+                    }
                 }
                 let v = *y - *y0;
                 *s1 += q1.scale(v);
@@ -1160,41 +1168,60 @@ pub fn lagrange_integrals<T: Real>(o: i32, lo: T, hi: T) -> [T; 6] {
     out
 }
 
-/// The weights of the six samples at each end of a revolution whose start
-/// event lies `frac_a` after sample `c_a` and end event `frac_b` after
-/// sample `c_b` (fractions in `(0, 1]`): `head` for samples
-/// `c_a - 2 .. c_a + 3`, `tail` for `c_b - 4 .. c_b + 1`; every sample
-/// between weighs 1 (module documentation). The intervals: `[c_a, c_a + 1]`
-/// from `frac_a` (nodes `c_a - 2 ..`), full ones centred, `[c_b - 1, c_b]`
-/// on nodes `c_b - 4 .. c_b + 1`, `[c_b, c_b + 1]` to `frac_b` on the same.
-/// Needs at least 15 whole intervals between the events.
-// index proven: `m + j < 6` and `t + m - 1 < 6` are tested before use.
-#[allow(clippy::indexing_slicing)]
-fn end_weights<T: Real>(frac_a: T, frac_b: T) -> ([T; 6], [T; 6]) {
-    let v = lagrange_integrals(-2, T::zero(), T::one());
-    let mut head = lagrange_integrals(-2, frac_a, T::one());
-    // Intervals c_a + m (m >= 1), centred: nodes c_a + m - 2 + j.
-    for m in 1..6 {
-        for (j, vj) in v.iter().enumerate() {
-            if m + j < 6 {
-                head[m + j] += *vj;
-            }
+/// The weights of the rule that do not depend on where the events fall
+/// between samples, computed once ([`OrderTracker::new`]): the centred
+/// interval's (nodes `-2 .. 3`) and the last whole interval's (nodes
+/// `-3 .. 2`), both over `[0, 1]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Rule<T> {
+    v: [T; 6],
+    u3: [T; 6],
+}
+
+impl<T: Real> Rule<T> {
+    fn new() -> Self {
+        Rule {
+            v: lagrange_integrals(-2, T::zero(), T::one()),
+            u3: lagrange_integrals(-3, T::zero(), T::one()),
         }
     }
-    let u3 = lagrange_integrals(-3, T::zero(), T::one());
-    let u4 = lagrange_integrals(-4, T::zero(), frac_b);
-    // Tail sample t is c_b - 4 + t; interval c_b - 1 - m (m >= 1) is
-    // centred with nodes c_b - 3 - m + j: t = j + 1 - m.
-    let mut tail = [T::zero(); 6];
-    for (t, wt) in tail.iter_mut().enumerate() {
-        *wt = u3[t] + u4[t];
-        for m in 1..7 {
-            if t + m >= 1 && t + m - 1 < 6 {
-                *wt += v[t + m - 1];
+
+    /// The weights of the six samples at each end of a revolution whose
+    /// start event lies `frac_a` after sample `c_a` and end event `frac_b`
+    /// after sample `c_b` (fractions in `(0, 1]`): `head` for samples
+    /// `c_a - 2 .. c_a + 3`, `tail` for `c_b - 4 .. c_b + 1`; every sample
+    /// between weighs 1 (module documentation). The intervals: `[c_a, c_a +
+    /// 1]` from `frac_a` (nodes `c_a - 2 ..`), full ones centred, `[c_b - 1,
+    /// c_b]` on nodes `c_b - 4 .. c_b + 1`, `[c_b, c_b + 1]` to `frac_b` on
+    /// the same. Needs at least 15 whole intervals between the events. Two
+    /// [`lagrange_integrals`] a revolution.
+    // index proven: `m + j < 6` and `t + m - 1 < 6` are tested before use.
+    #[allow(clippy::indexing_slicing)]
+    fn end_weights(&self, frac_a: T, frac_b: T) -> ([T; 6], [T; 6]) {
+        let v = &self.v;
+        let mut head = lagrange_integrals(-2, frac_a, T::one());
+        // Intervals c_a + m (m >= 1), centred: nodes c_a + m - 2 + j.
+        for m in 1..6 {
+            for (j, vj) in v.iter().enumerate() {
+                if m + j < 6 {
+                    head[m + j] += *vj;
+                }
             }
         }
+        let u4 = lagrange_integrals(-4, T::zero(), frac_b);
+        // Tail sample t is c_b - 4 + t; interval c_b - 1 - m (m >= 1) is
+        // centred with nodes c_b - 3 - m + j: t = j + 1 - m.
+        let mut tail = [T::zero(); 6];
+        for (t, wt) in tail.iter_mut().enumerate() {
+            *wt = self.u3[t] + u4[t];
+            for m in 1..7 {
+                if t + m >= 1 && t + m - 1 < 6 {
+                    *wt += v[t + m - 1];
+                }
+            }
+        }
+        (head, tail)
     }
-    (head, tail)
 }
 
 /// Most terms of [`Series`].
@@ -1239,14 +1266,22 @@ impl<T: Real> Series<T> {
         Series { terms, cos, sin }
     }
 
-    /// `exp(-j e)`.
+    /// `exp(-j e)` (inlined: on a ramp it is formed at every sample).
+    #[inline(always)]
     fn exp_neg_j(&self, e: T) -> Complex<T> {
         let z = e * e;
         let (mut c, mut s) = (T::one(), T::one());
-        let ratios = self.cos.iter().zip(self.sin.iter()).take(self.terms);
-        for (rc, rs) in ratios.rev() {
-            c = T::one() - z * *rc * c;
-            s = T::one() - z * *rs * s;
+        // A plain countdown (no iterator adapters): the per-sample path of
+        // a ramp, kept small and inlined on `opt-level = "z"` builds.
+        let mut m = self.terms.min(SERIES_TERMS);
+        while m > 0 {
+            m -= 1;
+            let (rc, rs) = (
+                self.cos.get(m).copied().unwrap_or_else(T::zero),
+                self.sin.get(m).copied().unwrap_or_else(T::zero),
+            );
+            c = T::one() - z * rc * c;
+            s = T::one() - z * rs * s;
         }
         Complex::new(c, -e * s)
     }
@@ -1290,7 +1325,7 @@ mod tests {
                     dense[(k as i64 + 2 + o as i64 + j as i64) as usize] += wj;
                 }
             }
-            let (head, tail) = end_weights(fa, fb);
+            let (head, tail) = Rule::new().end_weights(fa, fb);
             for (i, d) in dense.iter().enumerate() {
                 let split = if i < 6 {
                     head[i]
@@ -1333,7 +1368,7 @@ mod tests {
 
     #[test]
     fn the_series_is_exp_to_the_precision() {
-        for &e in &[0.0f64, 1e-9, 3e-5, 0.01, 0.2, 0.5, 1.0] {
+        for &e in &[0.0f64, 1e-9, 3e-5, 0.01, 0.2, 0.5, 1.0, 1.2, 1.5] {
             let series = Series::new(e);
             for x in [e, -e, 0.5 * e] {
                 let z = series.exp_neg_j(x);

@@ -4,6 +4,7 @@
 
 mod campbell;
 mod cli;
+mod coastdown;
 mod firmware;
 mod noise;
 mod output_error;

@@ -1,26 +1,129 @@
-//! The identification run of the firmware, shared word for word with its
-//! host check (`examples/firmware_host.rs`): the identifier `FwId` of the
-//! enclosing module (the generated table's `type Id`, square-root-free block
-//! filter, f32, or another filter of the same structure) folds in the measured
-//! sweep and prints its estimates. Each value is printed as a fixed-point
-//! decimal (integer arithmetic on the `f32`, truncated) followed by its
-//! `f32` bit pattern in hex, so equal lines mean bit-identical estimates.
-//! (Core's float formatting would add about 10 KiB of flash.)
+//! The identification runs of the firmware, shared word for word with its
+//! host check (`examples/firmware_host.rs`), with the identifier `FwId` of
+//! the enclosing module (the generated table's `type Id`, square-root-free
+//! block filter, f32, or another filter of the same structure):
+//!
+//! 1. vectors: the identifier folds in the measured sweep (`SWEEP`, 1X
+//!    phasors per speed) directly;
+//! 2. samples: a coast-down's keyphasor and probe samples, generated from
+//!    the same sweep's phasors ([`crate::coastdown`], 10 240 Hz, 12 100 to
+//!    2 900 rpm), go through the order tracker
+//!    (`rotorid_core::ordertrack::OrderTracker`, 4 probes, one revolution
+//!    of up to 256 samples buffered), whose averages of 8 revolutions feed
+//!    the identifier.
+//!
+//! Each value is printed as a fixed-point decimal (integer arithmetic on
+//! the `f32`, truncated) followed by its `f32` bit pattern in hex, so equal
+//! lines mean bit-identical estimates. (Core's float formatting would add
+//! about 10 KiB of flash.)
 
 use super::FwId as Id;
+use crate::coastdown::{Coastdown, Setup};
 use crate::sweep::SWEEP;
 use crate::table::{SCALING, STRUCTURE, TABLE};
 use core::fmt::{self, Write};
-use rotorid_core::identify::{Config, IdentifierError};
+use rotorid_core::identify::{Config, Estimates, IdentifierError};
+use rotorid_core::ordertrack::{Config as TrackerConfig, ConfigError, OrderTracker};
 use rotorid_core::parametrization::COEFFICIENTS;
 
-/// Hooks around each identifier update (stack painting, instruction-count
-/// markers on the target; nothing on the host).
+/// Hooks around each identifier update, tracker push and generated sample
+/// (stack painting, instruction-count markers on the target; nothing on the
+/// host).
 pub trait Probe {
     /// Right before `Id::update`.
     fn before_update(&mut self) {}
     /// Right after `Id::update`.
     fn after_update(&mut self) {}
+    /// Right before `OrderTracker::push`.
+    fn before_push(&mut self) {}
+    /// Right after `OrderTracker::push`.
+    fn after_push(&mut self) {}
+    /// Right before `Coastdown::next_sample`.
+    fn before_sample(&mut self) {}
+    /// Right after `Coastdown::next_sample`.
+    fn after_sample(&mut self) {}
+}
+
+/// Probe channels (b1_y, b1_z, b2_y, b2_z).
+pub const NC: usize = 4;
+
+/// The tracker's buffer: one revolution of up to `CAP - 7` samples.
+pub const CAP: usize = 256;
+
+/// The order tracker of the sample run (f32, 4 probes, 256 samples:
+/// 4096 bytes of buffer).
+pub type Tracker = OrderTracker<f32, NC, CAP>;
+
+/// `n` rpm in rad/s.
+fn rpm(n: f32) -> f32 {
+    n * (core::f32::consts::PI / 30.0)
+}
+
+/// Sample rate of the probes and the keyphasor (Hz): 51.2 samples per
+/// revolution at 12 000 rpm, 204.8 at 3 000 rpm.
+pub const SAMPLE_RATE: f32 = 10_240.0;
+
+/// The tracker's configuration: 3 000..12 000 rpm (the slowest
+/// revolution, 204.8 samples, and 7 more fit in `CAP`), a 0..1 keyphasor
+/// with level 0.5 and hysteresis 0.2, the probes' ADC range 0..2.8 mm,
+/// averages of 8 revolutions, scatter about the trend.
+pub fn tracker_config() -> TrackerConfig<f32> {
+    TrackerConfig::new(SAMPLE_RATE, 0.5, rpm(3000.0), rpm(12_000.0))
+        .with_hysteresis(0.2)
+        .with_adc_range(0.0, 50.0e-3)
+        .with_revolutions(8)
+}
+
+/// A tracker with [`tracker_config`] (the firmware keeps it in a static).
+pub fn tracker() -> Result<Tracker, ConfigError> {
+    Tracker::new(tracker_config())
+}
+
+/// The coast-down: 12 100 to 2 900 rpm at `crate::DECELERATION`
+/// (150 rad/s^2: 6.4 s, 801 revolutions, 65 770 samples), a 2X of 5 % of the 1X, probe gaps of
+/// 1.35..1.45 mm, probe noise 5 um + 2 % of the 1X per sample.
+pub fn coastdown_setup() -> Setup<NC> {
+    Setup {
+        sample_rate: SAMPLE_RATE,
+        speed_start: rpm(12_100.0),
+        speed_end: rpm(2900.0),
+        deceleration: crate::DECELERATION,
+        x2_ratio: rotorid_core::Complex::new(0.027, 0.042),
+        gap: [25.0e-3, 25.5e-3, 26.0e-3, 25.5e-3],
+        noise_floor: 5e-6,
+        noise_relative: 0.02,
+        seed: 1,
+    }
+}
+
+/// Why a run stopped.
+#[derive(Debug)]
+pub enum RunError {
+    /// The identifier refused its configuration or gave no estimates.
+    Identifier(IdentifierError),
+    /// The order tracker refused its configuration.
+    Tracker(ConfigError),
+}
+
+impl fmt::Display for RunError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RunError::Identifier(e) => write!(f, "identifier: {e}"),
+            RunError::Tracker(e) => write!(f, "order tracker: {e}"),
+        }
+    }
+}
+
+impl From<IdentifierError> for RunError {
+    fn from(e: IdentifierError) -> Self {
+        RunError::Identifier(e)
+    }
+}
+
+impl From<ConfigError> for RunError {
+    fn from(e: ConfigError) -> Self {
+        RunError::Tracker(e)
+    }
 }
 
 /// `x` as a fixed-point decimal with `decimals` digits (truncated toward
@@ -57,9 +160,23 @@ pub fn update(
     id.update(&TABLE, omega, q)
 }
 
-/// Runs the sweep through the identifier and writes the estimates to `out`
-/// (lines starting with `est `). Returns the number of updates folded in.
-pub fn run<W: Write, P: Probe>(out: &mut W, probe: &mut P) -> Result<usize, IdentifierError> {
+/// Both runs (module documentation): the sweep's vectors, then the
+/// coast-down's samples through `tracker` (a fresh one, [`tracker`]) into
+/// a second identifier; writes the estimates to `out` (lines starting with
+/// `est `). Returns the updates folded in by each.
+pub fn run<W: Write, P: Probe>(
+    out: &mut W,
+    probe: &mut P,
+    tracker: &mut Tracker,
+) -> Result<(usize, usize), RunError> {
+    let vectors = run_vectors(out, probe)?;
+    let samples = run_samples(out, probe, tracker)?;
+    Ok((vectors, samples))
+}
+
+/// The sweep's vectors into the identifier (`est` lines).
+#[inline(never)]
+fn run_vectors<W: Write, P: Probe>(out: &mut W, probe: &mut P) -> Result<usize, RunError> {
     let mut id = Id::new(Config::new(STRUCTURE, SCALING))?;
     let (mut used, mut last) = (0usize, 0.0f32);
     for (omega, q) in SWEEP.iter() {
@@ -80,11 +197,91 @@ pub fn run<W: Write, P: Probe>(out: &mut W, probe: &mut P) -> Result<usize, Iden
         SWEEP.len(),
         Fixed(last, 3)
     );
+    print_estimates(out, "est", &est);
+    Ok(used)
+}
+
+/// The coast-down's samples through the tracker, its averages into the
+/// identifier (`est samples` lines: revolutions by outcome, updates,
+/// estimates).
+#[inline(never)]
+fn run_samples<W: Write, P: Probe>(
+    out: &mut W,
+    probe: &mut P,
+    tracker: &mut Tracker,
+) -> Result<usize, RunError> {
+    let mut id = Id::new(Config::new(STRUCTURE, SCALING))?;
+    let mut gen = Coastdown::new(&SWEEP, coastdown_setup());
+    let (mut samples, mut averages, mut used, mut last) = (0u32, 0usize, 0usize, 0.0f32);
+    loop {
+        probe.before_sample();
+        let next = gen.next_sample();
+        probe.after_sample();
+        let average = match next {
+            Some((kp, y)) => {
+                samples += 1;
+                probe.before_push();
+                let o = tracker.push(kp, &y);
+                probe.after_push();
+                o.and_then(|o| o.average)
+            }
+            None => tracker.flush(),
+        };
+        if let Some(a) = average {
+            averages += 1;
+            probe.before_update();
+            let step = update(&mut id, a.speed, &a.x1);
+            probe.after_update();
+            if step.is_ok() {
+                used += 1;
+                last = a.speed;
+            }
+        }
+        if next.is_none() {
+            break;
+        }
+    }
+    let c = tracker.counts();
+    let _ = writeln!(
+        out,
+        "est samples {} revolutions {}: accepted {}, rejected no_reference {} period_jump {} \
+         undersampled {} speed_range {} non_finite {} clipped {} no_event {}",
+        samples,
+        c.total(),
+        c.accepted,
+        c.no_reference,
+        c.period_jump,
+        c.undersampled,
+        c.speed_range,
+        c.non_finite,
+        c.clipped,
+        c.no_event
+    );
+    let est = id.estimates(last)?;
+    let _ = writeln!(
+        out,
+        "est samples updates {} of {} averages, last at {} rad/s",
+        used,
+        averages,
+        Fixed(last, 3)
+    );
+    print_estimates(out, "est samples", &est);
+    Ok(used)
+}
+
+/// The estimates as lines starting with `tag`: each bearing's `k`, `c`,
+/// each plane's unbalance phasor (and, as comments, its magnitude and
+/// phase).
+fn print_estimates<W: Write>(
+    out: &mut W,
+    tag: &str,
+    est: &Estimates<f32, { crate::table::NQ }, { crate::table::NP }>,
+) {
     for (m, b) in est.bearings.iter().enumerate() {
         for (j, name) in COEFFICIENTS.iter().enumerate() {
             let _ = writeln!(
                 out,
-                "est bearing {} k{} {} N/m c{} {} N s/m",
+                "{tag} bearing {} k{} {} N/m c{} {} N s/m",
                 m + 1,
                 name,
                 Fixed(b.k[j], 0),
@@ -99,7 +296,7 @@ pub fn run<W: Write, P: Probe>(out: &mut W, probe: &mut P) -> Result<usize, Iden
     for (k, u) in est.unbalance.iter().enumerate() {
         let _ = writeln!(
             out,
-            "est plane {} a {} {} g mm",
+            "{tag} plane {} a {} {} g mm",
             k + 1,
             Fixed(u.a.re * 1e6, 3),
             Fixed(u.a.im * 1e6, 3)
@@ -112,5 +309,4 @@ pub fn run<W: Write, P: Probe>(out: &mut W, probe: &mut P) -> Result<usize, Iden
             Fixed(u.phase_deg(), 3)
         );
     }
-    Ok(used)
 }
