@@ -464,11 +464,22 @@ fn pool(rows: &mut [VectorRow], fs: f64, n_channels: usize) -> Vec<Option<NoiseF
             .zip(&g)
             .map(|(r, g)| r.std_raw.get(c).map_or(f64::NAN, |s| s * s / g))
             .collect();
-        let f = noise::fit(&y2, &u);
+        let t: Vec<f64> = rows
+            .iter()
+            .map(|r| noise::beyond_threshold(2.0 * (f64::from(r.revolutions) - 2.0)))
+            .collect();
+        let f = noise::fit(&y2, &u, &t);
         if let Some(f) = &f {
-            for ((r, g), y2) in rows.iter_mut().zip(&g).zip(&y2) {
+            for (((r, g), y2), t) in rows.iter_mut().zip(&g).zip(&y2).zip(&t) {
+                let model = f.variance(*g, *y2);
+                let own = r.std_raw.get(c).map_or(f64::NAN, |s| s * s);
                 if let Some(s) = r.std.get_mut(c) {
-                    *s = f.variance(*g, *y2).sqrt();
+                    // Beyond the model at the 0.1 % level: the row's own.
+                    *s = if own > t * model {
+                        own.sqrt()
+                    } else {
+                        model.sqrt()
+                    };
                 }
             }
         }

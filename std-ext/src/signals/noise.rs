@@ -20,12 +20,18 @@
 //! rows' variances `v_k` by iteratively reweighted least squares on
 //! `u_k = v_k / g_k = a + b |Y_k|^2` with weights `1 / (a + b |Y_k|^2)^2`
 //! (the variance of a scaled chi-square is proportional to its mean
-//! squared: the maximum-likelihood weighting), `a, b >= 0`, rows whose `u_k`
-//! exceeds 4 times the model left out of the fit (a vector changing faster
-//! than a straight line within its group, at a resonance passed quickly,
-//! is no noise). The pooled standard error of row `k` is
-//! `sqrt(g_k (a + b |Y_k|^2))`, with the `2 (N - 2) K` degrees of freedom
-//! of `K` rows behind it instead of `2 (N - 2)`.
+//! squared: the maximum-likelihood weighting), `a, b >= 0`, starting from
+//! `a = median(u)`, `b = 0`.
+//!
+//! A row whose own variance is beyond the model at the 0.1 % level,
+//! `u_k > T_k (a + b |Y_k|^2)` with `T_k = chi2_0.999(nu_k) / nu_k`,
+//! `nu_k = 2 (N_k - 2)` (about 2.74 for `N = 8`, Wilson-Hilferty), is no
+//! noise the model knows: the vector changed faster than a straight line
+//! within its group (a resonance passed quickly, a transient). It is left
+//! out of the fit, and keeps its own standard error; every other row gets
+//! the pooled one, `sqrt(g_k (a + b |Y_k|^2))`, with the
+//! `2 (N - 2) K` degrees of freedom of the `K` pooled rows behind it
+//! instead of `2 (N - 2)`.
 
 /// The fitted noise of one channel's samples.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,14 +55,23 @@ impl NoiseFit {
 /// The fewest rows a pooled fit takes.
 pub const MIN_ROWS: usize = 4;
 
-/// Fits `a + b y2_k` to `u_k` (see the module documentation); `None` with
-/// fewer than [`MIN_ROWS`] usable rows.
-pub fn fit(y2: &[f64], u: &[f64]) -> Option<NoiseFit> {
-    let rows: Vec<(f64, f64)> = y2
+/// `chi2_0.999(nu) / nu` by the Wilson-Hilferty approximation,
+/// `(1 - 2 / (9 nu) + z sqrt(2 / (9 nu)))^3`, `z = 3.090`.
+pub fn beyond_threshold(nu: f64) -> f64 {
+    let c = 2.0 / (9.0 * nu.max(1.0));
+    (1.0 - c + 3.090 * c.sqrt()).powi(3)
+}
+
+/// Fits `a + b y2_k` to `u_k` (see the module documentation), rows with
+/// `u_k > t_k` times the model left out; `None` with fewer than
+/// [`MIN_ROWS`] usable rows.
+pub fn fit(y2: &[f64], u: &[f64], t: &[f64]) -> Option<NoiseFit> {
+    let rows: Vec<(f64, f64, f64)> = y2
         .iter()
         .zip(u)
-        .filter(|(y, u)| y.is_finite() && u.is_finite() && **u >= 0.0)
-        .map(|(y, u)| (*y, *u))
+        .zip(t)
+        .filter(|((y, u), t)| y.is_finite() && u.is_finite() && **u >= 0.0 && t.is_finite())
+        .map(|((y, u), t)| (*y, *u, *t))
         .collect();
     if rows.len() < MIN_ROWS {
         return None;
@@ -66,14 +81,14 @@ pub fn fit(y2: &[f64], u: &[f64]) -> Option<NoiseFit> {
     let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
     let (mut a, mut b) = (median, 0.0);
     let mut used = rows.len();
-    for iter in 0..30 {
+    for _ in 0..30 {
         let model = |y: f64| a + b * y;
         let top = rows.iter().map(|r| model(r.0)).fold(0.0, f64::max);
         let tiny = (1e-9 * top).max(f64::MIN_POSITIVE);
         let kept: Vec<(f64, f64, f64)> = rows
             .iter()
-            .filter(|(y, u)| iter == 0 || *u <= 4.0 * model(*y))
-            .map(|(y, u)| {
+            .filter(|(y, u, t)| *u <= t * model(*y))
+            .map(|(y, u, _)| {
                 let m = model(*y).max(tiny);
                 (*y, *u, 1.0 / (m * m))
             })
@@ -152,9 +167,11 @@ mod tests {
         assert!((f.relative.powi(2) / b - 1.0).abs() < 0.1, "{f:?}");
         // A pure floor: b stays 0, a within 10 %.
         let u: Vec<f64> = y2.iter().map(|_| a * gamma.sample(&mut rng)).collect();
-        let f = fit(&y2, &u).unwrap();
+        let f = fit(&y2, &u, &t).unwrap();
         assert!((f.floor.powi(2) / a - 1.0).abs() < 0.1, "{f:?}");
         assert!(f.relative.powi(2) * y2[199] < 0.2 * a, "{f:?}");
-        assert!(fit(&y2[..3], &u[..3]).is_none());
+        assert!(fit(&y2[..3], &u[..3], &t[..3]).is_none());
+        // Wilson-Hilferty against the tabulated chi2_0.999(12) = 32.91.
+        assert!((beyond_threshold(12.0) * 12.0 / 32.91 - 1.0).abs() < 0.01);
     }
 }
