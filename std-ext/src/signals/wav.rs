@@ -31,7 +31,7 @@ pub fn read_wav_with(
     let p = path.display().to_string();
     config.validate()?;
     let fmt = |m: String| SignalsError::Format(m);
-    let reader = hound::WavReader::open(path).map_err(|e| match e {
+    let mut reader = hound::WavReader::open(path).map_err(|e| match e {
         hound::Error::IoError(source) => SignalsError::Io {
             path: p.clone(),
             source,
@@ -98,41 +98,59 @@ pub fn read_wav_with(
     let nc = channels.len();
     let mut kp = Vec::with_capacity(frames);
     let mut probes = Vec::with_capacity(frames * nc);
-    // Destination of each channel of a frame: the keyphasor, a probe, none.
-    let mut dest: Vec<Option<(usize, f64)>> = vec![None; nch];
-    for (i, (&ch, &s)) in probe_ch.iter().zip(scale.iter()).enumerate() {
-        if let Some(d) = dest.get_mut(ch) {
-            *d = Some((i, s));
+    let mut row = vec![0.0; nc];
+    let mut push = |sample: &dyn Fn(usize) -> f64, kp: &mut Vec<f64>, probes: &mut Vec<f64>| {
+        kp.push(sample(kp_ch) * kp_scale);
+        for ((slot, &ch), &s) in row.iter_mut().zip(&probe_ch).zip(&scale) {
+            *slot = sample(ch) * s;
         }
-    }
-    let mut frame = vec![0.0; nc];
-    let mut kp_value = 0.0;
-    let mut take =
-        |ch: usize, x: f64, frame: &mut Vec<f64>, kp: &mut Vec<f64>, probes: &mut Vec<f64>| {
-            if ch == kp_ch {
-                kp_value = x * kp_scale;
-            } else if let Some(Some((i, s))) = dest.get(ch) {
-                if let Some(slot) = frame.get_mut(*i) {
-                    *slot = x * s;
-                }
-            }
-            if ch + 1 == nch {
-                kp.push(kp_value);
-                probes.extend_from_slice(frame);
-            }
-        };
+        probes.extend_from_slice(&row);
+    };
     let bad = |e: hound::Error| fmt(format!("{p}: bad sample data: {e}"));
-    let mut reader = reader;
     match (spec.sample_format, spec.bits_per_sample) {
-        (hound::SampleFormat::Float, 32) => {
-            for (i, s) in reader.samples::<f32>().enumerate() {
-                take(i % nch, f64::from(s.map_err(bad)?), &mut frame, &mut kp, &mut probes);
+        (f @ (hound::SampleFormat::Float | hound::SampleFormat::Int), 32) => {
+            // 32 bits fill their 4-byte container: hound has read the header
+            // and left the reader at the samples, which are read whole and
+            // decoded frame by frame (hound's per-sample iterator costs
+            // several times more).
+            let decode: fn([u8; 4]) -> f64 = if f == hound::SampleFormat::Float {
+                |b| f64::from(f32::from_le_bytes(b))
+            } else {
+                |b| f64::from(i32::from_le_bytes(b)) / 2_147_483_648.0
+            };
+            let frame_bytes = 4 * nch;
+            let mut data = Vec::new();
+            {
+                use std::io::Read;
+                reader
+                    .into_inner()
+                    .take((frames * frame_bytes) as u64)
+                    .read_to_end(&mut data)
+                    .map_err(|e| fmt(format!("{p}: reading the samples: {e}")))?;
+            }
+            for frame in data.chunks_exact(frame_bytes) {
+                let sample = |ch: usize| {
+                    frame
+                        .get(4 * ch..4 * ch + 4)
+                        .and_then(|b| <[u8; 4]>::try_from(b).ok())
+                        .map_or(f64::NAN, decode)
+                };
+                push(&sample, &mut kp, &mut probes);
             }
         }
-        (hound::SampleFormat::Int, b @ (16 | 24 | 32)) => {
+        (hound::SampleFormat::Int, b @ (16 | 24)) => {
             let norm = 1.0 / f64::from(1u32 << (b - 1));
-            for (i, s) in reader.samples::<i32>().enumerate() {
-                take(i % nch, f64::from(s.map_err(bad)?) * norm, &mut frame, &mut kp, &mut probes);
+            let mut frame = vec![0.0; nch];
+            let mut samples = reader.samples::<i32>();
+            'frames: loop {
+                for slot in frame.iter_mut() {
+                    match samples.next() {
+                        Some(s) => *slot = f64::from(s.map_err(bad)?) * norm,
+                        None => break 'frames,
+                    }
+                }
+                let sample = |ch: usize| frame.get(ch).copied().unwrap_or(f64::NAN);
+                push(&sample, &mut kp, &mut probes);
             }
         }
         (f, b) => {
