@@ -336,7 +336,7 @@ pub fn extract(
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
             (a.min(x), b.max(x))
         });
-    if !(hi > lo) {
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return Err(ExtractError::Keyphasor(
             "the signal is constant: no pulses".into(),
         ));
@@ -375,7 +375,7 @@ pub fn extract(
     }
     let w_min = given_min.unwrap_or(0.95 * found.0);
     let w_max = given_max.unwrap_or(1.05 * found.1);
-    if !(w_max > w_min) {
+    if w_max.partial_cmp(&w_min) != Some(std::cmp::Ordering::Greater) {
         return Err(ExtractError::Speed(format!(
             "speed range {} .. {} rpm is empty",
             rpm(w_min),

@@ -162,7 +162,8 @@ mod tests {
             .iter()
             .map(|y| (a + b * y) * gamma.sample(&mut rng))
             .collect();
-        let f = fit(&y2, &u).unwrap();
+        let t = vec![beyond_threshold(dof); y2.len()];
+        let f = fit(&y2, &u, &t).unwrap();
         assert!((f.floor.powi(2) / a - 1.0).abs() < 0.1, "{f:?}");
         assert!((f.relative.powi(2) / b - 1.0).abs() < 0.1, "{f:?}");
         // A pure floor: b stays 0, a within 10 %.
