@@ -152,7 +152,7 @@ mod tests {
     #[test]
     fn recovers_floor_and_relative_part() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let (a, b) = (0.25e-12, 2.5e-5);
+        let (a, b) = (0.25e-12, 6.25e-3);
         let dof = 12.0;
         let gamma = Gamma::new(dof / 2.0, 2.0 / dof).unwrap();
         let y2: Vec<f64> = (0..200)
