@@ -3,7 +3,7 @@
 //! A recording ([`Recording`]) holds a keyphasor signal and the probes'
 //! displacements (m) sampled together at a uniform rate, read from the
 //! signals CSV of the SPEC ([`read_csv`]) or from a WAV file ([`read_wav`],
-//! channel roles and sensitivities from a [`SignalConfig`]). [`extract`]
+//! channel roles and sensitivities from a [`SignalConfig`]). [`extract()`]
 //! runs the core's order tracker (`rotorid_core::ordertrack`, the code the
 //! firmware runs) over it in `f64` and returns the averaged 1X vectors per
 //! revolution group with standard errors pooled over the sweep
