@@ -322,3 +322,26 @@ fn a_missing_pulse_is_counted_not_averaged() {
     );
     let _: Complex64 = v.rows[0].x1[0];
 }
+
+/// A slow lowest speed asks for a large buffer (`CAP = 2^20`, a 42 MB
+/// tracker state for 4 channels, far above a test thread's 2 MiB stack):
+/// the tracker is built and run on its own thread and gives the same
+/// vectors as with the buffer chosen from the keyphasor.
+#[test]
+fn a_large_tracker_state_runs_on_its_own_thread() {
+    let s = short_paper();
+    let rec = recording(&s);
+    let small = signals::extract(&rec, &ExtractOptions::default(), None).unwrap();
+    let opts = ExtractOptions {
+        speed_min_rpm: Some(5.0),
+        speed_max_rpm: Some(10_000.0),
+        ..ExtractOptions::default()
+    };
+    let big = signals::extract(&rec, &opts, None).unwrap();
+    assert!(big.tracker.1 >= 1 << 20, "{:?}", big.tracker);
+    assert!(small.tracker.1 < big.tracker.1);
+    assert_eq!(big.rows.len(), small.rows.len());
+    for (a, b) in big.rows.iter().zip(&small.rows) {
+        assert_eq!(a.x1, b.x1);
+    }
+}
