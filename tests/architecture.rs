@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 
 /// The top-level modules, lowest first.
 const LAYERS: &[&str] = &[
-    "units", "model", "io", "fe", "reduce", "tables", "campbell", "simulate", "estimate",
-    "diagnose", "report", "cli",
+    "units", "model", "io", "fe", "reduce", "tables", "campbell", "simulate", "signals",
+    "estimate", "diagnose", "report", "cli",
 ];
 
 fn rank(module: &str) -> Option<usize> {

@@ -78,6 +78,8 @@ pub mod campbell;
 
 pub mod simulate;
 
+pub mod signals;
+
 pub mod estimate;
 
 pub mod diagnose;

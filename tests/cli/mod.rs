@@ -7,3 +7,4 @@ mod front_door;
 mod responses;
 mod robust;
 mod simulate;
+mod vectors;

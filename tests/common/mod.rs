@@ -18,6 +18,8 @@ use rotorid::io::measurement::{Measurements, Sample};
 use rotorid::model::RotorModel;
 use rotorid::units::rpm_to_rad_s;
 
+pub mod signals;
+
 /// The one pseudo-random generator of the tests: ChaCha8 seeded with
 /// `seed` (the generator of the library's noise, a fixed stream).
 pub fn rng(seed: u64) -> ChaCha8Rng {

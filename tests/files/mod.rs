@@ -7,4 +7,5 @@ mod model;
 mod robustness;
 mod ross;
 mod ross_fixtures;
+pub mod signals;
 mod simulate;

@@ -12,6 +12,10 @@
 //!                  [--amplitude-unit ...] [--amplitude ...] [--phase ...]
 //! rotorid campbell --model MODEL [--rpm-max 15000] [--rpm-step 250] [--modes 8]
 //!                  [--plot OUT.svg] [--json OUT.json] [--csv OUT.csv]
+//! rotorid vectors  --signals FILE --out VECTORS.csv [--plot DIR] [--json OUT.json] [--config FILE.toml]
+//!                  [--kp SOURCE] [--channels b1_y=0,...] [--sensitivity V/mm] [--full-scale V]
+//!                  [--edge rising|falling] [--kp-level X] [--kp-hysteresis X]
+//!                  [--speed-min RPM] [--speed-max RPM] [--revolutions 8] [--no-pool]
 //! ```
 //!
 //! MODEL is `paper` (the built-in reference rotor), `paper-speed-dependent`
@@ -36,12 +40,14 @@ pub mod diagnose;
 pub mod identify;
 pub mod simulate;
 pub mod tables;
+pub mod vectors;
 
 pub use campbell::CampbellArgs;
 pub use diagnose::DiagnoseArgs;
 pub use identify::{FormulationArg, IdentifyArgs};
 pub use simulate::SimulateArgs;
 pub use tables::TablesArgs;
+pub use vectors::VectorsArgs;
 
 /// Exit status for every error (bad input, usage, failed computation).
 pub const EXIT_ERROR: i32 = 2;
@@ -69,6 +75,8 @@ pub enum Command {
     Diagnose(DiagnoseArgs),
     /// Campbell diagram: natural frequencies, whirl, log dec, critical speeds.
     Campbell(CampbellArgs),
+    /// Turn recorded probe and keyphasor signals into a measurement CSV.
+    Vectors(VectorsArgs),
 }
 
 /// The uniform speed grid of `simulate` and `tables`: from `--rpm-min` in
@@ -207,6 +215,7 @@ pub fn run(cli: &Cli, io: &mut Io<'_>) -> Result<(), CliError> {
         Command::Identify(a) => identify::run(a, io),
         Command::Diagnose(a) => diagnose::run(a, io),
         Command::Campbell(a) => campbell::run(a, io),
+        Command::Vectors(a) => vectors::run(a, io),
     }
 }
 
@@ -251,7 +260,7 @@ where
                 ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
                     let _ = writeln!(
                         io.err,
-                        "error: a command is required (simulate, tables, identify, diagnose, campbell); see `rotorid --help`"
+                        "error: a command is required (simulate, tables, identify, diagnose, campbell, vectors); see `rotorid --help`"
                     );
                     return EXIT_ERROR;
                 }
