@@ -238,13 +238,14 @@ pub fn sweep_rate_warnings(
             let bw2 = (c.damping_ratio * c.omega).powi(2);
             // An undamped mode (bw2 = 0) gives kappa = infinity.
             let kappa = alpha / bw2;
-            (rpm >= rpm_min && rpm <= rpm_max && !(kappa <= KAPPA_MAX))
-                .then(|| FastPassage {
+            (rpm >= rpm_min && rpm <= rpm_max && (kappa > KAPPA_MAX || kappa.is_nan())).then(|| {
+                FastPassage {
                     rpm,
                     damping_ratio: c.damping_ratio,
                     kappa,
                     rate_max_rpm_per_s: crate::units::rad_s_to_rpm(KAPPA_MAX * bw2),
-                })
+                }
+            })
         })
         .collect())
 }

@@ -63,7 +63,10 @@ fn stays_on_discrete_steady_state(model: &RotorModel, rpm: f64) {
         et / scale_t,
         er / scale_r
     );
-    assert!(et <= 1e-9 * scale_t, "translation error {et:e} of {scale_t:e}");
+    assert!(
+        et <= 1e-9 * scale_t,
+        "translation error {et:e} of {scale_t:e}"
+    );
     assert!(er <= 1e-9 * scale_r, "rotation error {er:e} of {scale_r:e}");
     // At constant speed one factorisation, and each step converges at once.
     assert_eq!(factors, 1);
@@ -90,7 +93,10 @@ fn converges_at_second_order(model: &RotorModel, rpm: f64) {
     let (m, g) = (fe.mass_matrix(), fe.gyroscopic_matrix());
     let (k, c) = (fe.stiffness_matrix(w), fe.damping_matrix(w));
     let z = DMatrix::from_fn(n, n, |i, j| {
-        Complex64::new(k[(i, j)] - w * w * m[(i, j)], w * (c[(i, j)] + w * g[(i, j)]))
+        Complex64::new(
+            k[(i, j)] - w * w * m[(i, j)],
+            w * (c[(i, j)] + w * g[(i, j)]),
+        )
     });
     let qv = DVector::from_column_slice(&q);
     let scale = translation_scale(&fe, &q);
@@ -119,7 +125,10 @@ fn converges_at_second_order(model: &RotorModel, rpm: f64) {
     }
     for p in errors.windows(2) {
         let r = p[0] / p[1];
-        assert!((3.9..4.1).contains(&r), "error ratio {r} on halving the step");
+        assert!(
+            (3.9..4.1).contains(&r),
+            "error ratio {r} on halving the step"
+        );
     }
 }
 

@@ -9,11 +9,13 @@
 //!   the step; the whole chain gives `simulate`'s vectors;
 //! - [`coastdown`]: coast-downs of two rotors at a balance grade with
 //!   probe noise, against the steady state away from the critical speeds;
+//! - [`identify`]: `identify` on extracted vectors against the exact ones;
 //! - [`rate`]: the deviation at a critical speed against the sweep rate;
 //! - [`warning`]: the `# sweep:` line and the warning of a too fast sweep.
 
 mod coastdown;
 mod constant;
+mod identify;
 mod rate;
 mod warning;
 

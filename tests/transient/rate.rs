@@ -11,7 +11,9 @@ use rotorid::simulate::transient::{signals, vectors, SweepOptions};
 use rotorid::units::rad_s_to_rpm;
 
 use super::stepped_hollow_g63;
-use crate::common;
+use rotorid::fe::assembly::{Dir, FeModel};
+use rotorid::fe::response::Forcing;
+use rotorid::fe::transient::warped_response;
 
 /// The forward critical speed near 9224 rpm: (omega_n rad/s, zeta).
 fn critical() -> (f64, f64) {
@@ -31,8 +33,12 @@ fn critical() -> (f64, f64) {
     (c.omega, c.damping_ratio)
 }
 
-/// Largest `|Y - Q| / max|Q|` over the vectors within three half-power
-/// half-widths (`zeta omega_n`) of the critical, per channel, worst channel.
+/// Largest `|Y - Q_h| / max|Q_h|` over the vectors within three half-power
+/// half-widths (`zeta omega_n`) of the critical, per channel, worst
+/// channel: against the Newmark scheme's own steady state `Q_h` at the
+/// step used, so that the step's frequency error (`(Omega h)^2 / (12
+/// zeta)` = 0.023 of the peak here at 128 steps a revolution) is not
+/// counted as the rate's.
 fn fe_deviation(kappa: f64, wn: f64, zeta: f64) -> f64 {
     let model = stepped_hollow_g63();
     let bw = zeta * wn;
@@ -48,16 +54,28 @@ fn fe_deviation(kappa: f64, wn: f64, zeta: f64) -> f64 {
     let near: Vec<usize> = (0..m.samples.len())
         .filter(|&i| (m.samples[i].omega - wn).abs() <= 3.0 * bw)
         .collect();
-    let speeds: Vec<f64> = near.iter().map(|&i| m.samples[i].omega).collect();
-    let ss = common::simulate(&model, &speeds);
+    let fe = FeModel::new(&model).unwrap();
+    let forcing = Forcing::from_model(&model);
+    let h = 1.0 / (2.0 * fs);
+    let ss: Vec<Vec<Complex64>> = near
+        .iter()
+        .map(|&i| {
+            let q = warped_response(&fe, &forcing, m.samples[i].omega, h).unwrap();
+            model
+                .bearings
+                .iter()
+                .flat_map(|b| [q[fe.dof(b.node, Dir::Y)], q[fe.dof(b.node, Dir::Z)]])
+                .collect()
+        })
+        .collect();
     let nc = m.samples[0].q.len();
     let mut worst = 0.0f64;
     for c in 0..nc {
-        let peak = ss.samples.iter().map(|s| s.q[c].norm()).fold(0.0, f64::max);
+        let peak = ss.iter().map(|s| s[c].norm()).fold(0.0, f64::max);
         let dev = near
             .iter()
-            .zip(&ss.samples)
-            .map(|(&i, s)| (m.samples[i].q[c] - s.q[c]).norm())
+            .zip(&ss)
+            .map(|(&i, s)| (m.samples[i].q[c] - s[c]).norm())
             .fold(0.0, f64::max);
         worst = worst.max(dev / peak);
     }
@@ -74,7 +92,9 @@ fn single_mode_deviation(kappa: f64, wn: f64, zeta: f64) -> f64 {
     let bw = zeta * wn;
     let alpha = -kappa * bw * bw;
     let w0 = wn + 8.0 * bw;
-    let x_ss = |om: f64| Complex64::new(om * om, 0.0) / Complex64::new(wn * wn - om * om, 2.0 * zeta * wn * om);
+    let x_ss = |om: f64| {
+        Complex64::new(om * om, 0.0) / Complex64::new(wn * wn - om * om, 2.0 * zeta * wn * om)
+    };
     let peak = x_ss(wn).norm();
     let j = Complex64::new(0.0, 1.0);
     let f = |t: f64, a: Complex64, b: Complex64| -> (Complex64, Complex64) {
@@ -137,7 +157,10 @@ fn table(kappas: &[f64]) -> Vec<(f64, f64, f64)> {
 fn deviation_at_a_critical_grows_with_the_rate() {
     let t = table(&[0.5, 2.0]);
     for &(k, fe, one) in &t {
-        assert!((fe / one - 1.0).abs() < 0.1, "kappa {k}: FE {fe}, one mode {one}");
+        assert!(
+            (fe / one - 1.0).abs() < 0.1,
+            "kappa {k}: FE {fe}, one mode {one}"
+        );
     }
     assert!(t[1].1 > 1.3 * t[0].1);
 }
@@ -150,7 +173,10 @@ fn deviation_at_a_critical_grows_with_the_rate() {
 fn deviation_table() {
     let t = table(&[0.01, 0.03, 0.1, 0.3, 1.0, 3.0]);
     for &(k, fe, one) in &t {
-        assert!((fe / one - 1.0).abs() < 0.1, "kappa {k}: FE {fe}, one mode {one}");
+        assert!(
+            (fe / one - 1.0).abs() < 0.1,
+            "kappa {k}: FE {fe}, one mode {one}"
+        );
     }
     // First order in kappa at small kappa: deviation ~ kappa.
     for &(k, fe, _) in t.iter().filter(|r| r.0 <= 0.1) {

@@ -31,7 +31,10 @@ fn the_sweep_line_is_read() {
         ("# sweep: rate_rpm_per_s 5", "expected `=`"),
     ] {
         let e = parse_csv_located(&format!("# a\n{bad}\n{HEADER}{ROW}")).unwrap_err();
-        assert!(matches!(e, MeasurementError::Sweep { line: 2, .. }), "{bad}: {e}");
+        assert!(
+            matches!(e, MeasurementError::Sweep { line: 2, .. }),
+            "{bad}: {e}"
+        );
         let msg = e.to_string();
         assert!(msg.starts_with("line 2:") && msg.contains(what), "{msg}");
     }
@@ -55,12 +58,22 @@ fn threshold_follows_the_modal_damping() {
     let limit = rotorid::units::rad_s_to_rpm(KAPPA_MAX * (f.damping_ratio * wn).powi(2));
     assert!((f.rate_max_rpm_per_s / limit - 1.0).abs() < 1e-12);
     assert!((f.kappa / (rpm_to_rad_s(100.0) / (f.damping_ratio * wn).powi(2)) - 1.0).abs() < 1e-12);
-    assert!((5.0..9.0).contains(&f.rate_max_rpm_per_s), "{}", f.rate_max_rpm_per_s);
-    assert!(f.message(-100.0).contains("9224 rpm"), "{}", f.message(-100.0));
+    assert!(
+        (5.0..9.0).contains(&f.rate_max_rpm_per_s),
+        "{}",
+        f.rate_max_rpm_per_s
+    );
+    assert!(
+        f.message(-100.0).contains("9224 rpm"),
+        "{}",
+        f.message(-100.0)
+    );
     // Just below the limit: no warning; outside the range: none either.
     let slow = sweep_rate_warnings(&m, 8000.0, 10500.0, 0.9 * f.rate_max_rpm_per_s).unwrap();
     assert!(slow.is_empty(), "{slow:?}");
-    assert!(sweep_rate_warnings(&m, 3500.0, 8000.0, -100.0).unwrap().is_empty());
+    assert!(sweep_rate_warnings(&m, 3500.0, 8000.0, -100.0)
+        .unwrap()
+        .is_empty());
 }
 
 /// A sweep of the stepped hollow shaft at G6.3 over 8000..10500 rpm with

@@ -392,7 +392,9 @@ pub fn sweep_warnings(
     }
     match crate::campbell::sweep_rate_warnings(model, lo, hi, rate) {
         Ok(v) => v.iter().map(|f| f.message(rate)).collect(),
-        Err(e) => vec![format!("the sweep rate {rate} rpm/s was not checked against the critical speeds: {e}")],
+        Err(e) => vec![format!(
+            "the sweep rate {rate} rpm/s was not checked against the critical speeds: {e}"
+        )],
     }
 }
 

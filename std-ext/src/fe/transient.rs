@@ -510,7 +510,12 @@ impl Integrator {
         s.axpy(c_v * omega, &self.g);
         for (sp, b) in self.supports.iter().zip(&self.fe.model().bearings) {
             let coefs = b.law.at(omega);
-            add_support(&mut s, sp, &(stiffness(&coefs) + damping(&coefs) * c_v), 1.0)?;
+            add_support(
+                &mut s,
+                sp,
+                &(stiffness(&coefs) + damping(&coefs) * c_v),
+                1.0,
+            )?;
         }
         self.lu = s.into_lu()?;
         self.omega_ref = omega;
@@ -537,14 +542,11 @@ impl Integrator {
         let n = self.n;
         // r = f1 + M (c_m q + c_a v + a) + D1 (c_v q + v).
         let mut r = self.force(t1);
-        let mut tmp = vec![0.0; n];
-        for i in 0..n {
-            tmp[i] = c_m * self.q[i] + c_a * self.v[i] + self.a[i];
-        }
+        let tmp: Vec<f64> = (0..n)
+            .map(|i| c_m * self.q[i] + c_a * self.v[i] + self.a[i])
+            .collect();
         self.m.mul_add(1.0, &tmp, &mut r);
-        for i in 0..n {
-            tmp[i] = c_v * self.q[i] + self.v[i];
-        }
+        let tmp: Vec<f64> = (0..n).map(|i| c_v * self.q[i] + self.v[i]).collect();
         self.apply_d(w1, &tmp, 1.0, &mut r);
         self.r = r;
         // Predictor, then x <- x + S_ref^-1 (r - S(w1) x).
@@ -560,7 +562,13 @@ impl Integrator {
             self.g.mul_add(-c_v * w1, &x, &mut res);
             for (sp, b) in self.supports.iter().zip(&self.fe.model().bearings) {
                 let coefs = b.law.at(w1);
-                support_mul_add(sp, &(stiffness(&coefs) + damping(&coefs) * c_v), -1.0, &x, &mut res);
+                support_mul_add(
+                    sp,
+                    &(stiffness(&coefs) + damping(&coefs) * c_v),
+                    -1.0,
+                    &x,
+                    &mut res,
+                );
             }
             self.lu.lu_solve(&mut res);
             self.solves += 1;
@@ -704,7 +712,9 @@ pub fn warped_response(
         }
     }
     let q = z.lu().solve(&f).ok_or_else(|| {
-        FeError::Invalid(format!("singular warped dynamic stiffness at {omega} rad/s"))
+        FeError::Invalid(format!(
+            "singular warped dynamic stiffness at {omega} rad/s"
+        ))
     })?;
     Ok(q.iter().copied().collect())
 }

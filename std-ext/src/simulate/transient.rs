@@ -160,9 +160,14 @@ impl SweepOptions {
             )));
         }
         if self.substeps == 0 {
-            return Err(TransientError::Invalid("substeps must be at least 1".into()));
+            return Err(TransientError::Invalid(
+                "substeps must be at least 1".into(),
+            ));
         }
-        if !(fin(self.noise) && self.noise >= 0.0 && fin(self.noise_floor) && self.noise_floor >= 0.0)
+        if !(fin(self.noise)
+            && self.noise >= 0.0
+            && fin(self.noise_floor)
+            && self.noise_floor >= 0.0)
         {
             return Err(TransientError::Invalid(format!(
                 "noise must be finite and >= 0, got {} relative, {} m floor",
@@ -392,6 +397,10 @@ pub fn vectors(sig: &Signals, revolutions: u32) -> Result<Extracted, TransientEr
         .map_err(|_| TransientError::Tracker("its thread panicked".into()))?
 }
 
+/// One average of one channel group: speed (rad/s), 1X vectors, their
+/// standard errors.
+type GroupAverage = (f64, [Complex64; NC], [f64; NC]);
+
 fn vectors_on_this_thread(sig: &Signals, revolutions: u32) -> Result<Extracted, TransientError> {
     let fs = sig.sample_rate;
     let nc = sig.channels.len();
@@ -408,7 +417,7 @@ fn vectors_on_this_thread(sig: &Signals, revolutions: u32) -> Result<Extracted, 
         ));
     }
     // Per group: (speed, vectors, std) of each average.
-    let mut out: Vec<Vec<(f64, [Complex64; NC], [f64; NC])>> = vec![Vec::new(); groups];
+    let mut out: Vec<Vec<GroupAverage>> = vec![Vec::new(); groups];
     for (kp, row) in sig.kp.iter().zip(&sig.y) {
         for (g, tr) in trackers.iter_mut().enumerate() {
             let mut y = [0.0; NC];
@@ -433,7 +442,7 @@ fn vectors_on_this_thread(sig: &Signals, revolutions: u32) -> Result<Extracted, 
     let mut samples = Vec::with_capacity(n_avg);
     let mut node_q = Vec::new();
     let mut std = Vec::with_capacity(n_avg);
-    for i in 0..n_avg {
+    for (i, first) in out[0].iter().enumerate() {
         let mut q = Vec::with_capacity(nc);
         let mut s = Vec::with_capacity(nc);
         for c in 0..nc {
@@ -442,10 +451,7 @@ fn vectors_on_this_thread(sig: &Signals, revolutions: u32) -> Result<Extracted, 
             s.push(e[c % NC]);
         }
         node_q.push(q.split_off(nb));
-        samples.push(Sample {
-            omega: out[0][i].0,
-            q,
-        });
+        samples.push(Sample { omega: first.0, q });
         std.push(s);
     }
     if sig.node_probes.is_empty() {
