@@ -16,7 +16,7 @@ const FLOOR: f64 = 0.2e-6;
 /// Revolutions per vector.
 const N: u32 = 8;
 
-/// Returns the normalised squared deviations `|Y - Q|^2 / sigma^2`,
+/// Checks the normalised squared deviations `|Y - Q|^2 / sigma^2`,
 /// `sigma^2 = (f^2 + s^2 |Q|^2) / N`, and the ratios `std^2 / sigma^2`.
 fn coastdown(model: &RotorModel, rpm_start: f64, rpm_end: f64, rate: f64, seed: u64) {
     let fs = 64.0 * rpm_start.max(rpm_end) / 60.0;
@@ -33,12 +33,11 @@ fn coastdown(model: &RotorModel, rpm_start: f64, rpm_end: f64, rate: f64, seed: 
     let (mut z, mut r) = (Vec::new(), Vec::new());
     let mut amp = 0.0f64;
     for ((s, t), std) in m.samples.iter().zip(&ss.samples).zip(&ex.std) {
-        for c in 0..s.q.len() {
-            let q = t.q[c];
+        for ((y, q), e) in s.q.iter().zip(&t.q).zip(std) {
             amp = amp.max(q.norm());
             let sigma2 = (FLOOR * FLOOR + S * S * q.norm_sqr()) / N as f64;
-            z.push((s.q[c] - q).norm_sqr() / sigma2);
-            r.push(std[c] * std[c] / sigma2);
+            z.push((y - q).norm_sqr() / sigma2);
+            r.push(e * e / sigma2);
         }
     }
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
