@@ -8,6 +8,7 @@
 //! - [`files`]: model files, ROSS files, the measurement CSV, the simulator;
 //! - [`tables`]: the reduction, the table blob and source, speed grids;
 //! - [`identify`]: the identification on the paper's cases and beyond;
+//! - [`transient`]: the time-domain check of the steady-state simulator;
 //! - [`common`]: helpers shared by all of them.
 
 mod common;
@@ -21,3 +22,4 @@ mod fe;
 mod files;
 mod identify;
 mod tables;
+mod transient;

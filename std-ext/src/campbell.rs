@@ -165,3 +165,87 @@ pub fn mode_shapes(model: &RotorModel, rpm: f64, n: usize) -> Result<Vec<Mode>, 
     };
     Ok(modes_at(&fe, rpm_to_rad_s(rpm), &selection)?)
 }
+
+/// The largest passage parameter `kappa = |alpha| / (zeta omega_n)^2` at
+/// which a sweep's 1X vectors near a critical speed stay within about 1 %
+/// of the peak of the steady state: the deviation is `kappa` of the peak to
+/// first order (docs/guide/signals.md, "Sweep rate"; measured in
+/// docs/validation.md).
+pub const KAPPA_MAX: f64 = 0.01;
+
+/// A critical speed a sweep passed too fast for the steady-state model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FastPassage {
+    /// The critical speed (rpm).
+    pub rpm: f64,
+    /// Its damping ratio (-).
+    pub damping_ratio: f64,
+    /// The passage parameter `kappa = |alpha| / (zeta omega_n)^2` (-).
+    pub kappa: f64,
+    /// The fastest rate at which `kappa <= KAPPA_MAX` (rpm/s).
+    pub rate_max_rpm_per_s: f64,
+}
+
+impl FastPassage {
+    /// The warning `identify` and `diagnose` print.
+    pub fn message(&self, rate_rpm_per_s: f64) -> String {
+        format!(
+            "the sweep rate {} rpm/s passes the critical speed at {:.0} rpm (damping ratio {:.4}) too fast for the steady-state model: passage parameter {:.3} > {KAPPA_MAX}, the 1X vectors near it deviate from the steady state by about {:.0} % of the peak; keep the rate below {:.3} rpm/s there",
+            rate_rpm_per_s.abs(),
+            self.rpm,
+            self.damping_ratio,
+            self.kappa,
+            100.0 * self.kappa.min(1.0),
+            self.rate_max_rpm_per_s
+        )
+    }
+}
+
+/// The forward (or mixed-whirl) critical speeds of `model` between
+/// `rpm_min` and `rpm_max` that a sweep at `rate_rpm_per_s` (sign
+/// ignored) passes with a passage parameter `kappa = |alpha| / (zeta
+/// omega_n)^2` above [`KAPPA_MAX`]: there the steady-state model the
+/// identification and the diagnosis fit does not hold. The critical
+/// speeds and damping ratios are [`campbell`]'s (default options, up to
+/// `rpm_max`); backward modes, which unbalance hardly excites, are left
+/// out.
+pub fn sweep_rate_warnings(
+    model: &RotorModel,
+    rpm_min: f64,
+    rpm_max: f64,
+    rate_rpm_per_s: f64,
+) -> Result<Vec<FastPassage>, CampbellError> {
+    if !(rpm_min.is_finite() && rpm_max.is_finite() && rpm_max > 0.0 && rate_rpm_per_s.is_finite())
+    {
+        return Err(CampbellError::Invalid(format!(
+            "sweep check: speeds {rpm_min}..{rpm_max} rpm and rate {rate_rpm_per_s} rpm/s must be finite"
+        )));
+    }
+    if rate_rpm_per_s == 0.0 {
+        return Ok(Vec::new());
+    }
+    let opts = CampbellOptions {
+        rpm_max: rpm_max * 1.001,
+        ..CampbellOptions::default()
+    };
+    let a = campbell(model, &opts)?;
+    let alpha = crate::units::rpm_to_rad_s(rate_rpm_per_s.abs());
+    Ok(a.critical
+        .iter()
+        .filter(|c| c.whirl != crate::fe::campbell::Whirl::Backward)
+        .filter_map(|c| {
+            let rpm = crate::units::rad_s_to_rpm(c.omega);
+            let bw2 = (c.damping_ratio * c.omega).powi(2);
+            // An undamped mode (bw2 = 0) gives kappa = infinity.
+            let kappa = alpha / bw2;
+            (rpm >= rpm_min && rpm <= rpm_max && (kappa > KAPPA_MAX || kappa.is_nan())).then(|| {
+                FastPassage {
+                    rpm,
+                    damping_ratio: c.damping_ratio,
+                    kappa,
+                    rate_max_rpm_per_s: crate::units::rad_s_to_rpm(KAPPA_MAX * bw2),
+                }
+            })
+        })
+        .collect())
+}

@@ -16,12 +16,12 @@ use rotorid::tables::grid::uniform_rpm;
 /// A noise-free sweep of a model with its reduced terms, the physical
 /// structure's predictor and the true parameters (shared with the
 /// steady-running and firmware-estimator tests).
-pub(super) struct Case {
-    pub(super) model: RotorModel,
-    pub(super) clean: Measurements,
+pub(crate) struct Case {
+    pub(crate) model: RotorModel,
+    pub(crate) clean: Measurements,
     pub(super) terms: Vec<Terms>,
-    pub(super) predictor: Predictor,
-    pub(super) truth: Vec<f64>,
+    pub(crate) predictor: Predictor,
+    pub(crate) truth: Vec<f64>,
 }
 
 /// The true scaled weights of the physical structure of `order` for a
@@ -67,7 +67,7 @@ fn truth_weights(p: &Parametrization, model: &RotorModel) -> Vec<Complex64> {
         .collect()
 }
 
-pub(super) fn case(model: RotorModel, order: usize, rpm: Vec<f64>) -> Case {
+pub(crate) fn case(model: RotorModel, order: usize, rpm: Vec<f64>) -> Case {
     let clean = simulate(
         &model,
         &SimOptions {

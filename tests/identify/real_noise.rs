@@ -55,7 +55,7 @@ fn options(c: &Case, floor: Option<f64>) -> Options {
 
 /// The Cramér-Rao bound (standard deviations of the scaled parameters) of
 /// `c` under floor `f` and relative noise `s`.
-pub(super) fn crb(c: &Case, f: f64, s: f64) -> Vec<f64> {
+pub(crate) fn crb(c: &Case, f: f64, s: f64) -> Vec<f64> {
     let nq = c.clean.samples[0].q.len();
     let noise = NoiseModel {
         floor_m: vec![f; nq],

@@ -53,8 +53,8 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         ],
     )?;
     let model_file = super::load_model_arg(&args.model)?;
-    let meas =
-        super::read_measurements(&args.measurements, &model_file, &args.conventions)?.measurements;
+    let read = super::read_measurements(&args.measurements, &model_file, &args.conventions)?;
+    let (meas, sweep_rate) = (read.measurements, read.located.sweep_rate_rpm_per_s);
     let model = model_file.model;
     if meas.samples.len() < 8 {
         return Err(CliError::new(format!(
@@ -69,7 +69,10 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         relative_probes: model.probes == ProbeReference::Relative,
         noise_floor: super::noise_floor_option(args.noise_floor)?,
     };
-    let d = diagnose(&model, &meas, &opts).map_err(|e| CliError::new(format!("diagnose: {e}")))?;
+    let mut d =
+        diagnose(&model, &meas, &opts).map_err(|e| CliError::new(format!("diagnose: {e}")))?;
+    d.warnings
+        .extend(super::sweep_warnings(&model, &meas, sweep_rate));
     let nominal =
         predictions(&model, &d, &d.nominal).map_err(|e| CliError::new(format!("diagnose: {e}")))?;
     write!(io.out, "{}", text(&d, &meas.samples, &nominal))?;

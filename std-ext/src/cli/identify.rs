@@ -254,7 +254,7 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
     if let Some(pb) = &bar {
         pb.finish_and_clear();
     }
-    let id = result.map_err(|e| match e {
+    let mut id = result.map_err(|e| match e {
         IdentifyError::Step { index, rpm, source } => {
             let line = located.lines.get(index).copied().unwrap_or(0);
             CliError::new(format!("{file}: line {line} ({rpm} rpm): {source}"))
@@ -262,6 +262,15 @@ pub fn run(args: &IdentifyArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         other => CliError::new(other.to_string()),
     })?;
 
+    let sweep = super::sweep_warnings(&model, &meas, located.sweep_rate_rpm_per_s);
+    match &mut id.check {
+        Some(check) => check.warnings.extend(sweep),
+        None => {
+            for w in &sweep {
+                writeln!(io.err, "warning: {w}")?;
+            }
+        }
+    }
     write!(io.out, "{}", report_table(&id, Some(&model)))?;
     if let Some(check) = &id.check {
         for w in &check.warnings {

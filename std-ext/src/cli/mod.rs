@@ -382,6 +382,31 @@ pub fn read_measurements(
         .map_err(|e| measurement_error(path, e))
 }
 
+/// The warnings of a file's `# sweep: rate_rpm_per_s=...` line
+/// ([`crate::campbell::sweep_rate_warnings`] over the file's speed range):
+/// none without the line; one line if the check itself cannot be made.
+pub fn sweep_warnings(
+    model: &crate::model::RotorModel,
+    meas: &crate::io::measurement::Measurements,
+    rate_rpm_per_s: Option<f64>,
+) -> Vec<String> {
+    let Some(rate) = rate_rpm_per_s else {
+        return Vec::new();
+    };
+    let rpm = |s: &crate::io::measurement::Sample| crate::units::rad_s_to_rpm(s.omega);
+    let lo = meas.samples.iter().map(rpm).fold(f64::INFINITY, f64::min);
+    let hi = meas.samples.iter().map(rpm).fold(0.0, f64::max);
+    if meas.samples.is_empty() {
+        return Vec::new();
+    }
+    match crate::campbell::sweep_rate_warnings(model, lo, hi, rate) {
+        Ok(v) => v.iter().map(|f| f.message(rate)).collect(),
+        Err(e) => vec![format!(
+            "the sweep rate {rate} rpm/s was not checked against the critical speeds: {e}"
+        )],
+    }
+}
+
 /// `--noise-floor M`: finite and >= 0 metres.
 pub fn noise_floor_option(v: Option<f64>) -> Result<Option<f64>, CliError> {
     match v {

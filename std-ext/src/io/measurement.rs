@@ -184,6 +184,14 @@ pub enum MeasurementError {
         /// What is wrong.
         source: ConventionsError,
     },
+    /// A bad `# sweep:` line.
+    #[error("line {line}: bad `# sweep: rate_rpm_per_s=<value>` line: {reason}")]
+    Sweep {
+        /// Line of the `# sweep:` line.
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
     /// A comment to write would read back as a `# conventions:` line,
     /// while the writer writes rotorid's own conventions.
     #[error("comment {} (counting from 1) would read back as a `# conventions:` line (the writer writes metres, 0-pk, arg Y; leave that line out)", index + 1)]
@@ -381,6 +389,10 @@ pub struct CsvLocations {
     pub conventions: Conventions,
     /// 1-based line of the file's `# conventions:` line, if it has one.
     pub conventions_line: Option<usize>,
+    /// The sweep rate of the file's `# sweep: rate_rpm_per_s=<value>` line
+    /// (rpm/s, negative on a coast-down; [`parse_sweep_comment`]), if it
+    /// has one.
+    pub sweep_rate_rpm_per_s: Option<f64>,
 }
 
 impl CsvLocations {
@@ -403,6 +415,32 @@ impl CsvLocations {
         let per = if self.sample_std.is_empty() { 2 } else { 3 };
         (2 + per * ch, name)
     }
+}
+
+/// The sweep rate of a comment (the text after `#`) of the form `sweep:
+/// rate_rpm_per_s=<value>` (spaces around the parts allowed): `None` for
+/// any other comment, `Some(Err(reason))` for a `sweep:` comment whose
+/// value is not a finite number or that names another key. The rate is in
+/// rpm/s, negative on a coast-down; `identify` and `diagnose` warn when it
+/// passes a critical speed too fast for the steady-state model
+/// ([`crate::campbell::sweep_rate_warnings`]).
+pub fn parse_sweep_comment(comment: &str) -> Option<Result<f64, String>> {
+    let rest = comment.trim().strip_prefix("sweep:")?;
+    let rest = rest.trim();
+    let Some(v) = rest.strip_prefix("rate_rpm_per_s") else {
+        return Some(Err(format!(
+            "expected `rate_rpm_per_s=<value>`, found `{}`",
+            clip(rest)
+        )));
+    };
+    let Some(v) = v.trim_start().strip_prefix('=') else {
+        return Some(Err("expected `=` after `rate_rpm_per_s`".into()));
+    };
+    let v = v.trim();
+    Some(match v.parse::<f64>() {
+        Ok(r) if r.is_finite() => Ok(r),
+        _ => Err(format!("rate `{}` is not a finite number", clip(v))),
+    })
 }
 
 /// [`parse_csv`], also returning where every sample came from.
@@ -439,6 +477,7 @@ pub fn parse_csv_conventions(
     let mut declared: Option<(usize, DeclaredConventions)> = None;
     let mut conventions = Conventions::default();
     let mut header_line = 0;
+    let mut sweep: Option<(usize, f64)> = None;
     let mut comments = Vec::new();
     let mut header: Option<(usize, CsvLayout, Vec<String>)> = None;
     let mut node_probes = Vec::new();
@@ -474,6 +513,19 @@ pub fn parse_csv_conventions(
                 }
                 declared = Some((line_no, d.map_err(err)?));
                 continue;
+            }
+            if let Some(r) = parse_sweep_comment(c) {
+                let rate = r.map_err(|reason| MeasurementError::Sweep {
+                    line: line_no,
+                    reason,
+                })?;
+                if let Some((first, _)) = sweep {
+                    return Err(MeasurementError::Sweep {
+                        line: line_no,
+                        reason: format!("a second `# sweep:` line (the first is line {first})"),
+                    });
+                }
+                sweep = Some((line_no, rate));
             }
             comments.push(c.strip_prefix(' ').unwrap_or(c).to_string());
             continue;
@@ -569,6 +621,7 @@ pub fn parse_csv_conventions(
             sample_std,
             conventions,
             conventions_line: declared.map(|(l, _)| l),
+            sweep_rate_rpm_per_s: sweep.map(|(_, r)| r),
         },
     ))
 }

@@ -20,6 +20,8 @@
 //!    with `seed`, in the order sample by sample, channel by channel, real
 //!    part then imaginary part ([`add_noise`]). Same seed, same data.
 
+pub mod transient;
+
 use num_complex::Complex64;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
