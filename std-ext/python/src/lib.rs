@@ -681,6 +681,89 @@ fn campbell<'py>(
     Ok(d)
 }
 
+/// `vectors(path, config=None, *, speed_min_rpm=None, speed_max_rpm=None,
+/// revolutions=8, pool=True)`: the 1X vectors of a recording of probe and
+/// keyphasor signals (the signals CSV of SPEC section 8, or a WAV file
+/// with a configuration), as `rotorid vectors` makes them:
+/// `(speeds_rpm, phasors, std, info)`, `info` a dict of the channels, the
+/// sweep rate, the revolutions accepted and rejected by cause.
+#[pyfunction]
+#[pyo3(signature = (path, config = None, *, speed_min_rpm = None, speed_max_rpm = None, revolutions = 8, pool = true))]
+#[allow(clippy::type_complexity)]
+fn vectors<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    config: Option<std::path::PathBuf>,
+    speed_min_rpm: Option<f64>,
+    speed_max_rpm: Option<f64>,
+    revolutions: u32,
+    pool: bool,
+) -> PyResult<(
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray2<Complex64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyAny>,
+)> {
+    use rotorid::signals;
+    let rev_max = rotorid::core::ordertrack::MAX_REVOLUTIONS;
+    if !(3..=rev_max).contains(&revolutions) {
+        return Err(err(format!(
+            "revolutions must be in 3..={rev_max}, got {revolutions}"
+        )));
+    }
+    let config = match &config {
+        Some(p) => signals::SignalConfig::from_file(p).map_err(err)?,
+        None => signals::SignalConfig::default(),
+    };
+    let shown = path.display().to_string();
+    let wav = rotorid::cli::vectors::is_wav(&path).map_err(cli_err)?;
+    let opts = signals::ExtractOptions {
+        speed_min_rpm,
+        speed_max_rpm,
+        revolutions,
+        hysteresis: config.kp_hysteresis,
+        pool,
+    };
+    let v = py
+        .detach(|| -> Result<signals::Vectors, String> {
+            let rec = if wav {
+                signals::read_wav(&path, &config)
+            } else {
+                signals::read_csv_with(&path, &config)
+            }
+            .map_err(|e| format!("{shown}: {e}"))?;
+            signals::extract(&rec, &opts, None).map_err(|e| format!("{shown}: {e}"))
+        })
+        .map_err(err)?;
+    if v.rows.is_empty() {
+        return Err(err(format!(
+            "{shown}: no averaged vectors: {} revolutions accepted, {} rejected",
+            v.counts.accepted,
+            v.counts.rejected()
+        )));
+    }
+    let nc = v.channels.len();
+    let speeds: Vec<f64> = v.rows.iter().map(|r| rad_s_to_rpm(r.omega)).collect();
+    let q = Array2::from_shape_fn((v.rows.len(), nc), |(i, c)| v.rows[i].x1[c]);
+    let std = Array2::from_shape_fn((v.rows.len(), nc), |(i, c)| v.rows[i].std[c]);
+    let info = PyDict::new(py);
+    let names: Vec<String> = v.channels.iter().map(|c| c.to_string()).collect();
+    info.set_item("channels", names)?;
+    info.set_item("sweep_rate_rpm_per_s", v.sweep_rate_rpm_per_s)?;
+    info.set_item("accepted", v.counts.accepted)?;
+    let rejected = PyDict::new(py);
+    for (cause, n) in signals::output::rejection_counts(&v) {
+        rejected.set_item(cause, n)?;
+    }
+    info.set_item("rejected", rejected)?;
+    Ok((
+        speeds.into_pyarray(py),
+        q.into_pyarray(py),
+        std.into_pyarray(py),
+        info.into_any(),
+    ))
+}
+
 /// The native module.
 #[pymodule]
 fn _rotorid(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -693,5 +776,6 @@ fn _rotorid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
     m.add_function(wrap_pyfunction!(campbell, m)?)?;
+    m.add_function(wrap_pyfunction!(vectors, m)?)?;
     Ok(())
 }

@@ -175,6 +175,55 @@ def test_campbell_equals_cli_json(tmp_path):
     assert c["critical_speeds"]
 
 
+def signals_csv(path: pathlib.Path) -> None:
+    """A run-down from 3000 to 2400 rpm in 4 s sampled at 6400 Hz: the
+    paper rotor's bearing responses at G6.3 (turned to each instant's
+    speed), a probe gap, a 2X, white noise, and a keyphasor pulse whose
+    rising edge crosses mid-level as the mark passes (SPEC section 8)."""
+    m = rotorid.Model.paper()
+    fs, t_end = 6400.0, 4.0
+    grid = np.linspace(2300.0, 3100.0, 81)
+    q = m.simulate(grid, balance_grade=6.3)
+    t = np.arange(int(fs * t_end)) / fs
+    w0, w1 = 3000.0 * np.pi / 30, 2400.0 * np.pi / 30
+    alpha = (w1 - w0) / t_end
+    theta = 0.3 + w0 * t + 0.5 * alpha * t * t
+    rpm = (w0 + alpha * t) * 30 / np.pi
+    rng = np.random.default_rng(5)
+    cols = []
+    for c in range(4):
+        y = np.interp(rpm, grid, q[:, c].real) + 1j * np.interp(rpm, grid, q[:, c].imag)
+        sig = (y * np.exp(1j * theta)).real + 0.3 * np.abs(y) * np.cos(2 * theta + c)
+        cols.append(sig - 1e-3 + 2e-6 * rng.standard_normal(t.size))
+    u = (theta + np.pi) % (2 * np.pi) - np.pi
+    kp = np.where(u >= np.pi / 2, 0.0, np.clip(0.5 + u / 0.2, 0.0, 1.0))
+    lines = ["time_s,kp,b1_y,b1_z,b2_y,b2_z"]
+    for i in range(t.size):
+        lines.append(",".join(repr(float(v)) for v in (t[i], kp[i], cols[0][i], cols[1][i], cols[2][i], cols[3][i])))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_vectors_equal_the_cli(tmp_path):
+    signals = tmp_path / "run.csv"
+    signals_csv(signals)
+    out = tmp_path / "v.csv"
+    r = cli("vectors", "--signals", str(signals), "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    speeds, q, std, info = rotorid.vectors(signals)
+    assert q.dtype == np.complex128 and q.shape == (len(speeds), 4) and std.shape == q.shape
+    assert info["channels"] == ["b1_y", "b1_z", "b2_y", "b2_z"]
+    assert info["accepted"] > 8 * len(speeds) - 1 and sum(info["rejected"].values()) >= 2
+    assert -160.0 < info["sweep_rate_rpm_per_s"] < -140.0
+    s2, q2, std2 = rotorid.read_measurements(out)
+    np.testing.assert_allclose(speeds, s2, rtol=1e-14)
+    np.testing.assert_array_equal(q, q2)
+    np.testing.assert_array_equal(std, std2)
+    # A run-down: speeds as recorded.
+    assert np.all(np.diff(speeds) < 0)
+    with pytest.raises(rotorid.RotorIdError, match="revolutions must be in"):
+        rotorid.vectors(signals, revolutions=1)
+
+
 def test_errors(tmp_path):
     m = rotorid.Model.paper()
     q = m.simulate(SPEEDS[:20], balance_grade=6.3)

@@ -64,7 +64,7 @@ pub struct VectorsArgs {
 }
 
 /// Whether `path` starts like a WAV file (`RIFF`, `RIFX` or `RF64`).
-fn is_wav(path: &std::path::Path) -> Result<bool, CliError> {
+pub fn is_wav(path: &std::path::Path) -> Result<bool, CliError> {
     use std::io::Read;
     let mut f = std::fs::File::open(path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {

@@ -10,7 +10,8 @@ The functions mirror the ``rotorid`` command line and its Rust library:
 - :func:`identify` -- bearing coefficients and unbalance
   (:class:`Identification`, :meth:`Identification.to_ross`);
 - :func:`diagnose` -- the physical effect the model lacks;
-- :func:`campbell` -- natural frequencies and critical speeds.
+- :func:`campbell` -- natural frequencies and critical speeds;
+- :func:`vectors` -- 1X vectors from probe and keyphasor signals (CSV, WAV).
 
 Units and conventions are the command line's: speeds in rpm, phasors in
 metres, ``y(t) = Re{Y exp(j Omega t)}``, channels ``b1_y, b1_z, b2_y, ...``.
@@ -33,6 +34,7 @@ from ._rotorid import (
     diagnose,
     identify,
     read_measurements,
+    vectors,
 )
 
 __all__ = [
@@ -45,6 +47,7 @@ __all__ = [
     "diagnose",
     "identify",
     "read_measurements",
+    "vectors",
     "from_ross",
     "to_ross",
 ]

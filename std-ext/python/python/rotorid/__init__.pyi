@@ -19,7 +19,21 @@ class Model:
     @staticmethod
     def paper() -> Model: ...
     @staticmethod
-    def from_ross(rotor: Any) -> Model: ...
+    def vectors(
+    path: str | PathLike[str],
+    config: str | PathLike[str] | None = None,
+    *,
+    speed_min_rpm: float | None = None,
+    speed_max_rpm: float | None = None,
+    revolutions: int = 8,
+    pool: bool = True,
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.complex128],
+    npt.NDArray[np.float64],
+    dict[str, Any],
+]: ...
+def from_ross(rotor: Any) -> Model: ...
     @property
     def name(self) -> str: ...
     @property
@@ -121,5 +135,19 @@ def diagnose(
 def campbell(
     model: Model, *, rpm_max: float = 15000.0, rpm_step: float = 250.0, modes: int = 8
 ) -> dict[str, Any]: ...
+def vectors(
+    path: str | PathLike[str],
+    config: str | PathLike[str] | None = None,
+    *,
+    speed_min_rpm: float | None = None,
+    speed_max_rpm: float | None = None,
+    revolutions: int = 8,
+    pool: bool = True,
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.complex128],
+    npt.NDArray[np.float64],
+    dict[str, Any],
+]: ...
 def from_ross(rotor: Any) -> Model: ...
 def to_ross(identification: Identification) -> Any: ...
