@@ -16,7 +16,7 @@ use num_complex::Complex64;
 use crate::io::measurement::Measurements;
 use crate::report::identify::ReportError;
 use crate::report::plot::{
-    line_plot_with, panel_plot, Annotation, Panel, PlotOptions, Series, PALETTE,
+    line_plot_with, panel_plot, Annotation, Panel, PlotError, PlotOptions, Series, PALETTE,
 };
 use crate::units::rad_s_to_rpm;
 
@@ -264,18 +264,34 @@ pub fn write_plots(
     )?;
     let (series, annotations) = polar_series(m, &chans);
     let polar = dir.join("simulate_polar.svg");
-    line_plot_with(
+    polar_plot(
         &polar,
         "1X phasors at the bearing probes (marks: speed in rpm)",
+        &series,
+        annotations,
+    )?;
+    Ok(vec![bode, polar])
+}
+
+/// The polar plot of [`polar_series`]: imaginary against real part (um),
+/// equal axes, the speed marks as `annotations`.
+pub fn polar_plot(
+    path: &std::path::Path,
+    title: &str,
+    series: &[Series],
+    annotations: Vec<Annotation>,
+) -> Result<(), PlotError> {
+    line_plot_with(
+        path,
+        title,
         "real part (um)",
         "imaginary part (um)",
-        &series,
+        series,
         &PlotOptions {
             equal_aspect: true,
             annotations,
             size: (1000, 850),
             ..PlotOptions::default()
         },
-    )?;
-    Ok(vec![bode, polar])
+    )
 }

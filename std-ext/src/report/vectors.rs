@@ -12,9 +12,7 @@ use num_complex::Complex64;
 
 use crate::io::measurement::{Measurements, Sample};
 use crate::report::identify::ReportError;
-use crate::report::plot::{
-    line_plot_with, panel_plot, Marker, Panel, PlotOptions, Series, PALETTE,
-};
+use crate::report::plot::{panel_plot, Marker, Panel, PlotOptions, Series, PALETTE};
 use crate::signals::{ChannelName, Vectors};
 use crate::units::rad_s_to_rpm;
 
@@ -141,18 +139,11 @@ pub fn write_plots(dir: &Path, v: &Vectors) -> Result<Vec<PathBuf>, ReportError>
             series.push(Series::points("", x, y, Marker::Circle).color(PALETTE[i % PALETTE.len()]));
         }
         let path = dir.join("vectors_polar.svg");
-        line_plot_with(
+        crate::report::simulate::polar_plot(
             &path,
             "1X vectors from the signals at the bearing probes (marks: speed in rpm)",
-            "real part (um)",
-            "imaginary part (um)",
             &series,
-            &PlotOptions {
-                equal_aspect: true,
-                annotations,
-                size: (1000, 850),
-                ..PlotOptions::default()
-            },
+            annotations,
         )?;
         files.push(path);
     }
