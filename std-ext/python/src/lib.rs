@@ -324,25 +324,16 @@ fn read_measurements<'py>(
     Bound<'py, PyArray2<Complex64>>,
     Option<Bound<'py, PyArray2<f64>>>,
 )> {
-    let plain;
-    let file = match &model {
-        Some(m) => &m.file,
-        None => {
-            plain = ModelFile::plain(rotorid::RotorModel::paper());
-            &plain
-        }
-    };
-    let read = if model.is_some() {
-        rotorid::io::measurement::read_for_model(&path, file)
-    } else {
-        rotorid::io::measurement::read_csv_located(&path).map(|(measurements, located)| {
+    let read = match &model {
+        Some(m) => rotorid::io::measurement::read_for_model(&path, &m.file),
+        None => rotorid::io::measurement::read_csv_located(&path).map(|(measurements, located)| {
             rotorid::io::measurement::ModelMeasurements {
                 measurements,
                 sample_std: located.sample_std.clone(),
                 located,
                 probe_readings: false,
             }
-        })
+        }),
     }
     .map_err(|e| cli_err(rotorid::cli::measurement_error(&path, e)))?;
     let m = &read.measurements;
