@@ -5,13 +5,17 @@
 //!
 //! ```sh
 //! cargo run --release --example diagnose_case -- shaft_bow 3 draw
-//! cargo run --release --example diagnose_case -- EFFECT [SEED [NOISE [MODEL [RPM_MAX]]]]
+//! cargo run --release --example diagnose_case -- EFFECT [SEED [NOISE [MODEL [RPM_MAX [FLOOR_UM GRADE]]]]]
+//! # a case of the realistic confusion matrix (seed 1_000_003 (effect + 1) + k):
+//! cargo run --release --example diagnose_case -- foundation_flexibility 3000010 0.005 paper 15000 0.5 6.3
 //! ```
 //!
 //! EFFECT is an effect's name (`none`, `shaft_bow`, ...); SEED the case's
 //! seed (0); NOISE a relative level (0.001) or `draw` for the generator's
 //! own draw, as the confusion matrix does; MODEL `paper` or a model file;
-//! RPM_MAX the top speed (15000).
+//! RPM_MAX the top speed (15000); FLOOR_UM a probe noise floor (um, SPEC
+//! section 7) added to the case, and GRADE a balance grade (mm/s) the
+//! model's unbalance is scaled to, as the realistic confusion matrix does.
 
 use rotorid::diagnose::generator::generate;
 use rotorid::diagnose::{diagnose, DiagnoseOptions, Effect};
@@ -32,9 +36,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model =
         rotorid::io::model_file::model_file_by_name_or_path(arg(3).unwrap_or("paper"))?.model;
     let rpm_max: f64 = arg(4).map_or(Ok(15000.0), str::parse)?;
+    let floor: f64 = arg(5).map_or(Ok(0.0), str::parse)? * 1e-6;
+    let model = match arg(6) {
+        Some(g) => rotorid::simulate::at_balance_grade(
+            &model,
+            g.parse()?,
+            rotorid::units::rpm_to_rad_s(rpm_max),
+        )
+        .ok_or("the model has no unbalance to scale")?,
+        None => model,
+    };
     let speeds: Vec<f64> = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
 
-    let case = generate(&model, effect, seed, &speeds, noise)?;
+    let mut case = generate(&model, effect, seed, &speeds, noise)?;
+    rotorid::simulate::add_floor_noise(&mut case.meas, floor, seed)?;
     let d = diagnose(&model, &case.meas, &DiagnoseOptions::default())?;
     println!("hidden {} (noise {})", case.hidden.description, case.noise);
     let nominal = rotorid::diagnose::predictions(&model, &d, &d.nominal)?;

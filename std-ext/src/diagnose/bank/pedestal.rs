@@ -18,7 +18,7 @@ use crate::diagnose::fit::{self, Fit};
 pub const PEDESTAL_RATIOS: [f64; 7] = [0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4];
 
 /// The best fit of a pedestal under one bearing: under each bearing the
-/// two best of the screened starts (`single_starts`), then the full fits
+/// two best of each list of screened starts (`single_starts`), then the full fits
 /// of all of them, best screened start first, until one fits to the
 /// noise. `None` when none fits.
 pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
@@ -45,8 +45,9 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
         if let Some(p) = peak_ratio {
             ratios.extend([0.97 * p, 1.03 * p]);
         }
-        let starts = single_starts(ctx, &m, &ratios);
-        queue.extend(starts.into_iter().take(2).map(|f| (f, bearing)));
+        for starts in single_starts(ctx, &m, &ratios) {
+            queue.extend(starts.into_iter().take(2).map(|f| (f, bearing)));
+        }
     }
     // The full fits, best screened start first (the thinned `S` of all
     // bearings are comparable), until one fits to the noise: another
@@ -94,22 +95,29 @@ fn peak_ratio(ctx: &Context<'_>, r: &DVector<f64>, n_out: usize, bearing: usize)
     Some(samples[k].omega / ctx.setup.scales.omega)
 }
 
-/// The screened starts of the single pedestal `m`, best first: natural
-/// frequencies `ratios` of the top speed (y and z alike), masses 0.5 and
-/// 1.5 of the rotor's mass per bearing, damping ratio 0.05.
-fn single_starts(ctx: &Context<'_>, m: &ExtendedModel, ratios: &[f64]) -> Vec<Fit> {
+/// The screened starts of the single pedestal `m`, best first, in two
+/// lists: the bearings started from the nominal fit, and from the model's
+/// own values. Natural frequencies `ratios` of the top speed (y and z
+/// alike), masses 0.5 and 1.5 of the rotor's mass per bearing, damping
+/// ratio 0.05.
+///
+/// The two lists are ranked apart: a large pedestal distorts the nominal
+/// fit's bearings, and the starts from them screen lower after a few
+/// iterations while their full fits stall (on a pedestal resonating among
+/// the rotor's critical speeds, 3 to 4 times the noise), where a start
+/// from the model's bearings that screens higher reaches the noise.
+fn single_starts(ctx: &Context<'_>, m: &ExtendedModel, ratios: &[f64]) -> [Vec<Fit>; 2] {
     let scales = ctx.setup.scales;
     // Screen a grid of natural frequencies and masses by three
     // iterations each (fewer rank the starts wrongly: the basin of
-    // a resonance is narrow), then fit from the two best starts.
-    // The bearings start from the nominal fit and from the model's
-    // own values (a large pedestal distorts the nominal fit).
+    // a resonance is narrow), then fit from the two best starts of each
+    // list.
     // (Ranking on every second speed only halves this and loses
     // pedestals whose y and z frequencies lie apart.)
-    let mut starts: Vec<Fit> = Vec::new();
-    for nominal_start in [&ctx.theta0, &ctx.theta_model] {
+    [&ctx.theta0, &ctx.theta_model].map(|nominal_start| {
+        let mut starts: Vec<Fit> = Vec::new();
         for &ratio in ratios {
-            for mass in [0.5, 1.5] {
+            for mass in [0.5, 1.0, 1.5] {
                 let ped = PedestalParams {
                     mass: mass * scales.mass,
                     omega: [ratio * scales.omega; 2],
@@ -122,9 +130,9 @@ fn single_starts(ctx: &Context<'_>, m: &ExtendedModel, ratios: &[f64]) -> Vec<Fi
                 }
             }
         }
-    }
-    starts.sort_by(|a, b| a.s.total_cmp(&b.s));
-    starts
+        starts.sort_by(|a, b| a.s.total_cmp(&b.s));
+        starts
+    })
 }
 
 /// Pedestals under two bearings, when `c` is a single pedestal: its
