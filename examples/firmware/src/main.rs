@@ -83,9 +83,9 @@ pub type FwId = rotorid_core::identify::PhysicalDenseIdentifier<
 /// The pattern painted on the free stack.
 const PAINT: u32 = 0xA5C3_5A3C;
 
-/// Bytes painted below the stack pointer before an update (far more than
-/// an update takes; painting all the free RAM of the board model would
-/// dominate the instruction count).
+/// Bytes painted under the top of the stack (far more than the program
+/// takes; painting all the free RAM of the board model would dominate the
+/// instruction count).
 const WINDOW: usize = 16 * 1024;
 
 /// Bytes left unpainted below the stack pointer at the paint (the frame of
@@ -100,18 +100,62 @@ extern "C" {
     static _stack_start: u32;
 }
 
-/// Stack painting around each update.
+/// Stack painting: the free stack is painted once at the start and again
+/// before each update; before each repaint and at the end, the lowest word
+/// no longer painted is the deepest the stack has reached (the program's
+/// stack peak, any call: the updates, the tracker's integral, the
+/// printing).
 struct StackProbe {
-    /// Stack pointer at the last paint.
+    /// Stack pointer at the last paint before an update.
     sp: usize,
     /// Deepest use below that stack pointer over all updates (bytes).
     peak: usize,
+    /// The lowest address the stack has reached so far.
+    low: usize,
 }
 
 impl StackProbe {
-    /// Lowest painted address: `WINDOW` below `sp`, not below `__sheap`.
-    fn floor(sp: usize) -> usize {
-        (core::ptr::addr_of!(__sheap) as usize).max(sp.saturating_sub(WINDOW))
+    /// Lowest painted address: `WINDOW` under the top of the stack, not
+    /// below `__sheap`.
+    fn floor() -> usize {
+        let top = core::ptr::addr_of!(_stack_start) as usize;
+        (core::ptr::addr_of!(__sheap) as usize).max(top.saturating_sub(WINDOW))
+    }
+
+    /// Paints `[floor, sp - MARGIN)`.
+    #[inline(always)]
+    fn paint(sp: usize) {
+        let mut a = Self::floor();
+        while a + MARGIN < sp {
+            // SAFETY: [max(__sheap, top - WINDOW), sp - MARGIN) is the free stack below the
+            // current frame (no live data), word aligned, inside RAM.
+            unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
+            a += 4;
+        }
+    }
+
+    /// The lowest address under `sp - MARGIN` no longer painted (`sp -
+    /// MARGIN` if all are): the deepest the stack reached since the paint.
+    #[inline(always)]
+    fn deepest(sp: usize) -> usize {
+        let mut a = Self::floor();
+        // SAFETY: reads of the painted region (word aligned, inside RAM).
+        while a + MARGIN < sp && unsafe { core::ptr::read_volatile(a as *const u32) } == PAINT {
+            a += 4;
+        }
+        a
+    }
+
+    /// Records the deepest use since the last paint (`sp` the stack
+    /// pointer now, at or below that of the paint).
+    #[inline(always)]
+    fn record(&mut self, sp: usize) {
+        self.low = self.low.min(Self::deepest(sp));
+    }
+
+    /// The program's stack peak so far (bytes under the top of the stack).
+    fn program_peak(&self) -> usize {
+        (core::ptr::addr_of!(_stack_start) as usize).saturating_sub(self.low)
     }
 }
 
@@ -165,26 +209,17 @@ impl run::Probe for StackProbe {
     #[inline(always)]
     fn before_update(&mut self) {
         let sp = cortex_m::register::msp::read() as usize;
+        self.record(sp);
         self.sp = sp;
-        let mut a = Self::floor(sp);
-        while a + MARGIN < sp {
-            // SAFETY: [max(__sheap, sp - WINDOW), sp - MARGIN) is the free stack below the
-            // current frame (no live data), word aligned, inside RAM.
-            unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
-            a += 4;
-        }
+        Self::paint(sp);
         rotorid_update_marker();
     }
 
     #[inline(always)]
     fn after_update(&mut self) {
         rotorid_update_marker();
-        let mut a = Self::floor(self.sp);
-        // SAFETY: reads of the painted region (word aligned, inside RAM).
-        while a + MARGIN < self.sp && unsafe { core::ptr::read_volatile(a as *const u32) } == PAINT
-        {
-            a += 4;
-        }
+        let a = Self::deepest(self.sp);
+        self.low = self.low.min(a);
         self.peak = self.peak.max(self.sp.saturating_sub(a));
     }
 }
@@ -200,8 +235,23 @@ fn tracker() -> Option<&'static mut Result<run::Tracker, rotorid_core::ordertrac
     )
 }
 
+/// The identifier (about 1 KiB: factor, configuration, guard) in a static
+/// too, built in a frame of its own: on the stack it and the temporaries of
+/// its construction would take some 3 KiB under the updates. `None` on a
+/// second call.
+#[inline(never)]
+fn identifier() -> Option<&'static mut Result<FwId, rotorid_core::identify::IdentifierError>> {
+    cortex_m::singleton!(
+        IDENTIFIER: Result<FwId, rotorid_core::identify::IdentifierError> = run::identifier()
+    )
+}
+
 #[entry]
 fn main() -> ! {
+    // The free stack painted first: the peak counts the construction of
+    // the statics below too.
+    let sp = cortex_m::register::msp::read() as usize;
+    StackProbe::paint(sp);
     let mut out = match hio::hstdout() {
         Ok(o) => o,
         Err(()) => {
@@ -221,14 +271,34 @@ fn main() -> ! {
             }
         }
     };
-    let mut probe = StackProbe { sp: 0, peak: 0 };
-    let ok = match run::run(&mut out, &mut probe, tracker) {
+    let id = match identifier() {
+        Some(Ok(id)) => id,
+        _ => {
+            let _ = writeln!(out, "error: the identifier's configuration was refused");
+            debug::exit(debug::EXIT_FAILURE);
+            loop {
+                cortex_m::asm::wfi();
+            }
+        }
+    };
+    let mut probe = StackProbe {
+        sp,
+        peak: 0,
+        low: usize::MAX,
+    };
+    let ok = match run::run(&mut out, &mut probe, tracker, id) {
         Ok(_) => {
             let _ = writeln!(
                 out,
                 "# stack high-water of one update: {} bytes (below the caller's frame, {} bytes under the top of the stack)",
                 probe.peak,
                 (core::ptr::addr_of!(_stack_start) as usize).saturating_sub(probe.sp)
+            );
+            probe.record(cortex_m::register::msp::read() as usize);
+            let _ = writeln!(
+                out,
+                "# stack peak of the program: {} bytes under the top of the stack",
+                probe.program_peak()
             );
             true
         }
