@@ -1072,32 +1072,28 @@ impl<T: Real, const NC: usize, const CAP: usize> OrderTracker<T, NC, CAP> {
         let reference = rows.first().copied().unwrap_or([T::zero(); NC]);
         // The six samples at each end with their weights, every sample
         // between with weight 1 (`len >= 13`, tested above).
-        let (head_rows, rest) = rows.split_at(6);
-        let (mid_rows, tail_rows) = rest.split_at(rest.len() - 6);
-        let one: [T; 0] = [];
+        let last = len - 6;
         // The sample number as a float, counted (exact below 2^24).
         let mut fi = T::zero();
-        for (segment, weights) in [
-            (head_rows, &head[..]),
-            (mid_rows, &one[..]),
-            (tail_rows, &tail[..]),
-        ] {
-            for (k, row) in segment.iter().enumerate() {
-                let weight = weights.get(k).copied().unwrap_or_else(T::one);
+        // Blocks of samples: first the block's phasors, shared by the
+        // channels, then each channel over the block with its block sums in
+        // registers (no loop over the channels per sample, whose sums would
+        // live in memory where the channel loop is not unrolled).
+        let mut q = [[zero; 2]; BLOCK];
+        for (b, block) in rows.chunks(BLOCK).enumerate() {
+            let base = b * BLOCK;
+            for (k, qk) in q.iter_mut().take(block.len()).enumerate() {
+                let g = base + k;
+                let weight = if g < 6 {
+                    head.get(g)
+                } else if g >= last {
+                    tail.get(g - last)
+                } else {
+                    None
+                };
+                let weight = weight.copied().unwrap_or_else(T::one);
                 let q1 = p.scale((w + a * (tau0 + fi)) * weight);
-                let q2 = q1 * p;
-                let sums = x1.iter_mut().zip(x2.iter_mut());
-                for ((y, y0), (s1, s2)) in row.iter().zip(reference.iter()).zip(sums) {
-                    // (lo - y)(y - hi) > 0 inside the ADC range, <= 0 (sign
-                    // bit set, -0 included) at or beyond a limit or at an
-                    // infinity: exact, since a difference of floats has the
-                    // sign of the exact one and is 0 only for equal values.
-                    // A NaN ends in the sums and is found below.
-                    outside |= ((lo - *y) * (*y - hi)).sign_word();
-                    let v = *y - *y0;
-                    *s1 += q1.scale(v);
-                    *s2 += q2.scale(v);
-                }
+                *qk = [q1, q1 * p];
                 let d = match chirp {
                     0 => e,
                     1..=3 => e * exp_neg_j3(a * fi),
@@ -1106,6 +1102,24 @@ impl<T: Real, const NC: usize, const CAP: usize> OrderTracker<T, NC, CAP> {
                 fi += T::one();
                 let z = p * d;
                 p = z.scale(T::lit(1.5) - z.norm_sqr() * T::lit(0.5));
+            }
+            for (c, (s1, s2)) in x1.iter_mut().zip(x2.iter_mut()).enumerate() {
+                let y0 = reference.get(c).copied().unwrap_or_else(T::zero);
+                let (mut b1, mut b2) = (zero, zero);
+                for (row, [q1, q2]) in block.iter().zip(q.iter()) {
+                    let y = row.get(c).copied().unwrap_or_else(T::zero);
+                    // (lo - y)(y - hi) > 0 inside the ADC range, <= 0 (sign
+                    // bit set, -0 included) at or beyond a limit or at an
+                    // infinity: exact, since a difference of floats has the
+                    // sign of the exact one and is 0 only for equal values.
+                    // A NaN ends in the sums and is found below.
+                    outside |= ((lo - y) * (y - hi)).sign_word();
+                    let v = y - y0;
+                    b1 += q1.scale(v);
+                    b2 += q2.scale(v);
+                }
+                *s1 += b1;
+                *s2 += b2;
             }
         }
         let inv_pi = T::one() / T::pi();
@@ -1278,6 +1292,9 @@ impl<T: Real> Rule<T> {
         (head, tail)
     }
 }
+
+/// Samples per block of the integral's loop ([`OrderTracker::integrate`]).
+const BLOCK: usize = 8;
 
 /// Most terms of the series of [`exp_neg_j`].
 const SERIES_TERMS: usize = 12;
