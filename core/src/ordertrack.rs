@@ -117,11 +117,16 @@
 //!
 //! the series truncated once a revolution where the remainder falls below
 //! the precision (at constant speed `a = 0` and `D_i = E`; on a ramp of
-//! 10 %/s at 50 Hz, `|a i| < 3e-5` and two terms suffice; up to three
-//! terms the series is unrolled with constant ratios). `D_i` is formed
-//! afresh at every sample: no error accumulates in the increment (with a
-//! second recurrence `D_(i+1) = D_i exp(-j a)` the increment's rounding
-//! would add up in the angle as `M^1.5 eps`). The factor `(3 - |z|^2) / 2`
+//! 10 %/s at 50 Hz, `|a i| < 3e-5` and two terms suffice). Where three
+//! terms suffice (in `f32` always with the default period ratio of 0.1)
+//! `exp(-j a i)` is not summed at each sample but carried by a recurrence
+//! on `1 - cos(a i)` and `sin(a i)` themselves, small numbers that keep
+//! their relative precision, so that its rounding puts only `sqrt(i) eps
+//! |a i|` into the phase (`Chirp`). `D_i = E exp(-j a i)` is formed from
+//! it afresh at every sample: no error of consequence accumulates in the
+//! increment (with the recurrence `D_(i+1) = D_i exp(-j a)` on the unit
+//! phasor itself the increment's rounding would add up in the angle as
+//! `M^1.5 eps`). The factor `(3 - |z|^2) / 2`
 //! (one Newton step towards `|z| = 1`) renormalises at every sample, so
 //! that rounding does not accumulate in the magnitude; the phase error
 //! grows as a random walk, `sqrt(M) eps` after `M` samples. The 2X factor is `p_i^2`. In the sums, each
