@@ -52,14 +52,32 @@ footprint() {
   echo "flash: .vector_table $vt + .text $text + .rodata $rodata + .data $data = $((vt + text + rodata + data)) bytes"
   echo "       of which the model table $table and the measured sweep $sweep: program $code_flash bytes"
   echo "static RAM: .data $data + .bss $bss + .uninit $uninit = $((data + bss + uninit)) bytes"
-  if [ "$code_flash" -ge 32768 ] || [ $((data + bss + uninit)) -ge 8192 ]; then
+  STATIC_RAM=$((data + bss + uninit))
+  if [ "$code_flash" -ge 32768 ] || [ "$STATIC_RAM" -ge 8192 ]; then
     echo "error: firmware over budget (32 KiB flash without tables, 8 KiB static RAM)" >&2
+    exit 1
+  fi
+}
+
+# The whole RAM: static RAM ($1 bytes) and the stack peak the firmware
+# measured by painting ($2, its output), under 8 KiB.
+ram_budget() {
+  local peak
+  peak=$(sed -n 's/^# stack peak of the program: \([0-9]*\) bytes.*/\1/p' "$2")
+  if [ -z "$peak" ]; then
+    echo "error: the firmware printed no stack peak" >&2
+    exit 1
+  fi
+  echo "RAM: static $1 + stack peak $peak = $(($1 + peak)) bytes (budget 8192)"
+  if [ $(($1 + peak)) -ge 8192 ]; then
+    echo "error: firmware over the 8 KiB RAM budget (static RAM and stack peak)" >&2
     exit 1
   fi
 }
 
 echo "-- footprint"
 footprint "$ELF"
+RAM_STATIC=$STATIC_RAM
 
 # The same program with the Givens block filter.
 GV_ELF=$FW/target/givens/thumbv7em-none-eabihf/release/rotorid-firmware
@@ -67,6 +85,7 @@ echo "-- firmware build with the Givens block filter (--features givens)"
 (cd "$FW" && cargo build --release --features givens --target-dir target/givens)
 echo "-- footprint (Givens block filter)"
 footprint "$GV_ELF"
+GV_RAM_STATIC=$STATIC_RAM
 
 if ! command -v qemu-system-arm >/dev/null 2>&1; then
   echo "-- qemu-system-arm missing: trying to install it"
@@ -87,6 +106,7 @@ QEMU=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -semihosting -nographic
 echo "-- firmware run: ${QEMU[*]}"
 timeout 300 "${QEMU[@]}" >"$OUT/target.txt"
 cat "$OUT/target.txt"
+ram_budget "$RAM_STATIC" "$OUT/target.txt"
 
 echo "-- host run of the same code (f32)"
 cargo run --quiet --example firmware_host >"$OUT/host.txt"
@@ -102,6 +122,7 @@ echo "-- firmware run, Givens block filter"
 timeout 300 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -semihosting -nographic \
   -kernel "$GV_ELF" >"$OUT/target_gv.txt"
 cat "$OUT/target_gv.txt"
+ram_budget "$GV_RAM_STATIC" "$OUT/target_gv.txt"
 cargo run --quiet --example firmware_host -- --givens >"$OUT/host_gv.txt"
 grep '^est ' "$OUT/target_gv.txt" >"$OUT/target_gv.est"
 grep '^est ' "$OUT/host_gv.txt" >"$OUT/host_gv.est"
@@ -128,7 +149,9 @@ icount() {
     /^Trace/ {
       split($0, a, "[][/]"); pc = a[3];
       if (pc in name) {
-        if (cur == pc) { n[pc]++; s[pc] += c; if (c > mx[pc]) mx[pc] = c; if (!(pc in mn) || c < mn[pc]) mn[pc] = c; cur = "" }
+        if (cur == pc) { n[pc]++; s[pc] += c; if (c > mx[pc]) mx[pc] = c; if (!(pc in mn) || c < mn[pc]) mn[pc] = c
+          if (c > 1000) { nb[pc]++; sb[pc] += c }
+          cur = "" }
         else { cur = pc; c = 0 }
       } else if (cur != "") c++
     }
@@ -136,6 +159,8 @@ icount() {
       for (m in n) {
         printf "%s: %d calls, mean %.1f, min %d, max %d instructions", name[m], n[m], s[m] / n[m], mn[m], mx[m]
         if (name[m] != "rotorid_update_marker") printf " (%.2f per channel-sample, 4 probes)", s[m] / n[m] / 4
+        if (name[m] == "rotorid_push_marker" && nb[m] > 0 && n[m] > nb[m])
+          printf "; %d revolution ends, mean %.1f; the other pushes mean %.1f", nb[m], sb[m] / nb[m], (s[m] - sb[m]) / (n[m] - nb[m])
         printf "\n"
       }
     }

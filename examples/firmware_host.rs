@@ -112,11 +112,17 @@ fn main() {
     let result = match args.as_slice() {
         [] => run::tracker()
             .map_err(run::RunError::from)
-            .and_then(|t| run::run(&mut out, &mut NoProbe, &mut Box::new(t)))
+            .and_then(|t| Ok((t, run::identifier()?)))
+            .and_then(|(t, id)| {
+                run::run(&mut out, &mut NoProbe, &mut Box::new(t), &mut Box::new(id))
+            })
             .map_err(|e| e.to_string()),
         [flag] if flag == "--givens" => givens::run::tracker()
             .map_err(givens::run::RunError::from)
-            .and_then(|t| givens::run::run(&mut out, &mut NoProbe, &mut Box::new(t)))
+            .and_then(|t| Ok((t, givens::run::identifier()?)))
+            .and_then(|(t, id)| {
+                givens::run::run(&mut out, &mut NoProbe, &mut Box::new(t), &mut Box::new(id))
+            })
             .map_err(|e| e.to_string()),
         _ => {
             eprintln!("usage: firmware_host [--givens | --write-sweep PATH]");

@@ -17,6 +17,12 @@ pub trait Real: nalgebra::RealField + Copy + Debug + Default + PartialOrd + 'sta
     fn lit(x: f64) -> Self;
     /// Widens to `f64` (exact for both types).
     fn to_f64(self) -> f64;
+    /// The 32-bit word of the representation that holds the sign: bit 31
+    /// is set for negative values, `-0` and NaNs with the sign bit (the
+    /// whole `f32`, the upper half of an `f64`). OR-ing these words tells
+    /// whether any of a set of values is negative with one integer
+    /// operation per value.
+    fn sign_word(self) -> u32;
 }
 
 impl Real for f32 {
@@ -29,6 +35,10 @@ impl Real for f32 {
     fn to_f64(self) -> f64 {
         self as f64
     }
+    #[inline]
+    fn sign_word(self) -> u32 {
+        self.to_bits()
+    }
 }
 
 impl Real for f64 {
@@ -40,5 +50,9 @@ impl Real for f64 {
     #[inline]
     fn to_f64(self) -> f64 {
         self
+    }
+    #[inline]
+    fn sign_word(self) -> u32 {
+        (self.to_bits() >> 32) as u32
     }
 }

@@ -256,7 +256,21 @@ where
     /// `(0, sqrt(T::MAX)]`).
     pub fn init(&mut self, delta: T) -> Result<(), FilterError> {
         qrdrls::validate_delta(delta)?;
-        *self = Self::new(delta);
+        // The state of `new(delta)`, written in place (no temporary of the
+        // whole factor on the stack).
+        self.db.as_flattened_mut().fill(delta);
+        self.ub
+            .as_flattened_mut()
+            .as_flattened_mut()
+            .fill(F::zero());
+        self.coupling
+            .as_flattened_mut()
+            .as_flattened_mut()
+            .fill(F::zero());
+        self.ds.fill(delta);
+        self.us.as_flattened_mut().fill(F::zero());
+        self.qb.as_flattened_mut().fill(F::zero());
+        self.qs.fill(F::zero());
         Ok(())
     }
 

@@ -6,10 +6,10 @@
 //! 1. vectors: the identifier folds in the measured sweep (`SWEEP`, 1X
 //!    phasors per speed) directly;
 //! 2. samples: a coast-down's keyphasor and probe samples, generated from
-//!    the same sweep's phasors ([`crate::coastdown`], 10 240 Hz, 12 100 to
+//!    the same sweep's phasors ([`crate::coastdown`], 6 656 Hz, 12 100 to
 //!    2 900 rpm), go through the order tracker
 //!    (`rotorid_core::ordertrack::OrderTracker`, 4 probes, one revolution
-//!    of up to 256 samples buffered), whose averages of 8 revolutions feed
+//!    of up to 144 samples buffered), whose averages of 8 revolutions feed
 //!    the identifier.
 //!
 //! Each value is printed as a fixed-point decimal (integer arithmetic on
@@ -23,7 +23,7 @@ use crate::sweep::SWEEP;
 use crate::table::{SCALING, STRUCTURE, TABLE};
 use core::fmt::{self, Write};
 use rotorid_core::identify::{Config, Estimates, IdentifierError};
-use rotorid_core::ordertrack::{Config as TrackerConfig, ConfigError, OrderTracker};
+use rotorid_core::ordertrack::{Average, Config as TrackerConfig, ConfigError, OrderTracker};
 use rotorid_core::parametrization::COEFFICIENTS;
 
 /// Hooks around each identifier update, tracker push and generated sample
@@ -47,11 +47,12 @@ pub trait Probe {
 /// Probe channels (b1_y, b1_z, b2_y, b2_z).
 pub const NC: usize = 4;
 
-/// The tracker's buffer: one revolution of up to `CAP - 7` samples.
-pub const CAP: usize = 256;
+/// The tracker's buffer: one revolution of up to `CAP - 7` samples (the
+/// slowest allowed, 133.12 samples at 3 000 rpm and 6 656 Hz, and 7 more).
+pub const CAP: usize = 144;
 
-/// The order tracker of the sample run (f32, 4 probes, 256 samples:
-/// 4096 bytes of buffer).
+/// The order tracker of the sample run (f32, 4 probes, 144 samples:
+/// 2304 bytes of buffer).
 pub type Tracker = OrderTracker<f32, NC, CAP>;
 
 /// `n` rpm in rad/s.
@@ -59,12 +60,15 @@ fn rpm(n: f32) -> f32 {
     n * (core::f32::consts::PI / 30.0)
 }
 
-/// Sample rate of the probes and the keyphasor (Hz): 51.2 samples per
-/// revolution at 12 000 rpm, 204.8 at 3 000 rpm.
-pub const SAMPLE_RATE: f32 = 10_240.0;
+/// Sample rate of the probes and the keyphasor (Hz): 33.28 samples per
+/// revolution at 12 000 rpm (the tracker needs at least 32), 133.12 at
+/// 3 000 rpm. A low rate: the buffer, sized for the slowest revolution, is
+/// most of the firmware's RAM (static, and on the stack while the tracker
+/// is built).
+pub const SAMPLE_RATE: f32 = 6_656.0;
 
 /// The tracker's configuration: 3 000..12 000 rpm (the slowest
-/// revolution, 204.8 samples, and 7 more fit in `CAP`), a 0..1 keyphasor
+/// revolution, 133.12 samples, and 7 more fit in `CAP`), a 0..1 keyphasor
 /// with level 0.5 and hysteresis 0.2, the probes' ADC range 0..2.8 mm,
 /// averages of 8 revolutions, scatter about the trend.
 pub fn tracker_config() -> TrackerConfig<f32> {
@@ -160,35 +164,46 @@ pub fn update(
     id.update(&TABLE, omega, q)
 }
 
+/// A fresh identifier of the generated table's structure and scaling (the
+/// firmware keeps it in a static; each run resets it).
+pub fn identifier() -> Result<Id, IdentifierError> {
+    Id::new(Config::new(STRUCTURE, SCALING))
+}
+
 /// Both runs (module documentation): the sweep's vectors, then the
 /// coast-down's samples through `tracker` (a fresh one, [`tracker`]) into
-/// a second identifier; writes the estimates to `out` (lines starting with
-/// `est `). Returns the updates folded in by each.
+/// the identifier `id` (reset at the start of each run, [`identifier`]);
+/// writes the estimates to `out` (lines starting with `est `). Returns the
+/// updates folded in by each.
 pub fn run<W: Write, P: Probe>(
     out: &mut W,
     probe: &mut P,
     tracker: &mut Tracker,
+    id: &mut Id,
 ) -> Result<(usize, usize), RunError> {
-    let vectors = run_vectors(out, probe)?;
-    let samples = run_samples(out, probe, tracker)?;
+    let vectors = run_vectors(out, probe, id)?;
+    let samples = run_samples(out, probe, tracker, id)?;
     Ok((vectors, samples))
 }
 
 /// The sweep's vectors into the identifier (`est` lines).
 #[inline(never)]
-fn run_vectors<W: Write, P: Probe>(out: &mut W, probe: &mut P) -> Result<usize, RunError> {
-    let mut id = Id::new(Config::new(STRUCTURE, SCALING))?;
+fn run_vectors<W: Write, P: Probe>(
+    out: &mut W,
+    probe: &mut P,
+    id: &mut Id,
+) -> Result<usize, RunError> {
+    id.reset()?;
     let (mut used, mut last) = (0usize, 0.0f32);
     for (omega, q) in SWEEP.iter() {
         probe.before_update();
-        let step = update(&mut id, *omega, q);
+        let step = update(id, *omega, q);
         probe.after_update();
         if step.is_ok() {
             used += 1;
             last = *omega;
         }
     }
-    let est = id.estimates(last)?;
     // A failed write to the host cannot be reported anywhere else.
     let _ = writeln!(
         out,
@@ -197,8 +212,24 @@ fn run_vectors<W: Write, P: Probe>(out: &mut W, probe: &mut P) -> Result<usize, 
         SWEEP.len(),
         Fixed(last, 3)
     );
-    print_estimates(out, "est", &est);
+    print_estimates(out, "est", id, last)?;
     Ok(used)
+}
+
+/// One sample through the tracker, and the average it completed; in a
+/// frame of its own, so that the revolution's integral (inlined in the
+/// push) takes no stack under the identifier's updates.
+#[inline(never)]
+fn track<P: Probe>(
+    probe: &mut P,
+    tracker: &mut Tracker,
+    kp: f32,
+    y: &[f32; NC],
+) -> Option<Average<f32, NC>> {
+    probe.before_push();
+    let o = tracker.push(kp, y);
+    probe.after_push();
+    o.and_then(|o| o.average)
 }
 
 /// The coast-down's samples through the tracker, its averages into the
@@ -209,8 +240,9 @@ fn run_samples<W: Write, P: Probe>(
     out: &mut W,
     probe: &mut P,
     tracker: &mut Tracker,
+    id: &mut Id,
 ) -> Result<usize, RunError> {
-    let mut id = Id::new(Config::new(STRUCTURE, SCALING))?;
+    id.reset()?;
     let mut gen = Coastdown::new(&SWEEP, coastdown_setup());
     let (mut samples, mut averages, mut used, mut last) = (0u32, 0usize, 0usize, 0.0f32);
     loop {
@@ -220,17 +252,14 @@ fn run_samples<W: Write, P: Probe>(
         let average = match next {
             Some((kp, y)) => {
                 samples += 1;
-                probe.before_push();
-                let o = tracker.push(kp, &y);
-                probe.after_push();
-                o.and_then(|o| o.average)
+                track(probe, tracker, kp, &y)
             }
             None => tracker.flush(),
         };
         if let Some(a) = average {
             averages += 1;
             probe.before_update();
-            let step = update(&mut id, a.speed, &a.x1);
+            let step = update(id, a.speed, &a.x1);
             probe.after_update();
             if step.is_ok() {
                 used += 1;
@@ -257,7 +286,6 @@ fn run_samples<W: Write, P: Probe>(
         c.clipped,
         c.no_event
     );
-    let est = id.estimates(last)?;
     let _ = writeln!(
         out,
         "est samples updates {} of {} averages, last at {} rad/s",
@@ -265,18 +293,17 @@ fn run_samples<W: Write, P: Probe>(
         averages,
         Fixed(last, 3)
     );
-    print_estimates(out, "est samples", &est);
+    print_estimates(out, "est samples", id, last)?;
     Ok(used)
 }
 
-/// The estimates as lines starting with `tag`: each bearing's `k`, `c`,
-/// each plane's unbalance phasor (and, as comments, its magnitude and
-/// phase).
-fn print_estimates<W: Write>(
-    out: &mut W,
-    tag: &str,
-    est: &Estimates<f32, { crate::table::NQ }, { crate::table::NP }>,
-) {
+/// The estimates of `id` at `omega` as lines starting with `tag`: each
+/// bearing's `k`, `c`, each plane's unbalance phasor (and, as comments, its
+/// magnitude and phase). In a frame of its own (not on the stack under the
+/// updates).
+#[inline(never)]
+fn print_estimates<W: Write>(out: &mut W, tag: &str, id: &Id, omega: f32) -> Result<(), RunError> {
+    let est: Estimates<f32, { crate::table::NQ }, { crate::table::NP }> = id.estimates(omega)?;
     for (m, b) in est.bearings.iter().enumerate() {
         for (j, name) in COEFFICIENTS.iter().enumerate() {
             let _ = writeln!(
@@ -309,4 +336,5 @@ fn print_estimates<W: Write>(
             Fixed(u.phase_deg(), 3)
         );
     }
+    Ok(())
 }
