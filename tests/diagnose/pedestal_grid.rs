@@ -104,7 +104,7 @@ fn grid(model: &RotorModel, rpm_max: f64, critical_rpm: f64) {
 }
 
 #[test]
-#[ignore = "40 diagnoses: cargo test --release --test lib diagnose::pedestal_grid -- --ignored"]
+#[ignore = "20 diagnoses: cargo test --release --test lib diagnose::pedestal_grid -- --ignored"]
 fn pedestal_grid_paper_rotor() {
     let m = at_balance_grade(&RotorModel::paper(), 6.3, rpm_to_rad_s(15000.0)).unwrap();
     // First critical speed 5796 rpm (backward; `rotorid campbell --model paper`).
@@ -112,7 +112,7 @@ fn pedestal_grid_paper_rotor() {
 }
 
 #[test]
-#[ignore = "40 diagnoses: cargo test --release --test lib diagnose::pedestal_grid -- --ignored"]
+#[ignore = "20 diagnoses: cargo test --release --test lib diagnose::pedestal_grid -- --ignored"]
 fn pedestal_grid_stepped_hollow_shaft() {
     // First critical speed 2770 rpm (backward; `rotorid campbell`).
     grid(&stepped_hollow_g63(), 12000.0, 2769.7);

@@ -98,7 +98,7 @@ fn peak_ratio(ctx: &Context<'_>, r: &DVector<f64>, n_out: usize, bearing: usize)
 /// The screened starts of the single pedestal `m`, best first, in two
 /// lists: the bearings started from the nominal fit, and from the model's
 /// own values. Natural frequencies `ratios` of the top speed (y and z
-/// alike), masses 0.5 and 1.5 of the rotor's mass per bearing, damping
+/// alike), masses 0.5, 1 and 1.5 times the rotor's mass per bearing, damping
 /// ratio 0.05.
 ///
 /// The two lists are ranked apart: a large pedestal distorts the nominal
