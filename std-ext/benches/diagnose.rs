@@ -3,6 +3,9 @@
 //! nominal output-error identification of the same data in the same run;
 //! and its parts: the terms (one adjoint reduction per speed with every
 //! node's unbalance and bow columns) and one nominal-model Jacobian pass.
+//! Then the same on realistic data, the cases of the realistic confusion
+//! matrix (unbalance at balance grade G6.3, 0.5 % relative noise and a
+//! 0.5 um probe floor).
 //!
 //! `cargo bench --bench diagnose -- --warm-up-time 1 --measurement-time 20`
 
@@ -40,6 +43,27 @@ fn bench(c: &mut Criterion) {
             o.estimator = Estimator::OutputError;
             g.bench_function("baseline_identify_oe", |b| {
                 b.iter(|| black_box(identify(&model, &case.meas, &o).expect("identify")))
+            });
+        }
+    }
+    let real =
+        rotorid::simulate::at_balance_grade(&model, 6.3, rotorid::units::rpm_to_rad_s(15000.0))
+            .expect("unbalance");
+    for effect in [Effect::None, Effect::FoundationFlexibility] {
+        let mut case = generate(&real, effect, 11, &speeds, Some(0.005)).expect("case");
+        rotorid::simulate::add_floor_noise(&mut case.meas, 0.5e-6, 11).expect("floor");
+        g.bench_function(format!("diagnose_realistic_{}", effect.name()), |b| {
+            b.iter(|| {
+                black_box(
+                    diagnose(&real, &case.meas, &DiagnoseOptions::default()).expect("diagnose"),
+                )
+            })
+        });
+        if effect == Effect::None {
+            let mut o = Options::new(rotorid::core::parametrization::Structure::physical(1));
+            o.estimator = Estimator::OutputError;
+            g.bench_function("baseline_identify_oe_realistic", |b| {
+                b.iter(|| black_box(identify(&real, &case.meas, &o).expect("identify")))
             });
         }
     }
