@@ -403,3 +403,40 @@ fn modes_plot_draws_the_lowest_modes_at_the_speed() {
         assert_eq!(o.stderr.trim_end().lines().count(), 1);
     }
 }
+
+/// ROSS's compressor example without its seals loads in the commands:
+/// `simulate` (with an unbalance given on the command line: a ROSS rotor
+/// carries none) writes its bearing channels, and `campbell` lists at 0
+/// rpm the lowest lateral mode ROSS's `run_modal` gives (6572.2 rpm,
+/// within 1e-6).
+#[test]
+fn compressor_without_seals_loads_in_simulate_and_campbell() {
+    let model = fixture("compressor_no_seals.toml");
+    let model = model.to_str().unwrap();
+    let out = tmp("compressor_sim.csv");
+    let o = cli([
+        "simulate",
+        "--model",
+        model,
+        "--out",
+        out.to_str().unwrap(),
+        "--rpm-max",
+        "12000",
+        "--extra-unbalance",
+        "21:3.57e-4:0",
+        "--extra-unbalance",
+        "36:1.79e-4:90",
+    ]);
+    assert_eq!(o.status, 0, "{}", o.stderr);
+    let csv = std::fs::read_to_string(&out).unwrap();
+    let rows = csv.lines().filter(|l| !l.starts_with('#')).count();
+    assert_eq!(rows, 241, "header and 240 speeds");
+    let j = campbell_json(model, 1000.0, 1000.0, "compressor", None);
+    let text = std::fs::read_to_string(fixture("compressor_no_seals.results.json")).unwrap();
+    let r: Value = serde_json::from_str(&text).unwrap();
+    let rest = &r["modal"]["speeds"][0];
+    assert_eq!(rest["speed_rpm"].as_f64(), Some(0.0));
+    let ross = floats(&rest["wd"])[0] * 30.0 / std::f64::consts::PI;
+    let ours = j["speeds"][0]["modes"][0]["frequency_hz"].as_f64().unwrap() * 60.0;
+    assert!((ours - ross).abs() < 1e-6 * ross, "{ours} vs {ross} rpm");
+}

@@ -39,7 +39,9 @@
 //!   to the damping to ground of each pedestal mass. The response and
 //!   Campbell analyses include it; the reduction used for identification
 //!   refuses it. `modal_damping_ratio` is refused.
-//! - **Disks** (`DiskElement_*`: `n`, `m`, `Id`, `Ip`): as given.
+//! - **Disks** (`DiskElement_*`: `n`, `m`, `Id`, `Ip`): as given; `Id = Ip
+//!   = 0` is a mass without rotary inertia (ROSS's compressor example has
+//!   one).
 //! - **Bearings** (`BearingElement_*`: `n`, `kxx`, `kxy`, `kyx`, `kyy`,
 //!   `cxx`, ... as arrays (length 1: constant) over `speed` (rotor speed,
 //!   rad/s; ROSS 3), `frequency` (whirl frequency in ROSS 3, speed in ROSS
@@ -77,7 +79,7 @@ use serde::Deserialize;
 use thiserror::Error;
 
 use crate::model::plausible::{
-    check, Range, DENSITY, DIAMETER, INERTIA, LENGTH, MASS, SHEAR, YOUNG,
+    check, check_inertia, Range, DENSITY, DIAMETER, LENGTH, MASS, SHEAR, YOUNG,
 };
 use crate::model::{
     BeamTheory, Bearing, BearingCoefficients, BearingLaw, Disk, Material, ModelError, Pedestal,
@@ -427,6 +429,14 @@ fn material(name: &str, m: &RossMaterial) -> Result<Material, RossError> {
 
 /// `v` (key `key` of element `name`) inside a physically plausible range
 /// ([`crate::model::plausible`]).
+/// A disk's `Id` or `Ip`: 0 (a mass without rotary inertia) or plausible.
+fn inertia(name: &str, key: &str, v: f64) -> Result<f64, RossError> {
+    check_inertia(v).map_err(|reason| RossError::Field {
+        element: name.into(),
+        reason: format!("{key}: {reason}"),
+    })
+}
+
 fn plausible(name: &str, key: &str, v: f64, range: Range) -> Result<f64, RossError> {
     check(v, range).map_err(|reason| RossError::Field {
         element: name.into(),
@@ -736,8 +746,8 @@ fn disks(disks: &[(String, RossDisk)], n_nodes: usize) -> Result<Vec<Disk>, Ross
         out_disks.push(Disk {
             node: d.n,
             mass: plausible(name, "m", d.m, MASS)?,
-            id: plausible(name, "Id", d.Id, INERTIA)?,
-            ip: plausible(name, "Ip", d.Ip, INERTIA)?,
+            id: inertia(name, "Id", d.Id)?,
+            ip: inertia(name, "Ip", d.Ip)?,
         });
     }
     out_disks.sort_by_key(|d| d.node);

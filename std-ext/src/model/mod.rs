@@ -712,8 +712,8 @@ impl RotorModel {
             let f = |name: &str| format!("disk[{}].{name}", i + 1);
             on_shaft(f("node"), d.node, n)?;
             positive(f("mass"), d.mass)?;
-            positive(f("id"), d.id)?;
-            positive(f("ip"), d.ip)?;
+            non_negative(f("id"), d.id)?;
+            non_negative(f("ip"), d.ip)?;
         }
         self.validate_bearings(n)?;
         self.validate_shaft_layers()?;
@@ -866,6 +866,18 @@ fn positive(field: String, v: f64) -> Result<(), ModelError> {
 }
 
 /// [`RotorModel::validate`]: `v` finite.
+/// A disk's moments of inertia may be 0: a mass without rotary inertia.
+fn non_negative(field: String, v: f64) -> Result<(), ModelError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(ModelError::invalid(
+            field,
+            format!("must be finite and >= 0, got {v}"),
+        ))
+    }
+}
+
 fn finite(field: String, v: f64) -> Result<(), ModelError> {
     if v.is_finite() {
         Ok(())

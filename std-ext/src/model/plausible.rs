@@ -57,7 +57,8 @@ pub const MASS: Range = Range {
     hi: 1e7,
     unit: "kg",
 };
-/// Disk moment of inertia: 1e-15 to 1e9 kg m^2.
+/// Disk moment of inertia: 1e-15 to 1e9 kg m^2, or exactly 0 (see
+/// [`check_inertia`]).
 pub const INERTIA: Range = Range {
     lo: 1e-15,
     hi: 1e9,
@@ -82,6 +83,19 @@ pub fn check(v: f64, range: Range) -> Result<f64, String> {
             "{v:e} {} is outside the physically plausible range {:e}..={:e} {}",
             range.unit, range.lo, range.hi, range.unit
         ))
+    }
+}
+
+/// `Ok(v)` if the disk moment of inertia `v` is exactly 0 or lies in
+/// [`INERTIA`], else the reason. Zero is a mass without rotary inertia on
+/// the shaft node (a lumped mass: ROSS's compressor example has a
+/// `DiskElement` with `Id = Ip = 0`); a tiny non-zero value is still a
+/// typing or unit error.
+pub fn check_inertia(v: f64) -> Result<f64, String> {
+    if v == 0.0 {
+        Ok(0.0)
+    } else {
+        check(v, INERTIA).map_err(|e| format!("{e} (or exactly 0)"))
     }
 }
 
@@ -116,6 +130,13 @@ mod tests {
         assert!(check(1e-3, SHEAR).is_ok());
         for v in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             assert!(check(v, YOUNG).is_err());
+        }
+        // Disk inertia: exactly 0 (a lumped mass) or in the range.
+        assert_eq!(check_inertia(0.0), Ok(0.0));
+        assert_eq!(check_inertia(0.025), Ok(0.025));
+        for v in [1e-300, -0.01, 1e12, f64::NAN] {
+            let e = check_inertia(v).unwrap_err();
+            assert!(e.contains("or exactly 0"), "{e}");
         }
         assert!(check_magnitude(-5e7, STIFFNESS_MAX, "N/m").is_ok());
         assert!(check_magnitude(1e300, STIFFNESS_MAX, "N/m").is_err());

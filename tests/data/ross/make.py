@@ -257,6 +257,45 @@ def coaxial_rotor():
     return rs.Rotor(shaft + sleeve, disks, bearings)
 
 
+# Fixture 7: ROSS's compressor example, balanced to grade G2.5 at 11000 rpm
+# (the top of its bearing tables, 4000..11000 rpm).
+COMPRESSOR_GRADE_MM_S = 2.5
+COMPRESSOR_SERVICE_RPM = 11000.0
+COMPRESSOR_MODAL_SPEEDS_RPM = [0.0, 4000.0, 8000.0, 11000.0]
+# run_critical_speed's Newton iteration converged far below its default
+# rtol = 0.005, for a comparison at 0.1 %.
+COMPRESSOR_CRITICAL_RTOL = 1e-8
+
+
+def compressor_no_seals():
+    """Fixture 7: ROSS's compressor example with its seals removed.
+
+    ``rs.compressor_example()`` reads ``ross/data/compressor_example.toml``
+    (shipped in the ROSS wheel): 91 shaft elements on 55 elements' nodes
+    (coaxial layers with the same ``n``, one material with E = G = 6894.75
+    Pa that adds mass only), 7 disks, 2 bearings with 8-point speed tables
+    (PCHIP) and 12 ``SealElement``s. The rotor is rebuilt with
+    ``rs.Rotor(shaft_elements, disk_elements, bearings, point_mass_elements)``
+    where ``bearings`` are the bearing elements that are not SealElements
+    (SealElement is a subclass of BearingElement); the bearings are kept as
+    ROSS has them.
+    """
+    full = rs.compressor_example()
+    bearings = [b for b in full.bearing_elements if not isinstance(b, rs.SealElement)]
+    assert len(bearings) == 2 and len(full.bearing_elements) == 14
+    return rs.Rotor(
+        full.shaft_elements, full.disk_elements, bearings, full.point_mass_elements
+    )
+
+
+def compressor_unbalance(rotor):
+    """G2.5 at 11000 rpm (ISO 21940-11: ``m e = G / Omega * mass``), 2/3 of
+    it on the first impeller (node 20, phase 0), 1/3 on the last (node 35,
+    phase pi/2)."""
+    total = COMPRESSOR_GRADE_MM_S * 1e-3 / (COMPRESSOR_SERVICE_RPM * RPM) * rotor.m
+    return [(20, 2.0 * total / 3.0, 0.0), (35, total / 3.0, math.pi / 2)]
+
+
 def magnetic_bearing_rotor():
     """Refused kind: rotor_example's shaft on two magnetic bearings."""
     base = rs.rotor_example()
@@ -315,7 +354,26 @@ LOADABLE = [
     ("coaxial_sleeve", coaxial_rotor,
      "steel shaft with an aluminium sleeve layer (same n), 2 disks",
      [(3, 1.0e-4, 0.0), (5, 0.5e-4, math.pi / 2)]),
+    ("compressor_no_seals", compressor_no_seals,
+     "rs.compressor_example() without its 12 SealElements: 91 shaft elements "
+     "(coaxial layers), 7 disks, 2 bearings on 8-point speed tables (PCHIP)",
+     compressor_unbalance),
 ]  # fmt: skip
+
+# Per-fixture settings other than the defaults: modal speeds (rpm), a
+# second run_critical_speed with a tight rtol, the balance grade.
+OPTIONS = {
+    "compressor_no_seals": {
+        "modal_speeds_rpm": COMPRESSOR_MODAL_SPEEDS_RPM,
+        "critical_rtol": COMPRESSOR_CRITICAL_RTOL,
+        "balance_grade": {
+            "grade_mm_s": COMPRESSOR_GRADE_MM_S,
+            "service_speed_rpm": COMPRESSOR_SERVICE_RPM,
+            "rule": "sum m e = G / Omega * rotor.m (ISO 21940-11), "
+            "2/3 at node 20 (phase 0), 1/3 at node 35 (phase pi/2)",
+        },
+    },
+}
 
 REFUSED = [
     ("refused_magnetic_bearing", magnetic_bearing_rotor,
@@ -378,12 +436,21 @@ def modal_block(rotor, speeds_rpm):
     return out
 
 
-def critical_block(rotor):
+def critical_block(rotor, rtol=None):
     with Caught() as caught:
-        crit = rotor.run_critical_speed()
+        if rtol is None:
+            crit = rotor.run_critical_speed()
+        else:
+            crit = rotor.run_critical_speed(rtol=rtol)
     return {
-        "call": "rotor.run_critical_speed()",
-        "arguments": {"speed_range": None, "num_modes": 12, "rtol": 0.005},
+        "call": "rotor.run_critical_speed()"
+        if rtol is None
+        else f"rotor.run_critical_speed(rtol={rtol})",
+        "arguments": {
+            "speed_range": None,
+            "num_modes": 12,
+            "rtol": 0.005 if rtol is None else rtol,
+        },
         "wn": crit.wn(),
         "wd": crit.wd(),
         "log_dec": crit.log_dec,
@@ -526,12 +593,20 @@ def save_and_load(builder, name):
 
 
 def make_loadable(name, builder, description, unbalance):
+    options = OPTIONS.get(name, {})
+    modal_speeds_rpm = options.get("modal_speeds_rpm", MODAL_SPEEDS_RPM)
     built, rotor, path, load_warnings = save_and_load(builder, name)
     same = matrices_equal(built, rotor)
-    modal = modal_block(rotor, MODAL_SPEEDS_RPM)
+    if callable(unbalance):
+        unbalance = unbalance(rotor)
+    modal = modal_block(rotor, modal_speeds_rpm)
     crit = critical_block(rotor)
     top, crit_types = lateral_critical_top(rotor, crit)
     crit["mode_type"] = crit_types
+    tight = None
+    if "critical_rtol" in options:
+        tight = critical_block(rotor, options["critical_rtol"])
+        tight["mode_type"] = lateral_critical_top(rotor, tight)[1]
     w_end = 1.2 * top
     tables = [
         b for b in rotor.bearing_elements if b.speed is not None or b.frequency is not None
@@ -558,6 +633,12 @@ def make_loadable(name, builder, description, unbalance):
             "speeds": modal,
         },
         "critical_speeds": crit,
+        **({"critical_speeds_tight": tight} if tight is not None else {}),
+        **(
+            {"balance_grade": {**options["balance_grade"], "rotor_mass_kg": rotor.m}}
+            if "balance_grade" in options
+            else {}
+        ),
         "unbalance_response": {
             **response,
             "speed_range_rule": "linspace(100 rpm, max(1.2 x highest of the first "
@@ -569,7 +650,7 @@ def make_loadable(name, builder, description, unbalance):
     }
     if tables:
         check = np.unique(
-            np.concatenate([speeds, np.array(MODAL_SPEEDS_RPM) * RPM, crit["wd"]])
+            np.concatenate([speeds, np.array(modal_speeds_rpm) * RPM, crit["wd"]])
         )
         result["bearing_coefficients"] = coefficients_block(rotor, check)
     write_json(HERE / f"{name}.results.json", result)
