@@ -16,6 +16,10 @@ banner() {
   echo "!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!"
 }
 
+# ROSS 3.1 needs Python 3.13: where pyenv has it, it is the one used.
+if PYENV_VERSION=3.13.0 python3.13 -c 'import sys' >/dev/null 2>&1; then
+  export PYENV_VERSION=3.13.0
+fi
 PY=""
 for p in python3.13 python3.12 python3.11 python3.10 python3; do
   if command -v "$p" >/dev/null 2>&1 && "$p" -c 'import sys, venv; sys.exit(sys.version_info < (3, 10))' 2>/dev/null; then
