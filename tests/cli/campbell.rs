@@ -20,27 +20,14 @@ fn floats(v: &Value) -> Vec<f64> {
         .collect()
 }
 
-fn strings(v: &Value) -> Vec<String> {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_str().unwrap_or("None").to_string())
-        .collect()
-}
-
 /// ROSS's lateral critical speeds (rpm) of `key` (`wd` or `wn`) with their
 /// whirl.
 fn ross_criticals(name: &str, key: &str) -> Vec<(f64, String)> {
     let text = std::fs::read_to_string(fixture(&format!("{name}.results.json"))).unwrap();
     let r: Value = serde_json::from_str(&text).unwrap();
-    let cs = &r["critical_speeds"];
-    let kind = strings(&cs["mode_type"]);
-    let whirl = strings(&cs["whirl_direction"]);
-    floats(&cs[key])
+    crate::files::ross_fixtures::ross_lateral_criticals(&r, "critical_speeds", key)
         .into_iter()
-        .enumerate()
-        .filter(|(i, _)| kind[*i] == "Lateral")
-        .map(|(i, w)| (w * 30.0 / std::f64::consts::PI, whirl[i].clone()))
+        .map(|(w, whirl)| (w * 30.0 / std::f64::consts::PI, whirl))
         .collect()
 }
 

@@ -6,6 +6,6 @@ mod measurement;
 mod model;
 mod robustness;
 mod ross;
-mod ross_fixtures;
+pub(crate) mod ross_fixtures;
 pub mod signals;
 mod simulate;

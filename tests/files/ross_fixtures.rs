@@ -533,7 +533,7 @@ fn identify_export_agrees_with_ross() {
 
 /// ROSS's lateral critical speeds (rad/s) of `key` (`wd` or `wn`) in the
 /// list `list` of a results file, with ROSS's whirl.
-fn ross_lateral_criticals(r: &Value, list: &str, key: &str) -> Vec<(f64, String)> {
+pub(crate) fn ross_lateral_criticals(r: &Value, list: &str, key: &str) -> Vec<(f64, String)> {
     let cs = &r[list];
     let kind = strings(&cs["mode_type"]);
     let whirl = strings(&cs["whirl_direction"]);

@@ -427,8 +427,6 @@ fn material(name: &str, m: &RossMaterial) -> Result<Material, RossError> {
     })
 }
 
-/// `v` (key `key` of element `name`) inside a physically plausible range
-/// ([`crate::model::plausible`]).
 /// A disk's `Id` or `Ip`: 0 (a mass without rotary inertia) or plausible.
 fn inertia(name: &str, key: &str, v: f64) -> Result<f64, RossError> {
     check_inertia(v).map_err(|reason| RossError::Field {
@@ -437,6 +435,8 @@ fn inertia(name: &str, key: &str, v: f64) -> Result<f64, RossError> {
     })
 }
 
+/// `v` (key `key` of element `name`) inside a physically plausible range
+/// ([`crate::model::plausible`]).
 fn plausible(name: &str, key: &str, v: f64, range: Range) -> Result<f64, RossError> {
     check(v, range).map_err(|reason| RossError::Field {
         element: name.into(),
