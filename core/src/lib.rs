@@ -38,6 +38,7 @@ pub mod regressor;
 pub mod scalar;
 pub mod scaling;
 pub mod sqrtfree;
+pub mod streamtrack;
 pub mod table;
 
 /// The tests' generator (also included by path into `tests/` and `benches/`).

@@ -212,12 +212,12 @@ use num_complex::Complex;
 
 /// `n` in the working precision, converted directly (in `f32` a hardware
 /// conversion on the Cortex-M4F, no `f64` arithmetic in software).
-fn int<T: Real>(n: i32) -> T {
+pub(crate) fn int<T: Real>(n: i32) -> T {
     T::from_i32(n).unwrap_or_else(T::zero)
 }
 
 /// A count in the working precision (see [`int`]).
-fn count<T: Real>(n: usize) -> T {
+pub(crate) fn count<T: Real>(n: usize) -> T {
     T::from_usize(n).unwrap_or_else(T::zero)
 }
 
@@ -372,7 +372,7 @@ impl<T: Real> Config<T> {
 
     /// The longest revolution allowed, `2 pi f_s / speed_min` samples
     /// (f64; infinite or NaN for a bad configuration).
-    fn longest(&self) -> f64 {
+    pub(crate) fn longest(&self) -> f64 {
         core::f64::consts::TAU * self.sample_rate.to_f64() / self.speed_min.to_f64()
     }
 
@@ -577,7 +577,7 @@ impl Counts {
         self.accepted.saturating_add(self.rejected())
     }
 
-    fn add(&mut self, outcome: Result<(), Rejection>) {
+    pub(crate) fn add(&mut self, outcome: Result<(), Rejection>) {
         let c = match outcome {
             Ok(()) => &mut self.accepted,
             Err(Rejection::NoReference) => &mut self.no_reference,
@@ -698,8 +698,8 @@ impl<T: Real> Moments<T> {
 
 /// The running average of the current group.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Averager<T, const NC: usize> {
-    n: u32,
+pub(crate) struct Averager<T, const NC: usize> {
+    pub(crate) n: u32,
     start: Option<EventTime<T>>,
     end: Option<EventTime<T>>,
     /// Revolution number (closed revolutions, any outcome) at the group's start.
@@ -712,7 +712,7 @@ struct Averager<T, const NC: usize> {
 }
 
 impl<T: Real, const NC: usize> Averager<T, NC> {
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Averager {
             n: 0,
             start: None,
@@ -726,7 +726,7 @@ impl<T: Real, const NC: usize> Averager<T, NC> {
         }
     }
 
-    fn add(
+    pub(crate) fn add(
         &mut self,
         seq: u64,
         (start, end): (EventTime<T>, EventTime<T>),
@@ -756,7 +756,7 @@ impl<T: Real, const NC: usize> Averager<T, NC> {
 
     /// The group's average if it has more revolutions than the scatter
     /// spends; the group is emptied either way.
-    fn finish(&mut self, scatter: Scatter) -> Option<Average<T, NC>> {
+    pub(crate) fn finish(&mut self, scatter: Scatter) -> Option<Average<T, NC>> {
         let n = self.n;
         self.n = 0;
         let (start, end) = (self.start.take()?, self.end.take()?);
@@ -1240,7 +1240,7 @@ fn antiderivative<T: Real>(table: &[[i16; 6]; 6], x: T) -> [T; 6] {
 /// the six tail weights for events right on a sample (`frac = 0`), to which
 /// [`Rule::end_weights`] adds the parts that depend on the events' fractions.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Rule<T> {
+pub(crate) struct Rule<T> {
     head0: [T; 6],
     tail0: [T; 6],
 }
@@ -1248,7 +1248,7 @@ struct Rule<T> {
 impl<T: Real> Rule<T> {
     // index proven: `m + j < 6` and `t + m - 1 < 6` are tested before use.
     #[allow(clippy::indexing_slicing)]
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         // Centred interval (nodes -2 .. 3) and last whole interval (-3 .. 2).
         let v = lagrange_integrals::<T>(-2, T::zero(), T::one());
         let u3 = lagrange_integrals::<T>(-3, T::zero(), T::one());
@@ -1288,17 +1288,29 @@ impl<T: Real> Rule<T> {
     /// `head = head0 - F(frac_a)` on the nodes `-2 .. 3`, `tail = tail0 +
     /// F(frac_b)` on `-4 .. 1` ([`antiderivative`]).
     fn end_weights(&self, frac_a: T, frac_b: T) -> ([T; 6], [T; 6]) {
+        (self.head(frac_a), self.tail(frac_b))
+    }
+
+    /// The head weights of [`Rule::end_weights`]: samples `c_a - 2 .. c_a +
+    /// 3` of a start event `frac_a` after sample `c_a`.
+    pub(crate) fn head(&self, frac_a: T) -> [T; 6] {
         let fa = antiderivative(&ANTIDERIVATIVE_CENTRED, frac_a);
-        let fb = antiderivative(&ANTIDERIVATIVE_LAST, frac_b);
         let mut head = self.head0;
         for (h, f) in head.iter_mut().zip(fa.iter()) {
             *h -= *f;
         }
+        head
+    }
+
+    /// The tail weights of [`Rule::end_weights`]: samples `c_b - 4 .. c_b +
+    /// 1` of an end event `frac_b` after sample `c_b`.
+    pub(crate) fn tail(&self, frac_b: T) -> [T; 6] {
+        let fb = antiderivative(&ANTIDERIVATIVE_LAST, frac_b);
         let mut tail = self.tail0;
         for (t, f) in tail.iter_mut().zip(fb.iter()) {
             *t += *f;
         }
-        (head, tail)
+        tail
     }
 }
 
@@ -1311,7 +1323,7 @@ const SERIES_TERMS: usize = 12;
 /// The terms (in `e^2`, beyond the first) of the series of [`exp_neg_j`]
 /// that bring its remainder below the precision for `|e| <= e_max` (at most
 /// [`SERIES_TERMS`]; 0 when `e_max` is 0 or not finite).
-fn series_terms<T: Real>(e_max: T) -> usize {
+pub(crate) fn series_terms<T: Real>(e_max: T) -> usize {
     if !(e_max.is_finite() && e_max > T::zero()) {
         return 0;
     }
@@ -1329,7 +1341,7 @@ fn series_terms<T: Real>(e_max: T) -> usize {
 /// `exp(-j e) = cos e - j sin e` by the series of the cosine and the sine
 /// in `e^2` to `terms` terms (Horner: `cos e = 1 - e^2 / (1 2) (1 - e^2 /
 /// (3 4) (1 - ...))`, `sin e = e (1 - e^2 / (2 3) (1 - ...))`).
-fn exp_neg_j<T: Real>(e: T, terms: usize) -> Complex<T> {
+pub(crate) fn exp_neg_j<T: Real>(e: T, terms: usize) -> Complex<T> {
     let z = e * e;
     let (mut c, mut s) = (T::one(), T::one());
     for m in (1..=terms.min(SERIES_TERMS)).rev() {
@@ -1359,8 +1371,8 @@ fn exp_neg_j<T: Real>(e: T, terms: usize) -> Complex<T> {
 /// to the precision for the `|a| < 0.05 / 16` of this use. About 11
 /// operations a sample, with the product by `E`, against some 30 for the
 /// series of `a i` at each sample.
-#[derive(Debug, Clone, Copy)]
-struct Chirp<T> {
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Chirp<T> {
     c: T,
     s: T,
     cr: T,
@@ -1368,7 +1380,7 @@ struct Chirp<T> {
 }
 
 impl<T: Real> Chirp<T> {
-    fn new(a: T) -> Self {
+    pub(crate) fn new(a: T) -> Self {
         let z = a * a;
         let one = T::one();
         Chirp {
@@ -1384,7 +1396,7 @@ impl<T: Real> Chirp<T> {
 
     /// `exp(-j a i)` of this step, then on to `i + 1`.
     #[inline(always)]
-    fn next(&mut self) -> Complex<T> {
+    pub(crate) fn next(&mut self) -> Complex<T> {
         let one_c = T::one() - self.c;
         let u = Complex::new(one_c, -self.s);
         let (c, s) = (self.c, self.s);

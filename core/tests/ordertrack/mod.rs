@@ -6,6 +6,7 @@
 mod accuracy;
 mod faults;
 mod noise;
+mod stream;
 
 use crate::common::SplitMix64;
 use num_complex::Complex;

@@ -1,0 +1,616 @@
+//! Streaming 1X order tracking: the vectors of [`crate::ordertrack`]
+//! without a revolution buffer, for the firmware path.
+//!
+//! [`crate::ordertrack::OrderTracker`] keeps a whole revolution of samples
+//! and integrates it once its end event is found, because the angle of a
+//! sample is known only then. This tracker integrates each sample as it
+//! comes, with the angle *predicted* from the three events before the
+//! revolution, and checks the prediction at the end event: a revolution
+//! whose end event misses the predicted angle by more than a tolerance is
+//! rejected. It keeps 14 samples per channel instead of a revolution, and
+//! its work is spread evenly over the samples (no burst at a revolution's
+//! end). It gives 1X only (the identification's input); 2X and the
+//! exact-angle rule are [`crate::ordertrack::OrderTracker`]'s.
+//!
+//! # The predicted angle
+//!
+//! Revolution `k` runs from event `u_k` to `u_(k+1)`; the two periods before
+//! it are `P' = u_(k-1) - u_(k-2)` and `P = u_k - u_(k-1)` (samples). The
+//! quadratic through the events at `theta = -4 pi, -2 pi, 0`, with `tau`
+//! the time since `u_k` (samples):
+//!
+//! ```text
+//! theta^(tau) = w tau + a tau^2 / 2                     (rad)
+//! a = 4 pi (P' - P) / (P P' (P + P'))                   (rad / sample^2)
+//! w = 2 pi / P + a P / 2                                (rad / sample)
+//! ```
+//!
+//! (`theta^(-P) = -2 pi`, `theta^(-P - P') = -4 pi`). At constant angular
+//! acceleration (a linear speed ramp, a constant speed) it is the angle of
+//! [`crate::ordertrack`] itself, the quadratic through `u_(k-1), u_k,
+//! u_(k+1)`, so the two trackers give the same vectors (up to rounding and
+//! the events' timing). Where the acceleration changes, the angle is off by
+//! `delta(tau) = c tau (tau + P)` (zero at the two events both quadratics
+//! share), known at the end event from the prediction's miss
+//!
+//! ```text
+//! e = 2 pi - theta^(T) = c T (T + P),      T = u_(k+1) - u_k,
+//! ```
+//!
+//! and the vector is then off by less than `|e|` relative (first order in
+//! `delta`: `dY = (1 / pi) integral of y exp(-j theta) (d delta - j delta
+//! dtheta)`, and `|delta| <= |e|` over the revolution; measured, 0.67 `|e|`
+//! at most). A revolution with `|e|` above
+//! [`StreamTracker::angle_tolerance`] (default [`DEFAULT_ANGLE_TOLERANCE`],
+//! 1e-3 rad: the vectors within 1e-3 relative, 0.06 degrees) is rejected
+//! as [`Rejection::PeriodJump`]. For scale: on a coast-down whose
+//! deceleration follows `Omega^2` at 20 % per second, 50 Hz, `|e|` is
+//! about 2e-4 rad; on a linear ramp of 10 % per second it is the events'
+//! timing error, 2e-8 rad.
+//!
+//! # The integral, sample by sample
+//!
+//! The rule is [`crate::ordertrack`]'s: `Y = (1 / pi) sum_i W_i y_i
+//! exp(-j theta_i) theta'_i` with `W_i = 1` but at the six samples at each
+//! end. Each sample is added as it comes with the weight it has if the
+//! revolution goes on (`W = 1`, or a head weight for the two samples after
+//! the start event), the shared factor `q_i = exp(-j theta^_i) theta^'_i W_i`
+//! carried from sample to sample as in [`crate::ordertrack`] (the
+//! increment `E exp(-j a i)` by the same recurrence, one Newton step on
+//! `|p|` per sample). When the end event is found, at the sample after it,
+//! the six samples `c_b - 4 .. c_b + 1` (kept in a short history) get
+//! their tail weights: `(W_tail - 1) y exp(-j theta^) theta^'` is added,
+//! the phasor from its series about `2 pi`. The next revolution opens with
+//! the four samples of its head that have come (`c_a - 2 .. c_a + 1`),
+//! from the same history. Samples are summed in blocks of 8 (the block's
+//! `q_i` once, then each channel over the block with its sums in
+//! registers). Each channel's sample at `c_a - 2` is taken off every
+//! sample (a constant integrates to zero; the sums then carry the
+//! vibration, not a probe's gap, in their rounding).
+//!
+//! # Rejections, averages
+//!
+//! As in [`crate::ordertrack`] (the same [`Config`], [`Rejection`],
+//! [`Counts`], averages with their standard errors), with these
+//! differences: a revolution is dropped as [`Rejection::NoEvent`] when it
+//! has run twice the configuration's slowest revolution and 7 samples
+//! (there is no buffer to fill; a missing pulse is then a
+//! [`Rejection::PeriodJump`], as with a buffer that long);
+//! a sum that overflows on samples beyond the ADC limits counts as
+//! non-finite; a missed prediction counts as a period jump. The revolution
+//! after a rejected one is integrated as usual: the prediction needs only
+//! the events.
+
+use crate::keyphasor::{Crossing, EventTime, Keyphasor};
+use crate::ordertrack::{
+    count, exp_neg_j, series_terms, Averager, Chirp, Config, ConfigError, Counts, Orders,
+    Rejection, Rule, Scatter, MAX_CAPACITY,
+};
+use crate::scalar::Real;
+use num_complex::Complex;
+
+/// The default [`StreamTracker::angle_tolerance`] (rad).
+pub const DEFAULT_ANGLE_TOLERANCE: f64 = 1e-3;
+
+/// Samples per block of the sums.
+const BLOCK: usize = 8;
+
+/// Samples kept before the block: the six of a revolution's tail.
+const KEEP: usize = 6;
+
+/// One revolution closed: its timing and its 1X vectors or why it was
+/// rejected.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreamRevolution<T, const NC: usize> {
+    /// The keyphasor event that opened it (angle 0).
+    pub start: EventTime<T>,
+    /// Its period `T` in samples (for a revolution dropped without its end
+    /// event: the samples it had run).
+    pub samples: T,
+    /// Mean speed `2 pi f_s / T` (rad/s); 0 when dropped without its end
+    /// event.
+    pub speed: T,
+    /// Angular acceleration `a f_s^2` of the predicted angle (rad/s^2); 0
+    /// without a prediction.
+    pub acceleration: T,
+    /// The prediction's miss at the end event, `e = 2 pi - theta^(T)`
+    /// (rad); 0 without a prediction.
+    pub angle_error: T,
+    /// The 1X vectors, or the cause of the rejection.
+    pub result: Result<[Complex<T>; NC], Rejection>,
+}
+
+/// The average of a group of accepted revolutions, per channel (as
+/// [`crate::ordertrack::Average`], 1X only).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreamAverage<T, const NC: usize> {
+    /// Revolutions averaged.
+    pub revolutions: u32,
+    /// The start event of the group's first revolution.
+    pub start: EventTime<T>,
+    /// The end event of its last revolution.
+    pub end: EventTime<T>,
+    /// Mean of the revolutions' mean speeds (rad/s).
+    pub speed: T,
+    /// Mean 1X vector (probe unit).
+    pub x1: [Complex<T>; NC],
+    /// Standard error of the mean 1X vector: `E|dY|^2 = x1_std^2`.
+    pub x1_std: [T; NC],
+}
+
+/// What [`StreamTracker::push`] gives when a revolution closes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreamOutput<T, const NC: usize> {
+    /// The revolution that closed.
+    pub revolution: StreamRevolution<T, NC>,
+    /// The average its acceptance completed, if it did.
+    pub average: Option<StreamAverage<T, NC>>,
+}
+
+/// The open revolution's predicted angle and running sums.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Open<T, const NC: usize> {
+    start: EventTime<T>,
+    /// Samples pushed since the start event was found.
+    since: usize,
+    /// `w`, `a` of the prediction (`None`: fewer than two periods before).
+    angle: Option<(T, T)>,
+    /// `exp(-j theta^)` of the next sample, and `theta^'` there.
+    p: Complex<T>,
+    dtheta: T,
+    /// `E = exp(-j d_0)`, the chirp `exp(-j a i)` and its mode (terms of
+    /// its series; 1..=3 by the recurrence).
+    e: Complex<T>,
+    chirp: Chirp<T>,
+    terms: usize,
+    /// Steps taken (the chirp's `i` when summed by its series).
+    step: T,
+    /// The head weights of the two samples after the event's, and how
+    /// many of them are still to come.
+    head: [T; 2],
+    head_left: usize,
+    /// Each channel's reference sample.
+    reference: [T; NC],
+    sums: [Complex<T>; NC],
+    /// Bit 31: a sample at or beyond an ADC limit.
+    outside: u32,
+}
+
+/// The streaming 1X tracker of the module documentation, for `NC` probe
+/// channels.
+///
+/// ```
+/// use rotorid_core::ordertrack::Config;
+/// use rotorid_core::streamtrack::StreamTracker;
+/// use rotorid_core::Complex;
+///
+/// // 2 probes, 2560 Hz, a shaft at 25 Hz (102.4 samples per revolution).
+/// let (fs, f) = (2560.0, 25.0);
+/// let w = 2.0 * core::f64::consts::PI * f;
+/// let config = Config::new(fs, 0.5, 100.0, 200.0).with_revolutions(4);
+/// let mut t = StreamTracker::<f64, 2>::new(config).unwrap();
+/// let mut avg = None;
+/// for i in 0..2000 {
+///     let theta = w * i as f64 / fs + 1.0;
+///     let u = (theta + core::f64::consts::PI).rem_euclid(2.0 * core::f64::consts::PI)
+///         - core::f64::consts::PI;
+///     let kp = (0.5 + u / 0.3).clamp(0.0, 1.0) * f64::from(u < 1.0);
+///     let y = [2e-6 * (theta + 0.5).cos() + 1e-6, 1e-6 * (2.0 * theta).sin()];
+///     if let Some(out) = t.push(kp, &y) {
+///         avg = avg.or(out.average);
+///     }
+/// }
+/// let a = avg.unwrap();
+/// assert_eq!(a.revolutions, 4);
+/// assert!((a.x1[0] - Complex::from_polar(2e-6, 0.5)).norm() < 1e-14);
+/// assert!(a.x1[1].norm() < 1e-14);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct StreamTracker<T, const NC: usize> {
+    config: Config<T>,
+    kp: Keyphasor<T>,
+    tolerance: T,
+    /// Twice the longest revolution allowed and 7 (samples): a revolution
+    /// without its end event by then is dropped ([`Rejection::NoEvent`]).
+    max_samples: usize,
+    /// `hist[..KEEP]` the six samples before the block, `hist[KEEP..KEEP +
+    /// n]` the block's `n` samples.
+    hist: [[T; NC]; KEEP + BLOCK],
+    n: usize,
+    /// The block's shared factors `q_i`.
+    q: [Complex<T>; BLOCK],
+    open: Option<Open<T, NC>>,
+    /// The two last periods (samples): `[P', P]`.
+    periods: [Option<T>; 2],
+    seq: u64,
+    counts: Counts,
+    avg: Averager<T, NC>,
+    rule: Rule<T>,
+}
+
+impl<T: Real, const NC: usize> StreamTracker<T, NC> {
+    /// A tracker with `config` ([`Config::validate`]; there is no buffer,
+    /// so the slowest revolution need only stay below 2^24 samples).
+    pub fn new(config: Config<T>) -> Result<Self, ConfigError> {
+        config.validate(MAX_CAPACITY)?;
+        let longest = config.longest();
+        // `as` saturates; `validate` bounds `longest` below 2^24. Twice the
+        // slowest revolution: a missing pulse is told as a period jump.
+        let max_samples = (2.0 * longest) as usize + 7;
+        let zero = Complex::new(T::zero(), T::zero());
+        Ok(StreamTracker {
+            kp: Keyphasor::new(config.level, config.hysteresis)?,
+            config,
+            tolerance: T::lit(DEFAULT_ANGLE_TOLERANCE),
+            max_samples,
+            hist: [[T::zero(); NC]; KEEP + BLOCK],
+            n: 0,
+            q: [zero; BLOCK],
+            open: None,
+            periods: [None; 2],
+            seq: 0,
+            counts: Counts::default(),
+            avg: Averager::new(),
+            rule: Rule::new(),
+        })
+    }
+
+    /// The largest miss `|e|` of the predicted angle at a revolution's end
+    /// event (rad) that still accepts the revolution.
+    pub fn angle_tolerance(&self) -> T {
+        self.tolerance
+    }
+
+    /// Sets [`StreamTracker::angle_tolerance`]; a value that is not finite
+    /// and positive is refused (`false`, nothing changed).
+    pub fn set_angle_tolerance(&mut self, tolerance: T) -> bool {
+        let ok = tolerance.is_finite() && tolerance > T::zero();
+        if ok {
+            self.tolerance = tolerance;
+        }
+        ok
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &Config<T> {
+        &self.config
+    }
+
+    /// Revolutions closed so far, by outcome.
+    pub fn counts(&self) -> &Counts {
+        &self.counts
+    }
+
+    /// Samples taken so far.
+    pub fn samples(&self) -> u64 {
+        self.kp.samples()
+    }
+
+    /// Back to the state of [`StreamTracker::new`] (counts and the group
+    /// being averaged included; the angle tolerance kept).
+    pub fn reset(&mut self) {
+        self.kp.reset();
+        self.hist = [[T::zero(); NC]; KEEP + BLOCK];
+        self.n = 0;
+        self.open = None;
+        self.periods = [None; 2];
+        self.seq = 0;
+        self.counts = Counts::default();
+        self.avg = Averager::new();
+    }
+
+    /// The average of the revolutions accepted since the last average, if
+    /// there are more than the scatter spends; for the end of a recording.
+    /// The group is emptied either way.
+    pub fn flush(&mut self) -> Option<StreamAverage<T, NC>> {
+        self.finish()
+    }
+
+    /// One sampling instant: `kp` the keyphasor channel, `y` the probes.
+    /// Returns the revolution that closed at this sample, if any (with the
+    /// average it completed). Any input is taken, finite or not.
+    pub fn push(&mut self, kp: T, y: &[T; NC]) -> Option<StreamOutput<T, NC>> {
+        let mut out = None;
+        if let Some(o) = &self.open {
+            if o.since >= self.max_samples {
+                let start = o.start;
+                out = Some(self.drop_open(start, Rejection::NoEvent));
+            }
+        }
+        if let Some(slot) = self.hist.get_mut(KEEP + self.n) {
+            *slot = *y;
+        }
+        if let Some(o) = &mut self.open {
+            o.since += 1;
+            if o.angle.is_some() {
+                if let Some(q) = self.q.get_mut(self.n) {
+                    *q = o.next_factor();
+                }
+            }
+        }
+        self.n += 1;
+        if self.n == BLOCK {
+            self.fold();
+            self.hist.copy_within(BLOCK..BLOCK + KEEP, 0);
+            self.n = 0;
+        }
+        match self.kp.push(kp) {
+            Crossing::None => {}
+            Crossing::Invalid => {
+                if let Some(o) = &self.open {
+                    let start = o.start;
+                    out = Some(self.drop_open(start, Rejection::NonFinite));
+                }
+                self.periods = [None; 2];
+            }
+            Crossing::Event(e) => {
+                self.fold();
+                if let Some(o) = self.open.take() {
+                    out = Some(self.close(o, e));
+                }
+                // The last six samples to the front: `hist[n..n + KEEP]`.
+                self.hist.copy_within(self.n..self.n + KEEP, 0);
+                self.n = 0;
+                self.start(e);
+            }
+        }
+        out
+    }
+
+    /// Adds the block's `n` samples to the open revolution's sums.
+    fn fold(&mut self) {
+        let Some(o) = &mut self.open else { return };
+        if o.angle.is_none() {
+            return;
+        }
+        let (lo, hi) = (self.config.adc_min, self.config.adc_max);
+        let zero = Complex::new(T::zero(), T::zero());
+        let rows = self.hist.get(KEEP..KEEP + self.n).unwrap_or(&[]);
+        let mut outside = o.outside;
+        for (c, s) in o.sums.iter_mut().enumerate() {
+            let y0 = o.reference.get(c).copied().unwrap_or_else(T::zero);
+            let mut b = zero;
+            for (row, q) in rows.iter().zip(self.q.iter()) {
+                let y = row.get(c).copied().unwrap_or_else(T::zero);
+                // As in `ordertrack`: the sign bit of (lo - y)(y - hi) is set
+                // at or beyond a limit; a NaN ends in the sums.
+                outside |= ((lo - y) * (y - hi)).sign_word();
+                b += q.scale(y - y0);
+            }
+            *s += b;
+        }
+        o.outside = outside;
+    }
+
+    /// Opens a revolution at event `e` (the history holds the six samples
+    /// `e.sample - 4 ..= e.sample + 1` at `hist[..KEEP]`).
+    fn start(&mut self, e: EventTime<T>) {
+        let zero = Complex::new(T::zero(), T::zero());
+        let c = &self.config;
+        let two = T::lit(2.0);
+        let tau = T::two_pi();
+        let angle = match self.periods {
+            [Some(pp), Some(p)] => {
+                let a = two * tau * (pp - p) / (p * pp * (p + pp));
+                Some((tau / p + a * p / two, a))
+            }
+            _ => None,
+        };
+        let mut o = Open {
+            start: e,
+            since: 0,
+            angle,
+            p: zero,
+            dtheta: T::zero(),
+            e: zero,
+            chirp: Chirp::new(T::zero()),
+            terms: 0,
+            step: T::zero(),
+            head: [T::zero(); 2],
+            head_left: 0,
+            reference: [T::zero(); NC],
+            sums: [zero; NC],
+            outside: 0,
+        };
+        if let (Some((w, a)), Some(p)) = (angle, self.periods[1]) {
+            let head = self.rule.head(e.frac);
+            let theta = |t: T| w * t + a * t * t / two;
+            // The head's first four samples, c - 2 .. c + 1: tau = j - 2 - frac.
+            o.reference = self.hist.get(2).copied().unwrap_or([T::zero(); NC]);
+            let (lo, hi) = (c.adc_min, c.adc_max);
+            for (j, (row, wj)) in self
+                .hist
+                .iter()
+                .skip(2)
+                .take(4)
+                .zip(head.iter())
+                .enumerate()
+            {
+                let t = count::<T>(j) - two - e.frac;
+                let th = theta(t);
+                let f = exp_neg_j(th, series_terms(th.abs())).scale((w + a * t) * *wj);
+                for ((s, y), y0) in o.sums.iter_mut().zip(row.iter()).zip(o.reference.iter()) {
+                    o.outside |= ((lo - *y) * (*y - hi)).sign_word();
+                    *s += f.scale(*y - *y0);
+                }
+            }
+            // The next sample, c + 2.
+            let t0 = two - e.frac;
+            let th0 = theta(t0);
+            o.p = exp_neg_j(th0, series_terms(th0.abs()));
+            o.dtheta = w + a * t0;
+            let d0 = w + a * (t0 + T::lit(0.5));
+            o.e = exp_neg_j(d0, series_terms(d0.abs()));
+            o.chirp = Chirp::new(a);
+            let span = p * (T::one() + c.period_ratio) + T::lit(8.0);
+            o.terms = series_terms(a.abs() * span);
+            o.head = [head[4], head[5]];
+            o.head_left = 2;
+        }
+        self.open = Some(o);
+    }
+
+    /// A revolution dropped without its end event.
+    fn drop_open(&mut self, start: EventTime<T>, cause: Rejection) -> StreamOutput<T, NC> {
+        self.open = None;
+        self.seq = self.seq.wrapping_add(1);
+        self.periods = [None; 2];
+        self.counts.add(Err(cause));
+        let now = EventTime {
+            sample: self.kp.samples().wrapping_sub(1),
+            frac: T::zero(),
+        };
+        StreamOutput {
+            revolution: StreamRevolution {
+                start,
+                samples: now.since(&start),
+                speed: T::zero(),
+                acceleration: T::zero(),
+                angle_error: T::zero(),
+                result: Err(cause),
+            },
+            average: None,
+        }
+    }
+
+    /// Closes the open revolution `o` at its end event `end` (the block's
+    /// samples folded in; the last six samples at `hist[n..n + KEEP]`).
+    fn close(&mut self, o: Open<T, NC>, end: EventTime<T>) -> StreamOutput<T, NC> {
+        self.seq = self.seq.wrapping_add(1);
+        let start = o.start;
+        let t = end.since(&start);
+        let [p_prev, p] = self.periods;
+        self.periods = [p, Some(t)];
+        let c = self.config;
+        let two = T::lit(2.0);
+        let tau = T::two_pi();
+        let speed = tau * c.sample_rate / t;
+        let (w, a) = o.angle.unwrap_or((T::zero(), T::zero()));
+        let miss = tau - (w * t + a * t * t / two);
+        let steady = |x: T, y: T| (x / y - T::one()).abs() <= c.period_ratio;
+        let timing = match (p_prev, p, o.angle) {
+            (Some(pp), Some(p), Some(_)) => {
+                if !steady(t, p) || !steady(p, pp) || !(miss.abs() <= self.tolerance) {
+                    Err(Rejection::PeriodJump)
+                } else if t < count(c.min_samples) {
+                    Err(Rejection::Undersampled)
+                } else if !(speed >= c.speed_min && speed <= c.speed_max) {
+                    Err(Rejection::SpeedRange)
+                } else {
+                    Ok(())
+                }
+            }
+            _ => Err(Rejection::NoReference),
+        };
+        let result = timing.and_then(|()| self.finish_sums(&o, end.frac, t, w, a, miss));
+        self.counts.add(result.map(|_| ()));
+        let mut average = None;
+        if let Ok(x1) = &result {
+            let zero = Complex::new(T::zero(), T::zero());
+            let orders = Orders {
+                x1: *x1,
+                x2: [zero; NC],
+            };
+            self.avg.add(self.seq, (start, end), speed, &orders);
+            if self.avg.n >= self.config.revolutions {
+                average = self.finish();
+            }
+        }
+        let (acceleration, angle_error) = match o.angle {
+            Some(_) => (a * c.sample_rate * c.sample_rate, miss),
+            None => (T::zero(), T::zero()),
+        };
+        StreamOutput {
+            revolution: StreamRevolution {
+                start,
+                samples: t,
+                speed,
+                acceleration,
+                angle_error,
+                result,
+            },
+            average,
+        }
+    }
+
+    /// The tail weights on the last six samples (`c_b - 4 .. c_b + 1`, all
+    /// summed with weight 1), then the vectors: `tau_j = T - frac_b - 4 +
+    /// j` and `theta^(tau_j) - 2 pi = (tau_j - T) (w + a (tau_j + T) / 2) -
+    /// e`, small (its series converges fast and keeps the precision).
+    fn finish_sums(
+        &self,
+        o: &Open<T, NC>,
+        frac_b: T,
+        t: T,
+        w: T,
+        a: T,
+        miss: T,
+    ) -> Result<[Complex<T>; NC], Rejection> {
+        let two = T::lit(2.0);
+        let tail = self.rule.tail(frac_b);
+        let mut sums = o.sums;
+        let rows = self.hist.get(self.n..self.n + KEEP).unwrap_or(&[]);
+        for (j, (row, wj)) in rows.iter().zip(tail.iter()).enumerate() {
+            let d = count::<T>(j) - frac_b - T::lit(4.0);
+            let tj = t + d;
+            let th = d * (w + a * (tj + t) / two) - miss;
+            let f = exp_neg_j(th, series_terms(th.abs())).scale((w + a * tj) * (*wj - T::one()));
+            for ((s, y), y0) in sums.iter_mut().zip(row.iter()).zip(o.reference.iter()) {
+                *s += f.scale(*y - *y0);
+            }
+        }
+        let inv_pi = T::one() / T::pi();
+        let x1 = sums.map(|z| z.scale(inv_pi));
+        let finite = x1.iter().all(|z| z.re.is_finite() && z.im.is_finite());
+        if !finite {
+            Err(Rejection::NonFinite)
+        } else if o.outside >> 31 != 0 {
+            Err(Rejection::Clipped)
+        } else {
+            Ok(x1)
+        }
+    }
+
+    /// The group's average (1X), emptied.
+    fn finish(&mut self) -> Option<StreamAverage<T, NC>> {
+        let scatter: Scatter = self.config.scatter;
+        self.avg.finish(scatter).map(|a| StreamAverage {
+            revolutions: a.revolutions,
+            start: a.start,
+            end: a.end,
+            speed: a.speed,
+            x1: a.x1,
+            x1_std: a.x1_std,
+        })
+    }
+}
+
+impl<T: Real, const NC: usize> Open<T, NC> {
+    /// The shared factor `q_i = exp(-j theta^_i) theta^'_i W_i` of this
+    /// sample, then on to the next.
+    #[inline(always)]
+    fn next_factor(&mut self) -> Complex<T> {
+        let weight = if self.head_left > 0 {
+            let w = self.head.get(2 - self.head_left).copied();
+            self.head_left -= 1;
+            w.unwrap_or_else(T::one)
+        } else {
+            T::one()
+        };
+        let q = self.p.scale(self.dtheta * weight);
+        let d = match self.terms {
+            0 => self.e,
+            1..=3 => self.e * self.chirp.next(),
+            n => self.e * exp_neg_j(self.a() * self.step, n),
+        };
+        self.step += T::one();
+        self.dtheta += self.a();
+        let z = self.p * d;
+        self.p = z.scale(T::lit(1.5) - z.norm_sqr() * T::lit(0.5));
+        q
+    }
+
+    fn a(&self) -> T {
+        self.angle.map_or(T::zero(), |(_, a)| a)
+    }
+}
