@@ -488,9 +488,11 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         let (w, a) = o.angle.unwrap_or((T::zero(), T::zero()));
         let miss = tau - (w * t + a * t * t / two);
         let steady = |x: T, y: T| (x / y - T::one()).abs() <= c.period_ratio;
+        // NaN is no hit.
+        let hit = miss.abs() <= self.tolerance;
         let timing = match (p_prev, p, o.angle) {
             (Some(pp), Some(p), Some(_)) => {
-                if !steady(t, p) || !steady(p, pp) || !(miss.abs() <= self.tolerance) {
+                if !steady(t, p) || !steady(p, pp) || !hit {
                     Err(Rejection::PeriodJump)
                 } else if t < count(c.min_samples) {
                     Err(Rejection::Undersampled)
