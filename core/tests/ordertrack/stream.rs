@@ -134,8 +134,8 @@ fn the_same_vectors_as_the_buffered_tracker_with_noise() {
         assert_eq!(x.start, y.start);
         match (&x.result, &y.result) {
             (Ok(o), Ok(v)) => {
-                for c in 0..NC {
-                    let rel = (o.x1[c] - v[c]).norm() / o.x1[c].norm();
+                for (x, z) in o.x1.iter().zip(v.iter()) {
+                    let rel = (x - z).norm() / x.norm();
                     assert!(
                         rel <= y.angle_error.abs() + 1e-12,
                         "{rel} {}",
@@ -194,8 +194,8 @@ fn a_changing_deceleration_is_measured_and_bounded() {
             let e = y.angle_error.abs();
             assert!(e > 0.0 && e < 1e-3);
             miss = miss.max(e);
-            for c in 0..NC {
-                let rel = (o.x1[c] - v[c]).norm() / o.x1[c].norm();
+            for (x, z) in o.x1.iter().zip(v.iter()) {
+                let rel = (x - z).norm() / x.norm();
                 ratio = ratio.max(rel / e);
             }
             compared += 1;
