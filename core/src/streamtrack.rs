@@ -95,8 +95,10 @@ pub const DEFAULT_ANGLE_TOLERANCE: f64 = 1e-3;
 /// Samples per block of the sums.
 const BLOCK: usize = 8;
 
-/// Samples kept before the block: the six of a revolution's tail.
-const KEEP: usize = 6;
+/// Samples kept: the block and the six before it (a revolution's tail),
+/// in a ring of 16.
+const RING: usize = 16;
+const MASK: usize = RING - 1;
 
 /// One revolution closed: its timing and its 1X vectors or why it was
 /// rejected.
@@ -213,12 +215,14 @@ pub struct StreamTracker<T, const NC: usize> {
     /// Twice the longest revolution allowed and 7 (samples): a revolution
     /// without its end event by then is dropped ([`Rejection::NoEvent`]).
     max_samples: usize,
-    /// `hist[..KEEP]` the six samples before the block, `hist[KEEP..KEEP +
-    /// n]` the block's `n` samples.
-    hist: [[T; NC]; KEEP + BLOCK],
+    /// The last 16 samples, sample `i` at `ring[i & MASK]`; `pos` samples
+    /// pushed (wrapping), the block's `n` the last.
+    ring: [[T; NC]; RING],
+    pos: usize,
     n: usize,
-    /// The block's shared factors `q_i`.
-    q: [Complex<T>; BLOCK],
+    /// The block's shared factors `q_i` (real and imaginary parts).
+    qre: [T; BLOCK],
+    qim: [T; BLOCK],
     open: Option<Open<T, NC>>,
     /// The two last periods (samples): `[P', P]`.
     periods: [Option<T>; 2],
@@ -237,15 +241,16 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         // `as` saturates; `validate` bounds `longest` below 2^24. Twice the
         // slowest revolution: a missing pulse is told as a period jump.
         let max_samples = (2.0 * longest) as usize + 7;
-        let zero = Complex::new(T::zero(), T::zero());
         Ok(StreamTracker {
             kp: Keyphasor::new(config.level, config.hysteresis)?,
             config,
             tolerance: T::lit(DEFAULT_ANGLE_TOLERANCE),
             max_samples,
-            hist: [[T::zero(); NC]; KEEP + BLOCK],
+            ring: [[T::zero(); NC]; RING],
+            pos: 0,
             n: 0,
-            q: [zero; BLOCK],
+            qre: [T::zero(); BLOCK],
+            qim: [T::zero(); BLOCK],
             open: None,
             periods: [None; 2],
             seq: 0,
@@ -290,7 +295,8 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     /// being averaged included; the angle tolerance kept).
     pub fn reset(&mut self) {
         self.kp.reset();
-        self.hist = [[T::zero(); NC]; KEEP + BLOCK];
+        self.ring = [[T::zero(); NC]; RING];
+        self.pos = 0;
         self.n = 0;
         self.open = None;
         self.periods = [None; 2];
@@ -317,22 +323,20 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
                 out = Some(self.drop_open(start, Rejection::NoEvent));
             }
         }
-        if let Some(slot) = self.hist.get_mut(KEEP + self.n) {
-            *slot = *y;
-        }
+        self.ring[self.pos & MASK] = *y;
+        self.pos = self.pos.wrapping_add(1);
         if let Some(o) = &mut self.open {
             o.since += 1;
             if o.angle.is_some() {
-                if let Some(q) = self.q.get_mut(self.n) {
-                    *q = o.next_factor();
-                }
+                let q = o.next_factor();
+                let k = self.n & (BLOCK - 1);
+                self.qre[k] = q.re;
+                self.qim[k] = q.im;
             }
         }
         self.n += 1;
-        if self.n == BLOCK {
+        if self.n >= BLOCK {
             self.fold();
-            self.hist.copy_within(BLOCK..BLOCK + KEEP, 0);
-            self.n = 0;
         }
         match self.kp.push(kp) {
             Crossing::None => {}
@@ -348,42 +352,54 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
                 if let Some(o) = self.open.take() {
                     out = Some(self.close(o, e));
                 }
-                // The last six samples to the front: `hist[n..n + KEEP]`.
-                self.hist.copy_within(self.n..self.n + KEEP, 0);
-                self.n = 0;
                 self.start(e);
             }
         }
         out
     }
 
-    /// Adds the block's `n` samples to the open revolution's sums.
+    /// Adds the block's `n` samples to the open revolution's sums, and
+    /// empties the block.
+    // index proven: `c < NC`, `k < n <= BLOCK`, ring indices masked.
+    #[allow(clippy::indexing_slicing)]
     fn fold(&mut self) {
+        let n = self.n.min(BLOCK);
+        self.n = 0;
         let Some(o) = &mut self.open else { return };
         if o.angle.is_none() {
             return;
         }
         let (lo, hi) = (self.config.adc_min, self.config.adc_max);
-        let zero = Complex::new(T::zero(), T::zero());
-        let rows = self.hist.get(KEEP..KEEP + self.n).unwrap_or(&[]);
+        let first = self.pos.wrapping_sub(n);
         let mut outside = o.outside;
-        for (c, s) in o.sums.iter_mut().enumerate() {
-            let y0 = o.reference.get(c).copied().unwrap_or_else(T::zero);
-            let mut b = zero;
-            for (row, q) in rows.iter().zip(self.q.iter()) {
-                let y = row.get(c).copied().unwrap_or_else(T::zero);
+        for c in 0..NC {
+            let y0 = o.reference[c];
+            let (mut br, mut bi) = (T::zero(), T::zero());
+            for k in 0..n {
+                let y = self.ring[first.wrapping_add(k) & MASK][c];
                 // As in `ordertrack`: the sign bit of (lo - y)(y - hi) is set
                 // at or beyond a limit; a NaN ends in the sums.
                 outside |= ((lo - y) * (y - hi)).sign_word();
-                b += q.scale(y - y0);
+                let v = y - y0;
+                br += self.qre[k] * v;
+                bi += self.qim[k] * v;
             }
-            *s += b;
+            o.sums[c].re += br;
+            o.sums[c].im += bi;
         }
         o.outside = outside;
     }
 
-    /// Opens a revolution at event `e` (the history holds the six samples
-    /// `e.sample - 4 ..= e.sample + 1` at `hist[..KEEP]`).
+    /// The last `M` samples, oldest first.
+    // index proven: ring indices masked.
+    #[allow(clippy::indexing_slicing)]
+    fn last<const M: usize>(&self) -> [[T; NC]; M] {
+        let first = self.pos.wrapping_sub(M);
+        core::array::from_fn(|j| self.ring[first.wrapping_add(j) & MASK])
+    }
+
+    /// Opens a revolution at event `e` (the last four samples are `e.sample
+    /// - 2 ..= e.sample + 1`).
     fn start(&mut self, e: EventTime<T>) {
         let zero = Complex::new(T::zero(), T::zero());
         let c = &self.config;
@@ -416,19 +432,15 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             let head = self.rule.head(e.frac);
             let theta = |t: T| w * t + a * t * t / two;
             // The head's first four samples, c - 2 .. c + 1: tau = j - 2 - frac.
-            o.reference = self.hist.get(2).copied().unwrap_or([T::zero(); NC]);
+            let rows = self.last::<4>();
+            o.reference = rows[0];
+            // |theta| <= 4 |w| at these samples and the next (a < w / 16).
+            let terms = series_terms(T::lit(4.0) * w.abs());
             let (lo, hi) = (c.adc_min, c.adc_max);
-            for (j, (row, wj)) in self
-                .hist
-                .iter()
-                .skip(2)
-                .take(4)
-                .zip(head.iter())
-                .enumerate()
-            {
+            for (j, (row, wj)) in rows.iter().zip(head.iter()).enumerate() {
                 let t = count::<T>(j) - two - e.frac;
                 let th = theta(t);
-                let f = exp_neg_j(th, series_terms(th.abs())).scale((w + a * t) * *wj);
+                let f = exp_neg_j(th, terms).scale((w + a * t) * *wj);
                 for ((s, y), y0) in o.sums.iter_mut().zip(row.iter()).zip(o.reference.iter()) {
                     o.outside |= ((lo - *y) * (*y - hi)).sign_word();
                     *s += f.scale(*y - *y0);
@@ -437,10 +449,10 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             // The next sample, c + 2.
             let t0 = two - e.frac;
             let th0 = theta(t0);
-            o.p = exp_neg_j(th0, series_terms(th0.abs()));
+            o.p = exp_neg_j(th0, terms);
             o.dtheta = w + a * t0;
             let d0 = w + a * (t0 + T::lit(0.5));
-            o.e = exp_neg_j(d0, series_terms(d0.abs()));
+            o.e = exp_neg_j(d0, terms);
             o.chirp = Chirp::new(a);
             let span = p * (T::one() + c.period_ratio) + T::lit(8.0);
             o.terms = series_terms(a.abs() * span);
@@ -474,7 +486,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     }
 
     /// Closes the open revolution `o` at its end event `end` (the block's
-    /// samples folded in; the last six samples at `hist[n..n + KEEP]`).
+    /// samples folded in; the last six samples are `c_b - 4 ..= c_b + 1`).
     fn close(&mut self, o: Open<T, NC>, end: EventTime<T>) -> StreamOutput<T, NC> {
         self.seq = self.seq.wrapping_add(1);
         let start = o.start;
@@ -551,12 +563,14 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         let two = T::lit(2.0);
         let tail = self.rule.tail(frac_b);
         let mut sums = o.sums;
-        let rows = self.hist.get(self.n..self.n + KEEP).unwrap_or(&[]);
+        let rows = self.last::<6>();
+        // |theta - 2 pi| <= 6 |w| at these samples (and the miss, checked).
+        let terms = series_terms(T::lit(6.0) * w.abs());
         for (j, (row, wj)) in rows.iter().zip(tail.iter()).enumerate() {
             let d = count::<T>(j) - frac_b - T::lit(4.0);
             let tj = t + d;
             let th = d * (w + a * (tj + t) / two) - miss;
-            let f = exp_neg_j(th, series_terms(th.abs())).scale((w + a * tj) * (*wj - T::one()));
+            let f = exp_neg_j(th, terms).scale((w + a * tj) * (*wj - T::one()));
             for ((s, y), y0) in sums.iter_mut().zip(row.iter()).zip(o.reference.iter()) {
                 *s += f.scale(*y - *y0);
             }

@@ -171,7 +171,7 @@ pub extern "C" fn rotorid_update_marker() {
 }
 
 /// A call the instruction-count trace finds by its address: executed right
-/// before and right after each `OrderTracker::push`.
+/// before and right after each `StreamTracker::push`.
 #[inline(never)]
 #[no_mangle]
 pub extern "C" fn rotorid_push_marker() {
@@ -225,7 +225,7 @@ impl run::Probe for StackProbe {
     }
 }
 
-/// The order tracker (4.5 KiB, most of it the revolution buffer) in a
+/// The order tracker (some 500 bytes) in a
 /// static (`.bss`), not on the stack; built in a frame of its own, so that
 /// the temporary of its construction is gone from the stack before the
 /// run. `None` on a second call.

@@ -8,9 +8,9 @@
 //! 2. samples: a coast-down's keyphasor and probe samples, generated from
 //!    the same sweep's phasors ([`crate::coastdown`], 6 656 Hz, 12 100 to
 //!    2 900 rpm), go through the order tracker
-//!    (`rotorid_core::ordertrack::OrderTracker`, 4 probes, one revolution
-//!    of up to 144 samples buffered), whose averages of 8 revolutions feed
-//!    the identifier.
+//!    (`rotorid_core::streamtrack::StreamTracker`, 4 probes, each sample
+//!    integrated as it comes, no revolution buffered), whose averages of 8
+//!    revolutions feed the identifier.
 //!
 //! Each value is printed as a fixed-point decimal (integer arithmetic on
 //! the `f32`, truncated) followed by its `f32` bit pattern in hex, so equal
@@ -23,8 +23,9 @@ use crate::sweep::SWEEP;
 use crate::table::{SCALING, STRUCTURE, TABLE};
 use core::fmt::{self, Write};
 use rotorid_core::identify::{Config, Estimates, IdentifierError};
-use rotorid_core::ordertrack::{Average, Config as TrackerConfig, ConfigError, OrderTracker};
+use rotorid_core::ordertrack::{Config as TrackerConfig, ConfigError};
 use rotorid_core::parametrization::COEFFICIENTS;
+use rotorid_core::streamtrack::{StreamAverage, StreamTracker};
 
 /// Hooks around each identifier update, tracker push and generated sample
 /// (stack painting, instruction-count markers on the target; nothing on the
@@ -34,9 +35,9 @@ pub trait Probe {
     fn before_update(&mut self) {}
     /// Right after `Id::update`.
     fn after_update(&mut self) {}
-    /// Right before `OrderTracker::push`.
+    /// Right before `StreamTracker::push`.
     fn before_push(&mut self) {}
-    /// Right after `OrderTracker::push`.
+    /// Right after `StreamTracker::push`.
     fn after_push(&mut self) {}
     /// Right before `Coastdown::next_sample`.
     fn before_sample(&mut self) {}
@@ -47,13 +48,9 @@ pub trait Probe {
 /// Probe channels (b1_y, b1_z, b2_y, b2_z).
 pub const NC: usize = 4;
 
-/// The tracker's buffer: one revolution of up to `CAP - 7` samples (the
-/// slowest allowed, 133.12 samples at 3 000 rpm and 6 656 Hz, and 7 more).
-pub const CAP: usize = 144;
-
-/// The order tracker of the sample run (f32, 4 probes, 144 samples:
-/// 2304 bytes of buffer).
-pub type Tracker = OrderTracker<f32, NC, CAP>;
+/// The order tracker of the sample run (f32, 4 probes; 14 samples of
+/// history, no revolution buffer).
+pub type Tracker = StreamTracker<f32, NC>;
 
 /// `n` rpm in rad/s.
 fn rpm(n: f32) -> f32 {
@@ -62,13 +59,11 @@ fn rpm(n: f32) -> f32 {
 
 /// Sample rate of the probes and the keyphasor (Hz): 33.28 samples per
 /// revolution at 12 000 rpm (the tracker needs at least 32), 133.12 at
-/// 3 000 rpm. A low rate: the buffer, sized for the slowest revolution, is
-/// most of the firmware's RAM (static, and on the stack while the tracker
-/// is built).
+/// 3 000 rpm.
 pub const SAMPLE_RATE: f32 = 6_656.0;
 
 /// The tracker's configuration: 3 000..12 000 rpm (the slowest
-/// revolution, 133.12 samples, and 7 more fit in `CAP`), a 0..1 keyphasor
+/// revolution 133.12 samples), a 0..1 keyphasor
 /// with level 0.5 and hysteresis 0.2, the probes' ADC range 0..2.8 mm,
 /// averages of 8 revolutions, scatter about the trend.
 pub fn tracker_config() -> TrackerConfig<f32> {
@@ -225,7 +220,7 @@ fn track<P: Probe>(
     tracker: &mut Tracker,
     kp: f32,
     y: &[f32; NC],
-) -> Option<Average<f32, NC>> {
+) -> Option<StreamAverage<f32, NC>> {
     probe.before_push();
     let o = tracker.push(kp, y);
     probe.after_push();
