@@ -35,6 +35,11 @@ mod coastdown;
 #[path = "firmware/src/run.rs"]
 mod run;
 
+/// The order tracker's per-sample entry point (the firmware's crate
+/// `tracker/`, the same source).
+#[path = "firmware/tracker/src/push.rs"]
+mod tracking;
+
 /// The coast-down's deceleration (rad/s^2), the firmware's default.
 const DECELERATION: f32 = 150.0;
 

@@ -219,7 +219,9 @@ pub struct StreamTracker<T, const NC: usize> {
     /// pushed (wrapping), the block's `n` the last.
     ring: [[T; NC]; RING],
     pos: usize,
-    n: usize,
+    /// Samples of the current block already folded (or before the open
+    /// revolution's start).
+    done: usize,
     /// The block's shared factors `q_i` (real and imaginary parts).
     qre: [T; BLOCK],
     qim: [T; BLOCK],
@@ -230,6 +232,7 @@ pub struct StreamTracker<T, const NC: usize> {
     counts: Counts,
     avg: Averager<T, NC>,
     rule: Rule<T>,
+    series: Series<T>,
 }
 
 impl<T: Real, const NC: usize> StreamTracker<T, NC> {
@@ -248,7 +251,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             max_samples,
             ring: [[T::zero(); NC]; RING],
             pos: 0,
-            n: 0,
+            done: 0,
             qre: [T::zero(); BLOCK],
             qim: [T::zero(); BLOCK],
             open: None,
@@ -257,6 +260,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             counts: Counts::default(),
             avg: Averager::new(),
             rule: Rule::new(),
+            series: Series::new(),
         })
     }
 
@@ -297,7 +301,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         self.kp.reset();
         self.ring = [[T::zero(); NC]; RING];
         self.pos = 0;
-        self.n = 0;
+        self.done = 0;
         self.open = None;
         self.periods = [None; 2];
         self.seq = 0;
@@ -315,6 +319,8 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     /// One sampling instant: `kp` the keyphasor channel, `y` the probes.
     /// Returns the revolution that closed at this sample, if any (with the
     /// average it completed). Any input is taken, finite or not.
+    // index proven: ring and block indices masked.
+    #[allow(clippy::indexing_slicing)]
     pub fn push(&mut self, kp: T, y: &[T; NC]) -> Option<StreamOutput<T, NC>> {
         let mut out = None;
         if let Some(o) = &self.open {
@@ -323,20 +329,20 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
                 out = Some(self.drop_open(start, Rejection::NoEvent));
             }
         }
-        self.ring[self.pos & MASK] = *y;
-        self.pos = self.pos.wrapping_add(1);
+        let pos = self.pos;
+        self.ring[pos & MASK] = *y;
         if let Some(o) = &mut self.open {
             o.since += 1;
             if o.angle.is_some() {
-                let q = o.next_factor();
-                let k = self.n & (BLOCK - 1);
-                self.qre[k] = q.re;
-                self.qim[k] = q.im;
+                let q = o.next_factor(pos & (BLOCK - 1) == BLOCK - 1);
+                self.qre[pos & (BLOCK - 1)] = q.re;
+                self.qim[pos & (BLOCK - 1)] = q.im;
             }
         }
-        self.n += 1;
-        if self.n >= BLOCK {
-            self.fold();
+        self.pos = pos.wrapping_add(1);
+        if self.pos & (BLOCK - 1) == 0 {
+            // A whole block: its samples from `done` on.
+            self.fold(pos & !(BLOCK - 1) & MASK, BLOCK);
         }
         match self.kp.push(kp) {
             Crossing::None => {}
@@ -348,7 +354,9 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
                 self.periods = [None; 2];
             }
             Crossing::Event(e) => {
-                self.fold();
+                // The block so far (empty when it has just been folded).
+                let p = self.pos;
+                self.fold(p & !(BLOCK - 1) & MASK, p & (BLOCK - 1));
                 if let Some(o) = self.open.take() {
                     out = Some(self.close(o, e));
                 }
@@ -358,36 +366,29 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         out
     }
 
-    /// Adds the block's `n` samples to the open revolution's sums, and
-    /// empties the block.
-    // index proven: `c < NC`, `k < n <= BLOCK`, ring indices masked.
-    #[allow(clippy::indexing_slicing)]
-    fn fold(&mut self) {
-        let n = self.n.min(BLOCK);
-        self.n = 0;
+    /// Adds the samples `done .. to` of the block at ring slot `slot` (0 or
+    /// 8) to the open revolution's sums; `done = to` (modulo the block).
+    fn fold(&mut self, slot: usize, to: usize) {
+        let from = self.done;
+        self.done = to & (BLOCK - 1);
         let Some(o) = &mut self.open else { return };
-        if o.angle.is_none() {
+        if o.angle.is_none() || from >= to {
             return;
         }
         let (lo, hi) = (self.config.adc_min, self.config.adc_max);
-        let first = self.pos.wrapping_sub(n);
-        let mut outside = o.outside;
-        for c in 0..NC {
-            let y0 = o.reference[c];
-            let (mut br, mut bi) = (T::zero(), T::zero());
-            for k in 0..n {
-                let y = self.ring[first.wrapping_add(k) & MASK][c];
-                // As in `ordertrack`: the sign bit of (lo - y)(y - hi) is set
-                // at or beyond a limit; a NaN ends in the sums.
-                outside |= ((lo - y) * (y - hi)).sign_word();
-                let v = y - y0;
-                br += self.qre[k] * v;
-                bi += self.qim[k] * v;
-            }
-            o.sums[c].re += br;
-            o.sums[c].im += bi;
+        let rows = self.ring.get(slot + from..slot + to).unwrap_or(&[]);
+        let qre = self.qre.get(from..to).unwrap_or(&[]);
+        let qim = self.qim.get(from..to).unwrap_or(&[]);
+        if let (Ok(rows), Ok(qre), Ok(qim)) = (
+            <&[[T; NC]; BLOCK]>::try_from(rows),
+            <&[T; BLOCK]>::try_from(qre),
+            <&[T; BLOCK]>::try_from(qim),
+        ) {
+            // A whole block: fixed trip counts.
+            o.outside |= fold_rows(rows, qre, qim, &o.reference, &mut o.sums, lo, hi);
+        } else {
+            o.outside |= fold_rows(rows, qre, qim, &o.reference, &mut o.sums, lo, hi);
         }
-        o.outside = outside;
     }
 
     /// The last `M` samples, oldest first.
@@ -440,7 +441,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             for (j, (row, wj)) in rows.iter().zip(head.iter()).enumerate() {
                 let t = count::<T>(j) - two - e.frac;
                 let th = theta(t);
-                let f = exp_neg_j(th, terms).scale((w + a * t) * *wj);
+                let f = self.series.exp_neg_j(th, terms).scale((w + a * t) * *wj);
                 for ((s, y), y0) in o.sums.iter_mut().zip(row.iter()).zip(o.reference.iter()) {
                     o.outside |= ((lo - *y) * (*y - hi)).sign_word();
                     *s += f.scale(*y - *y0);
@@ -449,10 +450,10 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             // The next sample, c + 2.
             let t0 = two - e.frac;
             let th0 = theta(t0);
-            o.p = exp_neg_j(th0, terms);
+            o.p = self.series.exp_neg_j(th0, terms);
             o.dtheta = w + a * t0;
             let d0 = w + a * (t0 + T::lit(0.5));
-            o.e = exp_neg_j(d0, terms);
+            o.e = self.series.exp_neg_j(d0, terms);
             o.chirp = Chirp::new(a);
             let span = p * (T::one() + c.period_ratio) + T::lit(8.0);
             o.terms = series_terms(a.abs() * span);
@@ -570,7 +571,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             let d = count::<T>(j) - frac_b - T::lit(4.0);
             let tj = t + d;
             let th = d * (w + a * (tj + t) / two) - miss;
-            let f = exp_neg_j(th, terms).scale((w + a * tj) * (*wj - T::one()));
+            let f = self.series.exp_neg_j(th, terms).scale((w + a * tj) * (*wj - T::one()));
             for ((s, y), y0) in sums.iter_mut().zip(row.iter()).zip(o.reference.iter()) {
                 *s += f.scale(*y - *y0);
             }
@@ -601,11 +602,77 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     }
 }
 
+/// The series of [`crate::ordertrack`]'s `exp(-j e)` (`cos e = 1 - e^2 /
+/// (1 2) (1 - e^2 / (3 4) (1 - ...))`, `sin e = e (1 - e^2 / (2 3) (1 -
+/// ...))`) with the reciprocals `1 / ((2m - 1) 2m)`, `1 / (2m (2m + 1))`
+/// formed once ([`StreamTracker::new`]): no division or integer conversion
+/// per term.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Series<T> {
+    cos: [T; SERIES_TERMS],
+    sin: [T; SERIES_TERMS],
+}
+
+/// Most terms of [`Series::exp_neg_j`] (as in [`crate::ordertrack`]).
+const SERIES_TERMS: usize = 12;
+
+impl<T: Real> Series<T> {
+    fn new() -> Self {
+        Series {
+            cos: core::array::from_fn(|i| T::one() / count::<T>((2 * i + 1) * (2 * i + 2))),
+            sin: core::array::from_fn(|i| T::one() / count::<T>((2 * i + 2) * (2 * i + 3))),
+        }
+    }
+
+    /// `exp(-j e)` to `terms` terms (at most [`SERIES_TERMS`]).
+    fn exp_neg_j(&self, e: T, terms: usize) -> Complex<T> {
+        let z = e * e;
+        let (mut c, mut s) = (T::one(), T::one());
+        let n = terms.min(SERIES_TERMS);
+        for (rc, rs) in self.cos.iter().zip(self.sin.iter()).take(n).rev() {
+            c = T::one() - z * c * *rc;
+            s = T::one() - z * s * *rs;
+        }
+        Complex::new(c, -e * s)
+    }
+}
+
+/// `sums[c] += sum_k q_k (rows[k][c] - reference[c])` for every channel;
+/// returns the OR of the sign words of `(lo - y)(y - hi)` (bit 31: a sample
+/// at or beyond an ADC limit; a NaN ends in the sums).
+#[inline(always)]
+fn fold_rows<T: Real, const NC: usize>(
+    rows: &[[T; NC]],
+    qre: &[T],
+    qim: &[T],
+    reference: &[T; NC],
+    sums: &mut [Complex<T>; NC],
+    lo: T,
+    hi: T,
+) -> u32 {
+    let mut outside = 0u32;
+    for ((s, y0), c) in sums.iter_mut().zip(reference.iter()).zip(0..NC) {
+        let (mut br, mut bi) = (T::zero(), T::zero());
+        for ((row, qr), qi) in rows.iter().zip(qre.iter()).zip(qim.iter()) {
+            let y = row.get(c).copied().unwrap_or_else(T::zero);
+            outside |= ((lo - y) * (y - hi)).sign_word();
+            let v = y - *y0;
+            br += *qr * v;
+            bi += *qi * v;
+        }
+        s.re += br;
+        s.im += bi;
+    }
+    outside
+}
+
 impl<T: Real, const NC: usize> Open<T, NC> {
     /// The shared factor `q_i = exp(-j theta^_i) theta^'_i W_i` of this
-    /// sample, then on to the next.
+    /// sample, then on to the next; `|p|` put back on the unit circle when
+    /// `renormalise` (once a block: rounding moves it by a few `eps` in 8
+    /// steps).
     #[inline(always)]
-    fn next_factor(&mut self) -> Complex<T> {
+    fn next_factor(&mut self, renormalise: bool) -> Complex<T> {
         let weight = if self.head_left > 0 {
             let w = self.head.get(2 - self.head_left).copied();
             self.head_left -= 1;
@@ -622,7 +689,11 @@ impl<T: Real, const NC: usize> Open<T, NC> {
         self.step += T::one();
         self.dtheta += self.a();
         let z = self.p * d;
-        self.p = z.scale(T::lit(1.5) - z.norm_sqr() * T::lit(0.5));
+        self.p = if renormalise {
+            z.scale(T::lit(1.5) - z.norm_sqr() * T::lit(0.5))
+        } else {
+            z
+        };
         q
     }
 

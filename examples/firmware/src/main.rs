@@ -39,6 +39,10 @@ mod coastdown;
 
 mod run;
 
+/// The order tracker's per-sample entry point (a crate of its own, built
+/// for speed).
+use rotorid_firmware_tracker as tracking;
+
 /// The coast-down's deceleration (rad/s^2); four times faster with the
 /// `short` feature (a quarter of the samples, the same speeds: the
 /// instruction-count trace of `.ci/firmware.sh` runs at about 70 000

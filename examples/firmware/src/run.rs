@@ -25,7 +25,7 @@ use core::fmt::{self, Write};
 use rotorid_core::identify::{Config, Estimates, IdentifierError};
 use rotorid_core::ordertrack::{Config as TrackerConfig, ConfigError};
 use rotorid_core::parametrization::COEFFICIENTS;
-use rotorid_core::streamtrack::{StreamAverage, StreamTracker};
+use rotorid_core::streamtrack::StreamAverage;
 
 /// Hooks around each identifier update, tracker push and generated sample
 /// (stack painting, instruction-count markers on the target; nothing on the
@@ -46,11 +46,11 @@ pub trait Probe {
 }
 
 /// Probe channels (b1_y, b1_z, b2_y, b2_z).
-pub const NC: usize = 4;
+pub use crate::tracking::NC;
 
-/// The order tracker of the sample run (f32, 4 probes; 14 samples of
+/// The order tracker of the sample run (f32, 4 probes; 16 samples of
 /// history, no revolution buffer).
-pub type Tracker = StreamTracker<f32, NC>;
+pub use crate::tracking::Tracker;
 
 /// `n` rpm in rad/s.
 fn rpm(n: f32) -> f32 {
@@ -222,9 +222,9 @@ fn track<P: Probe>(
     y: &[f32; NC],
 ) -> Option<StreamAverage<f32, NC>> {
     probe.before_push();
-    let o = tracker.push(kp, y);
+    let a = crate::tracking::push(tracker, kp, y);
     probe.after_push();
-    o.and_then(|o| o.average)
+    a
 }
 
 /// The coast-down's samples through the tracker, its averages into the
