@@ -83,7 +83,7 @@
 
 use crate::keyphasor::{Crossing, EventTime, Keyphasor};
 use crate::ordertrack::{
-    count, exp_neg_j, series_terms, Averager, Chirp, Config, ConfigError, Counts, Orders,
+    count, series_terms, Averager, Config, ConfigError, Counts, Orders,
     Rejection, Rule, Scatter, MAX_CAPACITY,
 };
 use crate::scalar::Real;
@@ -160,12 +160,13 @@ struct Open<T, const NC: usize> {
     /// `exp(-j theta^)` of the next sample, and `theta^'` there.
     p: Complex<T>,
     dtheta: T,
-    /// `E = exp(-j d_0)`, the chirp `exp(-j a i)` and its mode (terms of
-    /// its series; 1..=3 by the recurrence).
+    /// `E = exp(-j d_0)`, `R = exp(-j a)`, and the terms of the series of
+    /// `exp(-j a i)` over the revolution.
     e: Complex<T>,
-    chirp: Chirp<T>,
+    r: Complex<T>,
     terms: usize,
-    /// Steps taken (the chirp's `i` when summed by its series).
+    /// `a` (rad / sample^2) and the steps taken, `i`.
+    a: T,
     step: T,
     /// The head weights of the two samples after the event's, and how
     /// many of them are still to come.
@@ -233,6 +234,10 @@ pub struct StreamTracker<T, const NC: usize> {
     avg: Averager<T, NC>,
     rule: Rule<T>,
     series: Series<T>,
+    /// The ADC range's scale `s = 2 / h` and scaled middle `m = mid s`
+    /// ([`StreamTracker::fold`]).
+    scale: T,
+    mid_scaled: T,
 }
 
 impl<T: Real, const NC: usize> StreamTracker<T, NC> {
@@ -244,6 +249,8 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         // `as` saturates; `validate` bounds `longest` below 2^24. Twice the
         // slowest revolution: a missing pulse is told as a period jump.
         let max_samples = (2.0 * longest) as usize + 7;
+        let half = (config.adc_max - config.adc_min) / T::lit(2.0);
+        let scale = T::lit(2.0) / (half * (T::one() - T::lit(8.0) * T::EPS));
         Ok(StreamTracker {
             kp: Keyphasor::new(config.level, config.hysteresis)?,
             config,
@@ -261,6 +268,8 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             avg: Averager::new(),
             rule: Rule::new(),
             series: Series::new(),
+            scale,
+            mid_scaled: (config.adc_min + config.adc_max) / T::lit(2.0) * scale,
         })
     }
 
@@ -333,11 +342,6 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         self.ring[pos & MASK] = *y;
         if let Some(o) = &mut self.open {
             o.since += 1;
-            if o.angle.is_some() {
-                let q = o.next_factor(pos & (BLOCK - 1) == BLOCK - 1);
-                self.qre[pos & (BLOCK - 1)] = q.re;
-                self.qim[pos & (BLOCK - 1)] = q.im;
-            }
         }
         self.pos = pos.wrapping_add(1);
         if self.pos & (BLOCK - 1) == 0 {
@@ -367,7 +371,20 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     }
 
     /// Adds the samples `done .. to` of the block at ring slot `slot` (0 or
-    /// 8) to the open revolution's sums; `done = to` (modulo the block).
+    /// 8) to the open revolution's sums, their factors `q_i` carried on from
+    /// sample to sample; `done = to` (modulo the block).
+    ///
+    /// The ADC range test of a sample: `u = y s - m`, with `s = 2 / h`, `m =
+    /// mid s`, `mid` the middle of the range and `h = (hi - lo) / 2 (1 - 8
+    /// eps)`, is within `(-2, 2)` exactly when the high word `w` of `u`
+    /// (sign, exponent, leading mantissa bits) has `2 w < 2^31` (2.0 is
+    /// `0x4000_0000` in the high word of both precisions): the sign bit of
+    /// `0x7fff_ffff - 2 w`, ORed over the block. Clear, it proves `|y - mid|
+    /// < h` (the margin of `8 eps` covers the rounding of `u`), so no sample
+    /// is at or beyond a limit (a multiply-subtract, a move, a
+    /// subtract-shifted and an OR per sample); set (a sample near or beyond
+    /// a limit, or not finite), the block is tested exactly, `(lo - y)(y -
+    /// hi) <= 0`.
     fn fold(&mut self, slot: usize, to: usize) {
         let from = self.done;
         self.done = to & (BLOCK - 1);
@@ -375,19 +392,21 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         if o.angle.is_none() || from >= to {
             return;
         }
-        let (lo, hi) = (self.config.adc_min, self.config.adc_max);
         let rows = self.ring.get(slot + from..slot + to).unwrap_or(&[]);
-        let qre = self.qre.get(from..to).unwrap_or(&[]);
-        let qim = self.qim.get(from..to).unwrap_or(&[]);
-        if let (Ok(rows), Ok(qre), Ok(qim)) = (
-            <&[[T; NC]; BLOCK]>::try_from(rows),
-            <&[T; BLOCK]>::try_from(qre),
-            <&[T; BLOCK]>::try_from(qim),
-        ) {
-            // A whole block: fixed trip counts.
-            o.outside |= fold_rows(rows, qre, qim, &o.reference, &mut o.sums, lo, hi);
+        let range = (self.scale, self.mid_scaled);
+        let series = &self.series;
+        let word = if let Ok(rows) = <&[[T; NC]; BLOCK]>::try_from(rows) {
+            // A whole block: a fixed trip count.
+            fold_rows(o, rows, range, series)
         } else {
-            o.outside |= fold_rows(rows, qre, qim, &o.reference, &mut o.sums, lo, hi);
+            fold_rows(o, rows, range, series)
+        };
+        o.renormalise();
+        if word >> 31 != 0 {
+            let (lo, hi) = (self.config.adc_min, self.config.adc_max);
+            for y in rows.iter().flat_map(|r| r.iter()) {
+                o.outside |= ((lo - *y) * (*y - hi)).sign_word();
+            }
         }
     }
 
@@ -420,8 +439,9 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             p: zero,
             dtheta: T::zero(),
             e: zero,
-            chirp: Chirp::new(T::zero()),
+            r: Complex::new(T::one(), T::zero()),
             terms: 0,
+            a: T::zero(),
             step: T::zero(),
             head: [T::zero(); 2],
             head_left: 0,
@@ -454,7 +474,8 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             o.dtheta = w + a * t0;
             let d0 = w + a * (t0 + T::lit(0.5));
             o.e = self.series.exp_neg_j(d0, terms);
-            o.chirp = Chirp::new(a);
+            o.r = self.series.exp_neg_j(a, series_terms(a.abs()));
+            o.a = a;
             let span = p * (T::one() + c.period_ratio) + T::lit(8.0);
             o.terms = series_terms(a.abs() * span);
             o.head = [head[4], head[5]];
@@ -637,67 +658,65 @@ impl<T: Real> Series<T> {
     }
 }
 
-/// `sums[c] += sum_k q_k (rows[k][c] - reference[c])` for every channel;
-/// returns the OR of the sign words of `(lo - y)(y - hi)` (bit 31: a sample
-/// at or beyond an ADC limit; a NaN ends in the sums).
+/// `sums[c] += sum_k q_k (rows[k][c] - reference[c])` for every channel,
+/// `q_k = p_k theta^'_k W_k` the open revolution's factors; returns the OR
+/// of the range words `0x7fff_ffff - 2 w` ([`StreamTracker::fold`]; `(s,
+/// m)` the range's scale and scaled middle).
+///
+/// The phasor: `p_(i+1) = p_i D_i` with the increment `D_i = E exp(-j a
+/// i)` formed afresh at the first sample of the call from its series (no
+/// error carried from call to call), then `D_(i+1) = D_i R`, `R = exp(-j
+/// a)`, for the call's few (at most 8) samples: the increment's rounding
+/// grows only within a call. The two samples after the start event carry
+/// their head weights `W`; every other sample weighs 1.
 #[inline(always)]
 fn fold_rows<T: Real, const NC: usize>(
+    o: &mut Open<T, NC>,
     rows: &[[T; NC]],
-    qre: &[T],
-    qim: &[T],
-    reference: &[T; NC],
-    sums: &mut [Complex<T>; NC],
-    lo: T,
-    hi: T,
+    (s, m): (T, T),
+    series: &Series<T>,
 ) -> u32 {
-    let mut outside = 0u32;
-    for ((s, y0), c) in sums.iter_mut().zip(reference.iter()).zip(0..NC) {
-        let (mut br, mut bi) = (T::zero(), T::zero());
-        for ((row, qr), qi) in rows.iter().zip(qre.iter()).zip(qim.iter()) {
-            let y = row.get(c).copied().unwrap_or_else(T::zero);
-            outside |= ((lo - y) * (y - hi)).sign_word();
-            let v = y - *y0;
-            br += *qr * v;
-            bi += *qi * v;
+    let mut word = 0u32;
+    let mut sums = o.sums;
+    let reference = o.reference;
+    let mut d = if o.terms == 0 {
+        o.e
+    } else {
+        o.e * series.exp_neg_j(o.a * o.step, o.terms)
+    };
+    let (mut p, mut dtheta) = (o.p, o.dtheta);
+    let mut head = if o.head_left > 0 { o.head_left } else { 0 };
+    for row in rows {
+        let mut qs = dtheta;
+        if head > 0 {
+            qs *= o.head.get(2 - head).copied().unwrap_or_else(T::one);
+            head -= 1;
         }
-        s.re += br;
-        s.im += bi;
+        let q = p.scale(qs);
+        p *= d;
+        d *= o.r;
+        dtheta += o.a;
+        for ((acc, y), y0) in sums.iter_mut().zip(row.iter()).zip(reference.iter()) {
+            let w = (*y * s - m).sign_word();
+            word |= 0x7fff_ffffu32.wrapping_sub(w << 1);
+            let v = *y - *y0;
+            acc.re += q.re * v;
+            acc.im += q.im * v;
+        }
     }
-    outside
+    o.head_left = head;
+    o.sums = sums;
+    o.p = p;
+    o.dtheta = dtheta;
+    o.step += count::<T>(rows.len());
+    word
 }
 
 impl<T: Real, const NC: usize> Open<T, NC> {
-    /// The shared factor `q_i = exp(-j theta^_i) theta^'_i W_i` of this
-    /// sample, then on to the next; `|p|` put back on the unit circle when
-    /// `renormalise` (once a block: rounding moves it by a few `eps` in 8
-    /// steps).
-    #[inline(always)]
-    fn next_factor(&mut self, renormalise: bool) -> Complex<T> {
-        let weight = if self.head_left > 0 {
-            let w = self.head.get(2 - self.head_left).copied();
-            self.head_left -= 1;
-            w.unwrap_or_else(T::one)
-        } else {
-            T::one()
-        };
-        let q = self.p.scale(self.dtheta * weight);
-        let d = match self.terms {
-            0 => self.e,
-            1..=3 => self.e * self.chirp.next(),
-            n => self.e * exp_neg_j(self.a() * self.step, n),
-        };
-        self.step += T::one();
-        self.dtheta += self.a();
-        let z = self.p * d;
-        self.p = if renormalise {
-            z.scale(T::lit(1.5) - z.norm_sqr() * T::lit(0.5))
-        } else {
-            z
-        };
-        q
+    /// One Newton step of `|p|` towards 1: `p (3 - |p|^2) / 2`.
+    fn renormalise(&mut self) {
+        let p = self.p;
+        self.p = p.scale(T::lit(1.5) - p.norm_sqr() * T::lit(0.5));
     }
 
-    fn a(&self) -> T {
-        self.angle.map_or(T::zero(), |(_, a)| a)
-    }
 }
