@@ -60,11 +60,21 @@ impl<T: Real> EventTime<T> {
     /// `earlier` is later.
     pub fn since(&self, earlier: &EventTime<T>) -> T {
         let whole = if self.sample >= earlier.sample {
-            T::lit((self.sample - earlier.sample) as f64)
+            samples::<T>(self.sample - earlier.sample)
         } else {
-            -T::lit((earlier.sample - self.sample) as f64)
+            -samples::<T>(earlier.sample - self.sample)
         };
         whole + (self.frac - earlier.frac)
+    }
+}
+
+/// A sample count in the working precision: a 32-bit conversion (in `f32`
+/// a hardware one on the Cortex-M4F) below 2^32, through `f64` above.
+#[inline(always)]
+fn samples<T: Real>(n: u64) -> T {
+    match u32::try_from(n) {
+        Ok(m) => T::from_u32(m).unwrap_or_else(|| T::lit(n as f64)),
+        Err(_) => T::lit(n as f64),
     }
 }
 

@@ -212,11 +212,13 @@ use num_complex::Complex;
 
 /// `n` in the working precision, converted directly (in `f32` a hardware
 /// conversion on the Cortex-M4F, no `f64` arithmetic in software).
+#[inline(always)]
 pub(crate) fn int<T: Real>(n: i32) -> T {
     T::from_i32(n).unwrap_or_else(T::zero)
 }
 
 /// A count in the working precision (see [`int`]).
+#[inline(always)]
 pub(crate) fn count<T: Real>(n: usize) -> T {
     T::from_usize(n).unwrap_or_else(T::zero)
 }

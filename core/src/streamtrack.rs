@@ -149,6 +149,25 @@ pub struct StreamOutput<T, const NC: usize> {
     pub average: Option<StreamAverage<T, NC>>,
 }
 
+/// What [`StreamTracker::push_sample`] brought, for
+/// [`StreamTracker::finish_sample`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[must_use]
+pub struct SampleOutcome<T> {
+    /// The open revolution has run longer than any allowed.
+    overrun: bool,
+    /// The keyphasor channel's sample.
+    crossing: Crossing<T>,
+}
+
+impl<T> SampleOutcome<T> {
+    /// Nothing to finish: no event, a finite keyphasor sample, no
+    /// revolution run too long.
+    pub fn is_quiet(&self) -> bool {
+        !self.overrun && matches!(self.crossing, Crossing::None)
+    }
+}
+
 /// The open revolution's predicted angle and running sums.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Open<T, const NC: usize> {
@@ -328,27 +347,62 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     /// One sampling instant: `kp` the keyphasor channel, `y` the probes.
     /// Returns the revolution that closed at this sample, if any (with the
     /// average it completed). Any input is taken, finite or not.
-    // index proven: ring and block indices masked.
-    #[allow(clippy::indexing_slicing)]
+    ///
+    /// The same as [`StreamTracker::push_sample`] followed, when it reports
+    /// something ([`SampleOutcome::is_quiet`] false), by
+    /// [`StreamTracker::finish_sample`].
     pub fn push(&mut self, kp: T, y: &[T; NC]) -> Option<StreamOutput<T, NC>> {
-        let mut out = None;
-        if let Some(o) = &self.open {
-            if o.since >= self.max_samples {
-                let start = o.start;
-                out = Some(self.drop_open(start, Rejection::NoEvent));
-            }
+        let outcome = self.push_sample(kp, y);
+        if outcome.is_quiet() {
+            None
+        } else {
+            self.finish_sample(outcome)
+        }
+    }
+
+    /// The per-sample half of [`StreamTracker::push`]: the sample into the
+    /// history and the sums; what it brought (a keyphasor event, a
+    /// non-finite keyphasor sample, a revolution run too long) is returned
+    /// for [`StreamTracker::finish_sample`], the half that runs about once a
+    /// revolution. Split so that a caller can keep the rare half off its
+    /// per-sample path (the firmware optimises the two for speed and for
+    /// size); every outcome that is not quiet must be finished before the
+    /// next sample.
+    // index proven: ring indices masked.
+    #[allow(clippy::indexing_slicing)]
+    pub fn push_sample(&mut self, kp: T, y: &[T; NC]) -> SampleOutcome<T> {
+        let mut overrun = false;
+        if let Some(o) = &mut self.open {
+            overrun = o.since >= self.max_samples;
+            o.since += 1;
         }
         let pos = self.pos;
         self.ring[pos & MASK] = *y;
-        if let Some(o) = &mut self.open {
-            o.since += 1;
-        }
         self.pos = pos.wrapping_add(1);
         if self.pos & (BLOCK - 1) == 0 {
             // A whole block: its samples from `done` on.
             self.fold(pos & !(BLOCK - 1) & MASK, BLOCK);
         }
-        match self.kp.push(kp) {
+        SampleOutcome {
+            overrun,
+            crossing: self.kp.push(kp),
+        }
+    }
+
+    /// The rest of [`StreamTracker::push`] for what
+    /// [`StreamTracker::push_sample`] reported: a revolution run too long
+    /// dropped ([`Rejection::NoEvent`]; the samples folded into it since
+    /// are dropped with it), a revolution with a non-finite keyphasor sample
+    /// dropped, a revolution closed and the next opened at an event.
+    pub fn finish_sample(&mut self, outcome: SampleOutcome<T>) -> Option<StreamOutput<T, NC>> {
+        let mut out = None;
+        if outcome.overrun {
+            if let Some(o) = &self.open {
+                let start = o.start;
+                out = Some(self.drop_open(start, Rejection::NoEvent));
+            }
+        }
+        match outcome.crossing {
             Crossing::None => {}
             Crossing::Invalid => {
                 if let Some(o) = &self.open {
@@ -361,8 +415,8 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
                 // The block so far (empty when it has just been folded).
                 let p = self.pos;
                 self.fold(p & !(BLOCK - 1) & MASK, p & (BLOCK - 1));
-                if let Some(o) = self.open.take() {
-                    out = Some(self.close(o, e));
+                if self.open.is_some() {
+                    out = self.close(e);
                 }
                 self.start(e);
             }
@@ -507,24 +561,23 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         }
     }
 
-    /// Closes the open revolution `o` at its end event `end` (the block's
+    /// Closes the open revolution at its end event `end` (the block's
     /// samples folded in; the last six samples are `c_b - 4 ..= c_b + 1`).
-    fn close(&mut self, o: Open<T, NC>, end: EventTime<T>) -> StreamOutput<T, NC> {
-        self.seq = self.seq.wrapping_add(1);
-        let start = o.start;
+    fn close(&mut self, end: EventTime<T>) -> Option<StreamOutput<T, NC>> {
+        let o = self.open.as_ref()?;
+        let (start, angle) = (o.start, o.angle);
         let t = end.since(&start);
         let [p_prev, p] = self.periods;
-        self.periods = [p, Some(t)];
         let c = self.config;
         let two = T::lit(2.0);
         let tau = T::two_pi();
         let speed = tau * c.sample_rate / t;
-        let (w, a) = o.angle.unwrap_or((T::zero(), T::zero()));
+        let (w, a) = angle.unwrap_or((T::zero(), T::zero()));
         let miss = tau - (w * t + a * t * t / two);
         let steady = |x: T, y: T| (x / y - T::one()).abs() <= c.period_ratio;
         // NaN is no hit.
         let hit = miss.abs() <= self.tolerance;
-        let timing = match (p_prev, p, o.angle) {
+        let timing = match (p_prev, p, angle) {
             (Some(pp), Some(p), Some(_)) => {
                 if !steady(t, p) || !steady(p, pp) || !hit {
                     Err(Rejection::PeriodJump)
@@ -538,7 +591,10 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             }
             _ => Err(Rejection::NoReference),
         };
-        let result = timing.and_then(|()| self.finish_sums(&o, end.frac, t, w, a, miss));
+        let result = timing.and_then(|()| self.finish_sums(o, end.frac, t, w, a, miss));
+        self.open = None;
+        self.seq = self.seq.wrapping_add(1);
+        self.periods = [p, Some(t)];
         self.counts.add(result.map(|_| ()));
         let mut average = None;
         if let Ok(x1) = &result {
@@ -552,11 +608,11 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
                 average = self.finish();
             }
         }
-        let (acceleration, angle_error) = match o.angle {
+        let (acceleration, angle_error) = match angle {
             Some(_) => (a * c.sample_rate * c.sample_rate, miss),
             None => (T::zero(), T::zero()),
         };
-        StreamOutput {
+        Some(StreamOutput {
             revolution: StreamRevolution {
                 start,
                 samples: t,
@@ -566,7 +622,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
                 result,
             },
             average,
-        }
+        })
     }
 
     /// The tail weights on the last six samples (`c_b - 4 .. c_b + 1`, all
@@ -649,10 +705,15 @@ impl<T: Real> Series<T> {
     fn exp_neg_j(&self, e: T, terms: usize) -> Complex<T> {
         let z = e * e;
         let (mut c, mut s) = (T::one(), T::one());
-        let n = terms.min(SERIES_TERMS);
-        for (rc, rs) in self.cos.iter().zip(self.sin.iter()).take(n).rev() {
-            c = T::one() - z * c * *rc;
-            s = T::one() - z * s * *rs;
+        let mut m = terms.min(SERIES_TERMS);
+        while m > 0 {
+            m -= 1;
+            let (rc, rs) = match (self.cos.get(m), self.sin.get(m)) {
+                (Some(rc), Some(rs)) => (*rc, *rs),
+                _ => break,
+            };
+            c = T::one() - z * c * rc;
+            s = T::one() - z * s * rs;
         }
         Complex::new(c, -e * s)
     }

@@ -222,7 +222,9 @@ fn track<P: Probe>(
     y: &[f32; NC],
 ) -> Option<StreamAverage<f32, NC>> {
     probe.before_push();
-    let a = crate::tracking::push(tracker, kp, y);
+    let a = crate::tracking::push(tracker, kp, y)
+        .and_then(|o| tracker.finish_sample(o))
+        .and_then(|o| o.average);
     probe.after_push();
     a
 }

@@ -1,10 +1,10 @@
 //! One sample through the streaming order tracker
-//! (`rotorid_core::streamtrack::StreamTracker`, f32, 4 probes). The
-//! tracker's generic code is instantiated here: in the firmware this is a
-//! crate of its own, built at `opt-level = 3` (the rest at `"z"`), so that
-//! the per-sample path is compiled for speed.
+//! (`rotorid_core::streamtrack::StreamTracker`, f32, 4 probes): its
+//! per-sample half is instantiated here; in the firmware this is a crate
+//! of its own, built at `opt-level = 2` (the rest at `"z"`), so that the
+//! per-sample path is compiled for speed and the rest for size.
 
-use rotorid_core::streamtrack::{StreamAverage, StreamTracker};
+use rotorid_core::streamtrack::{SampleOutcome, StreamTracker};
 
 /// Probe channels (b1_y, b1_z, b2_y, b2_z).
 pub const NC: usize = 4;
@@ -13,9 +13,16 @@ pub const NC: usize = 4;
 /// history, no revolution buffer.
 pub type Tracker = StreamTracker<f32, NC>;
 
-/// One sampling instant (`kp` the keyphasor, `y` the probes) through
-/// `tracker`; the average it completed, if any.
+/// The per-sample half of one sampling instant (`kp` the keyphasor, `y`
+/// the probes) through `tracker` (`StreamTracker::push_sample`); what it
+/// brought, if anything, for `StreamTracker::finish_sample` (about once a
+/// revolution, in the caller's crate, optimised for size).
 #[inline(never)]
-pub fn push(tracker: &mut Tracker, kp: f32, y: &[f32; NC]) -> Option<StreamAverage<f32, NC>> {
-    tracker.push(kp, y).and_then(|o| o.average)
+pub fn push(tracker: &mut Tracker, kp: f32, y: &[f32; NC]) -> Option<SampleOutcome<f32>> {
+    let outcome = tracker.push_sample(kp, y);
+    if outcome.is_quiet() {
+        None
+    } else {
+        Some(outcome)
+    }
 }
