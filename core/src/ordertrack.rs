@@ -1226,15 +1226,23 @@ const ANTIDERIVATIVE_LAST: [[i16; 6]; 6] = [
 
 /// `F_j(x)` of one of the tables above (Horner, about 40 operations; no
 /// division but the one by 1440).
+// index proven: `j < 6`, `m < 6` on arrays of 6.
+#[allow(clippy::indexing_slicing)]
 fn antiderivative<T: Real>(table: &[[i16; 6]; 6], x: T) -> [T; 6] {
     let scale = T::one() / int::<T>(1440);
-    table.map(|n| {
-        let f = n
-            .iter()
-            .rev()
-            .fold(T::zero(), |acc, &c| (acc + int::<T>(i32::from(c))) * x);
-        f * scale
-    })
+    let mut out = [T::zero(); 6];
+    // Plain index loops: the same operations as a fold over the rows, but
+    // no iterator adapters left to a size-optimised build.
+    for j in 0..6 {
+        let mut f = T::zero();
+        let mut m = 6;
+        while m > 0 {
+            m -= 1;
+            f = (f + int::<T>(i32::from(table[j][m]))) * x;
+        }
+        out[j] = f * scale;
+    }
+    out
 }
 
 /// The weights of the rule that do not depend on where the events fall
