@@ -57,15 +57,16 @@ fn rpm(n: f32) -> f32 {
     n * (core::f32::consts::PI / 30.0)
 }
 
-/// Sample rate of the probes and the keyphasor (Hz): 33.28 samples per
-/// revolution at 12 000 rpm (the tracker needs at least 32), 133.12 at
-/// 3 000 rpm.
-pub const SAMPLE_RATE: f32 = 6_656.0;
+/// Sample rate of the probes and the keyphasor (Hz), the usual rate of a
+/// vibration data acquisition: 128 samples per revolution at 12 000 rpm,
+/// 512 at 3 000 rpm. (The streaming tracker keeps no revolution, so the
+/// rate costs no RAM; each revolution's fixed work is shared by more
+/// samples.)
+pub const SAMPLE_RATE: f32 = 25_600.0;
 
-/// The tracker's configuration: 3 000..12 000 rpm (the slowest
-/// revolution 133.12 samples), a 0..1 keyphasor
-/// with level 0.5 and hysteresis 0.2, the probes' ADC range 0..2.8 mm,
-/// averages of 8 revolutions, scatter about the trend.
+/// The tracker's configuration: 3 000..12 000 rpm, a 0..1 keyphasor with
+/// level 0.5 and hysteresis 0.2, the probes' ADC range 0..50 mm, averages
+/// of 8 revolutions, scatter about the trend.
 pub fn tracker_config() -> TrackerConfig<f32> {
     TrackerConfig::new(SAMPLE_RATE, 0.5, rpm(3000.0), rpm(12_000.0))
         .with_hysteresis(0.2)
@@ -79,8 +80,9 @@ pub fn tracker() -> Result<Tracker, ConfigError> {
 }
 
 /// The coast-down: 12 100 to 2 900 rpm at `crate::DECELERATION`
-/// (150 rad/s^2: 6.4 s, 801 revolutions, 65 770 samples), a 2X of 5 % of the 1X, probe gaps of
-/// 1.35..1.45 mm, probe noise 5 um + 2 % of the 1X per sample.
+/// (150 rad/s^2: 6.4 s, 801 revolutions, 164 432 samples), a 2X of 5 % of
+/// the 1X, probe gaps of 25..26 mm, probe noise 5 um + 2 % of the 1X per
+/// sample.
 pub fn coastdown_setup() -> Setup<NC> {
     Setup {
         sample_rate: SAMPLE_RATE,
