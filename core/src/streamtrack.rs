@@ -7,9 +7,10 @@
 //! comes, with the angle *predicted* from the three events before the
 //! revolution, and checks the prediction at the end event: a revolution
 //! whose end event misses the predicted angle by more than a tolerance is
-//! rejected. It keeps 14 samples per channel instead of a revolution, and
-//! its work is spread evenly over the samples (no burst at a revolution's
-//! end). It gives 1X only (the identification's input); 2X and the
+//! rejected. It keeps 32 samples per channel instead of a revolution (for
+//! `NC = 4` in `f32` the whole state is 1 KiB), and its work is spread
+//! over the samples (a block of 16 at a time, and a few thousand
+//! operations once a revolution). It gives 1X only (the identification's input); 2X and the
 //! exact-angle rule are [`crate::ordertrack::OrderTracker`]'s.
 //!
 //! # The predicted angle
@@ -52,21 +53,38 @@
 //!
 //! The rule is [`crate::ordertrack`]'s: `Y = (1 / pi) sum_i W_i y_i
 //! exp(-j theta_i) theta'_i` with `W_i = 1` but at the six samples at each
-//! end. Each sample is added as it comes with the weight it has if the
+//! end. Samples go into a ring of 32; each block of 16 is added to the
+//! sums when it is complete, every sample with the weight it has if the
 //! revolution goes on (`W = 1`, or a head weight for the two samples after
-//! the start event), the shared factor `q_i = exp(-j theta^_i) theta^'_i W_i`
-//! carried from sample to sample as in [`crate::ordertrack`] (the
-//! increment `E exp(-j a i)` by the same recurrence, one Newton step on
-//! `|p|` per sample). When the end event is found, at the sample after it,
-//! the six samples `c_b - 4 .. c_b + 1` (kept in a short history) get
-//! their tail weights: `(W_tail - 1) y exp(-j theta^) theta^'` is added,
-//! the phasor from its series about `2 pi`. The next revolution opens with
-//! the four samples of its head that have come (`c_a - 2 .. c_a + 1`),
-//! from the same history. Samples are summed in blocks of 8 (the block's
-//! `q_i` once, then each channel over the block with its sums in
-//! registers). Each channel's sample at `c_a - 2` is taken off every
-//! sample (a constant integrates to zero; the sums then carry the
+//! the start event). The factor `q_i = p_i theta^'_i W_i`, `p_i = exp(-j
+//! theta^_i)`, is carried from sample to sample: `p_(i+1) = p_i D_i` with
+//! the increment `D_i = theta^_(i+1) - theta^_i = d_0 + a i` as `D_i = E
+//! exp(-j a i)`, `E = exp(-j d_0)`. At the first sample of a block `exp(-j
+//! a i)` comes from its series, within the block `D_(i+1) = D_i R`, `R =
+//! exp(-j a)`: the increment's rounding grows over 16 steps at most, and
+//! `p` takes one Newton step towards `|p| = 1` per block (its phase error
+//! a random walk, `sqrt(M) eps` after `M` samples). No sine or cosine per
+//! sample. When the end event is found, at the sample after it, the block
+//! so far is added and the six samples `c_b - 4 .. c_b + 1` (in the ring)
+//! get their tail weights: `(W_tail - 1) y exp(-j theta^) theta^'` is
+//! added, the phasor from its series about `2 pi`. The next revolution
+//! opens with the four samples of its head that have come (`c_a - 2 ..=
+//! c_a + 1`), from the ring. Each channel's sample at `c_a - 2` is taken off
+//! every sample (a constant integrates to zero; the sums then carry the
 //! vibration, not a probe's gap, in their rounding).
+//!
+//! The ADC range test costs four operations a channel-sample: a
+//! multiply-subtract maps
+//! the range to `(-2, 2)`, whose high word then tells, with an integer
+//! subtract-shifted, whether the sample is surely inside; a block with a
+//! sample near or beyond a limit is tested exactly.
+//!
+//! [`StreamTracker::push`] is [`StreamTracker::push_sample`], the work of
+//! every sample, followed when needed by [`StreamTracker::finish_sample`],
+//! the work of about one sample a revolution (an event, a non-finite
+//! keyphasor sample, a revolution run too long): a caller may compile the
+//! two differently (the firmware: the first for speed, the second for
+//! size).
 //!
 //! # Rejections, averages
 //!
@@ -83,8 +101,8 @@
 
 use crate::keyphasor::{Crossing, EventTime, Keyphasor};
 use crate::ordertrack::{
-    count, series_terms, Averager, Config, ConfigError, Counts, Orders,
-    Rejection, Rule, Scatter, MAX_CAPACITY,
+    count, series_terms, Averager, Config, ConfigError, Counts, Orders, Rejection, Rule, Scatter,
+    MAX_CAPACITY,
 };
 use crate::scalar::Real;
 use num_complex::Complex;
@@ -93,11 +111,11 @@ use num_complex::Complex;
 pub const DEFAULT_ANGLE_TOLERANCE: f64 = 1e-3;
 
 /// Samples per block of the sums.
-const BLOCK: usize = 8;
+const BLOCK: usize = 16;
 
-/// Samples kept: the block and the six before it (a revolution's tail),
-/// in a ring of 16.
-const RING: usize = 16;
+/// Samples kept: the block being filled and the one before it (a
+/// revolution's tail needs the last six), in a ring of 32.
+const RING: usize = 2 * BLOCK;
 const MASK: usize = RING - 1;
 
 /// One revolution closed: its timing and its 1X vectors or why it was
@@ -235,16 +253,13 @@ pub struct StreamTracker<T, const NC: usize> {
     /// Twice the longest revolution allowed and 7 (samples): a revolution
     /// without its end event by then is dropped ([`Rejection::NoEvent`]).
     max_samples: usize,
-    /// The last 16 samples, sample `i` at `ring[i & MASK]`; `pos` samples
+    /// The last 32 samples, sample `i` at `ring[i & MASK]`; `pos` samples
     /// pushed (wrapping), the block's `n` the last.
     ring: [[T; NC]; RING],
     pos: usize,
     /// Samples of the current block already folded (or before the open
     /// revolution's start).
     done: usize,
-    /// The block's shared factors `q_i` (real and imaginary parts).
-    qre: [T; BLOCK],
-    qim: [T; BLOCK],
     open: Option<Open<T, NC>>,
     /// The two last periods (samples): `[P', P]`.
     periods: [Option<T>; 2],
@@ -278,8 +293,6 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             ring: [[T::zero(); NC]; RING],
             pos: 0,
             done: 0,
-            qre: [T::zero(); BLOCK],
-            qim: [T::zero(); BLOCK],
             open: None,
             periods: [None; 2],
             seq: 0,
@@ -425,7 +438,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     }
 
     /// Adds the samples `done .. to` of the block at ring slot `slot` (0 or
-    /// 8) to the open revolution's sums, their factors `q_i` carried on from
+    /// 16) to the open revolution's sums, their factors `q_i` carried on from
     /// sample to sample; `done = to` (modulo the block).
     ///
     /// The ADC range test of a sample: `u = y s - m`, with `s = 2 / h`, `m =
@@ -648,7 +661,10 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             let d = count::<T>(j) - frac_b - T::lit(4.0);
             let tj = t + d;
             let th = d * (w + a * (tj + t) / two) - miss;
-            let f = self.series.exp_neg_j(th, terms).scale((w + a * tj) * (*wj - T::one()));
+            let f = self
+                .series
+                .exp_neg_j(th, terms)
+                .scale((w + a * tj) * (*wj - T::one()));
             for ((s, y), y0) in sums.iter_mut().zip(row.iter()).zip(o.reference.iter()) {
                 *s += f.scale(*y - *y0);
             }
@@ -727,7 +743,7 @@ impl<T: Real> Series<T> {
 /// The phasor: `p_(i+1) = p_i D_i` with the increment `D_i = E exp(-j a
 /// i)` formed afresh at the first sample of the call from its series (no
 /// error carried from call to call), then `D_(i+1) = D_i R`, `R = exp(-j
-/// a)`, for the call's few (at most 8) samples: the increment's rounding
+/// a)`, for the call's few (at most 16) samples: the increment's rounding
 /// grows only within a call. The two samples after the start event carry
 /// their head weights `W`; every other sample weighs 1.
 #[inline(always)]
@@ -779,5 +795,4 @@ impl<T: Real, const NC: usize> Open<T, NC> {
         let p = self.p;
         self.p = p.scale(T::lit(1.5) - p.norm_sqr() * T::lit(0.5));
     }
-
 }
