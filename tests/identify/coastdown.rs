@@ -1,6 +1,7 @@
 //! The firmware's coast-down generator (`examples/firmware/src/coastdown.rs`,
 //! the same source) through the order tracker, on the host, with the
-//! firmware's tracker (f32, 4 probes, 256 samples) at its sample rate:
+//! firmware's tracker (the streaming one, f32, 4 probes) at its sample
+//! rate:
 //! the paper rotor at balance grade G6.3, its 1X phasors simulated every
 //! 20 rpm from 2900 to 12100 rpm, a 2X of 5 % and probe gaps of 1.3 mm.
 //!
@@ -24,13 +25,14 @@ use generator::{Coastdown, Setup};
 use rotorid::model::RotorModel;
 use rotorid::simulate::{at_balance_grade, simulate, SimOptions};
 use rotorid::units::rpm_to_rad_s;
-use rotorid_core::ordertrack::{Average, Config, OrderTracker};
+use rotorid_core::ordertrack::Config;
+use rotorid_core::streamtrack::{StreamAverage, StreamTracker};
 use rotorid_core::Complex;
 use std::collections::HashMap;
 
-const FS: f32 = 10_240.0;
+const FS: f32 = 25_600.0;
 const N: u32 = 8;
-type Tracker = OrderTracker<f32, 4, 256>;
+type Tracker = StreamTracker<f32, 4>;
 
 /// The G6.3 paper rotor's 1X phasors, 2900..12100 rpm every 20 rpm (f32).
 fn table() -> Vec<(f32, [Complex<f32>; 4])> {
@@ -107,14 +109,14 @@ fn every_revolution_gives_back_the_generated_phasor() {
     assert!(c.accepted > 750, "{c:?}");
     let (mut worst, mut worst_rel) = (0.0f64, 0.0f64);
     for r in &closed {
-        let Ok(orders) = &r.result else { continue };
+        let Ok(x1) = &r.result else { continue };
         // The event lies between `start.sample` and the revolution's first sample.
         let k = by_start[&(r.start.sample + 1)];
         let (y, prev, next) = (&phasors[k].1, &phasors[k - 1].1, &phasors[k + 1].1);
         let m = r.samples as f64;
         for ch in 0..4 {
             let yc = Complex::new(y[ch].re as f64, y[ch].im as f64);
-            let got = Complex::new(orders.x1[ch].re as f64, orders.x1[ch].im as f64);
+            let got = Complex::new(x1[ch].re as f64, x1[ch].im as f64);
             let step = ((y[ch] - prev[ch]).norm() + (next[ch] - y[ch]).norm()) as f64;
             // f32 rounding of a 1.3 mm gap (ulp 1.2e-10 m) over the
             // revolution, the phasor steps at its ends, and 1e-5 relative.
@@ -137,7 +139,7 @@ fn every_revolution_gives_back_the_generated_phasor() {
 
 /// The averages of a run and the generator's per-sample noise levels and
 /// samples per revolution behind each.
-fn averages(floor: f32, relative: f32) -> Vec<(Average<f32, 4>, [f64; 4])> {
+fn averages(floor: f32, relative: f32) -> Vec<(StreamAverage<f32, 4>, [f64; 4])> {
     let table = table();
     let mut gen = Coastdown::new(&table, setup(floor, relative));
     let mut t = tracker();
