@@ -378,6 +378,37 @@ impl<T: Real> Config<T> {
         core::f64::consts::TAU * self.sample_rate.to_f64() / self.speed_min.to_f64()
     }
 
+    /// The timing checks of a revolution of `t` samples whose two previous
+    /// periods are `[P', P]` and whose mean speed is `speed` (rad/s), in the
+    /// order of the module documentation: [`Rejection::NoReference`]
+    /// without both periods, [`Rejection::PeriodJump`] when `|t / P - 1|`
+    /// or `|P / P' - 1|` exceeds the period ratio or `angle_ok` is false,
+    /// then [`Rejection::Undersampled`], [`Rejection::SpeedRange`].
+    pub(crate) fn timing(
+        &self,
+        t: T,
+        periods: [Option<T>; 2],
+        speed: T,
+        angle_ok: bool,
+    ) -> Result<(), Rejection> {
+        // NaN is no steady period.
+        let steady = |x: T, y: T| (x / y - T::one()).abs() <= self.period_ratio;
+        match periods {
+            [Some(pp), Some(p)] => {
+                if !steady(t, p) || !steady(p, pp) || !angle_ok {
+                    Err(Rejection::PeriodJump)
+                } else if t < count(self.min_samples) {
+                    Err(Rejection::Undersampled)
+                } else if !(speed >= self.speed_min && speed <= self.speed_max) {
+                    Err(Rejection::SpeedRange)
+                } else {
+                    Ok(())
+                }
+            }
+            _ => Err(Rejection::NoReference),
+        }
+    }
+
     /// Checks every field, and that a buffer of `capacity` samples holds
     /// the slowest revolution allowed (`2 pi f_s / speed_min` samples) and
     /// 6 more (see [`ConfigError`]).
@@ -993,22 +1024,7 @@ impl<T: Real, const NC: usize, const CAP: usize> OrderTracker<T, NC, CAP> {
             None => (T::zero(), tau / t),
         };
         let acceleration = a * c.sample_rate * c.sample_rate;
-        // NaN is no steady period.
-        let steady = |x: T, y: T| (x / y - T::one()).abs() <= c.period_ratio;
-        let timing = match (p_prev, p) {
-            (Some(pp), Some(p)) => {
-                if !steady(t, p) || !steady(p, pp) {
-                    Err(Rejection::PeriodJump)
-                } else if t < count(c.min_samples) {
-                    Err(Rejection::Undersampled)
-                } else if !(speed >= c.speed_min && speed <= c.speed_max) {
-                    Err(Rejection::SpeedRange)
-                } else {
-                    Ok(())
-                }
-            }
-            _ => Err(Rejection::NoReference),
-        };
+        let timing = c.timing(t, [p_prev, p], speed, true);
         let result = timing.and_then(|()| self.integrate(&start, &end, w, a));
         self.counts.add(result.map(|_| ()));
         let mut average = None;

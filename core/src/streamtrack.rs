@@ -587,22 +587,11 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         let speed = tau * c.sample_rate / t;
         let (w, a) = angle.unwrap_or((T::zero(), T::zero()));
         let miss = tau - (w * t + a * t * t / two);
-        let steady = |x: T, y: T| (x / y - T::one()).abs() <= c.period_ratio;
         // NaN is no hit.
         let hit = miss.abs() <= self.tolerance;
-        let timing = match (p_prev, p, angle) {
-            (Some(pp), Some(p), Some(_)) => {
-                if !steady(t, p) || !steady(p, pp) || !hit {
-                    Err(Rejection::PeriodJump)
-                } else if t < count(c.min_samples) {
-                    Err(Rejection::Undersampled)
-                } else if !(speed >= c.speed_min && speed <= c.speed_max) {
-                    Err(Rejection::SpeedRange)
-                } else {
-                    Ok(())
-                }
-            }
-            _ => Err(Rejection::NoReference),
+        let timing = match angle {
+            Some(_) => c.timing(t, [p_prev, p], speed, hit),
+            None => Err(Rejection::NoReference),
         };
         let result = timing.and_then(|()| self.finish_sums(o, end.frac, t, w, a, miss));
         self.open = None;

@@ -81,7 +81,8 @@ fn faulty<T: Real, const C: usize>(
     counts
 }
 
-fn expect(counts: Counts, want: &[(Rejection, u64)]) {
+/// `counts` has exactly the rejections `want` (and some accepted).
+pub(super) fn expect(counts: Counts, want: &[(Rejection, u64)]) {
     let rejected: u64 = want.iter().map(|w| w.1).sum();
     for &(cause, n) in want {
         assert_eq!(counts.of(cause), n, "{cause}: {counts:?}");

@@ -3,6 +3,7 @@
 //! where the acceleration is constant (noise included), rejections by
 //! cause, random input.
 
+use super::faults::expect;
 use super::*;
 use rotorid_core::ordertrack::{Config, Counts, Rejection};
 use rotorid_core::streamtrack::{StreamAverage, StreamRevolution, StreamTracker};
@@ -245,15 +246,6 @@ fn faulty<T: Real>(
         }
     }
     counts
-}
-
-fn expect(counts: Counts, want: &[(Rejection, u64)]) {
-    let rejected: u64 = want.iter().map(|w| w.1).sum();
-    for &(cause, n) in want {
-        assert_eq!(counts.of(cause), n, "{cause}: {counts:?}");
-    }
-    assert_eq!(counts.rejected(), rejected, "{counts:?}");
-    assert!(counts.accepted > 0, "{counts:?}");
 }
 
 fn faults<T: Real>() {
