@@ -295,16 +295,6 @@ pub fn fit_variance_from(
         return None;
     }
     let norm = (1.0 - (-CAP).exp()).recip();
-    // Start: s^2 from the upper half of the responses, f_c^2 from the
-    // lower quarter of each channel.
-    let mut by_q: Vec<&VariancePoint> = points.iter().filter(|p| p.a > 0.0).collect();
-    by_q.sort_by(|a, b| a.q2().total_cmp(&b.q2()));
-    let upper: Vec<f64> = by_q[by_q.len() / 2..]
-        .iter()
-        .filter(|p| p.b > 0.0)
-        .map(|p| p.x / p.b)
-        .collect();
-    let mut s2 = median(upper).unwrap_or(0.0) / core::f64::consts::LN_2;
     let scale_x = points
         .iter()
         .map(|p| p.x / p.a.max(f64::MIN_POSITIVE))
@@ -313,27 +303,22 @@ pub fn fit_variance_from(
     if !(scale_x.is_finite() && scale_x > 0.0) {
         return None;
     }
-    let mut f2: Vec<f64> = (0..nq)
-        .map(|c| {
-            if let Some(h) = held[c] {
-                return h;
-            }
-            let ch: Vec<&&VariancePoint> = by_q.iter().filter(|p| p.channel == c).collect();
-            let low: Vec<f64> = ch[..ch.len().div_ceil(4)]
-                .iter()
-                .map(|p| p.x / p.a)
-                .collect();
-            let m = median(low).unwrap_or(scale_x) / core::f64::consts::LN_2;
-            m.max(1e-6 * scale_x)
-        })
-        .collect();
-    if let Some((f0, s0)) = start {
-        if f0.len() == nq && s0.is_finite() && s0 > 0.0 {
-            s2 = s0;
-            for (c, f) in f2.iter_mut().enumerate() {
-                if held[c].is_none() && f0[c].is_finite() && f0[c] > 0.0 {
-                    *f = f0[c];
-                }
+    // Start: the given one (a refinement) where it is usable, else `s^2`
+    // from the upper half of the responses and `f_c^2` from the lower
+    // quarter of each channel (a sort of the points, skipped when the
+    // given start covers every free parameter).
+    let given = start.filter(|(f0, s0)| f0.len() == nq && s0.is_finite() && *s0 > 0.0);
+    let usable = |c: usize| given.is_some_and(|(f0, _)| f0[c].is_finite() && f0[c] > 0.0);
+    let (mut s2, mut f2) = if given.is_some() && (0..nq).all(|c| held[c].is_some() || usable(c)) {
+        (0.0, held.iter().map(|h| h.unwrap_or(0.0)).collect())
+    } else {
+        start_from_points(points, held, scale_x)
+    };
+    if let Some((f0, s0)) = given {
+        s2 = s0;
+        for (c, f) in f2.iter_mut().enumerate() {
+            if held[c].is_none() && usable(c) {
+                *f = f0[c];
             }
         }
     }
@@ -413,6 +398,40 @@ pub fn fit_variance_from(
         relative2: s2,
         floor_z,
     })
+}
+
+/// The data's start of [`fit_variance_from`]: `s^2` from the upper half of
+/// the responses (the median of `x / b` over `ln 2`, the median of an
+/// `Exp(1)` variable), `f_c^2` from the lower quarter of each channel
+/// (the median of `x / a` over `ln 2`), held floors as given.
+fn start_from_points(
+    points: &[VariancePoint],
+    held: &[Option<f64>],
+    scale_x: f64,
+) -> (f64, Vec<f64>) {
+    let mut by_q: Vec<&VariancePoint> = points.iter().filter(|p| p.a > 0.0).collect();
+    by_q.sort_by(|a, b| a.q2().total_cmp(&b.q2()));
+    let upper: Vec<f64> = by_q[by_q.len() / 2..]
+        .iter()
+        .filter(|p| p.b > 0.0)
+        .map(|p| p.x / p.b)
+        .collect();
+    let s2 = median(upper).unwrap_or(0.0) / core::f64::consts::LN_2;
+    let f2 = (0..held.len())
+        .map(|c| {
+            if let Some(h) = held[c] {
+                return h;
+            }
+            let ch: Vec<&&VariancePoint> = by_q.iter().filter(|p| p.channel == c).collect();
+            let low: Vec<f64> = ch[..ch.len().div_ceil(4)]
+                .iter()
+                .map(|p| p.x / p.a)
+                .collect();
+            let m = median(low).unwrap_or(scale_x) / core::f64::consts::LN_2;
+            m.max(1e-6 * scale_x)
+        })
+        .collect();
+    (s2, f2)
 }
 
 fn median(mut v: Vec<f64>) -> Option<f64> {

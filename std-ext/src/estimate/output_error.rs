@@ -794,6 +794,27 @@ const NEAR_STDS: f64 = 0.1;
 /// (its normal equations) when the polish formed it.
 type Polished = (Vec<f64>, usize, bool, Option<Pass>);
 
+/// The Gauss-Newton step `N delta = -G` of `pass` and its squared length
+/// in standard deviations, `delta^T N delta` over the variance of a real
+/// part, `S / (2 n)` (`n` complex samples that count). The step is `None`
+/// where `N` is not positive definite; the length is `None` where the step
+/// is, or where it comes out negative (`N` numerically indefinite: a step
+/// of negative length says nothing).
+fn gauss_newton_step(pass: &Pass, n: usize) -> (Option<DVector<f64>>, Option<f64>) {
+    let variance = pass.cost / (2 * n) as f64;
+    let step = pass
+        .normal
+        .clone()
+        .cholesky()
+        .map(|ch| ch.solve(&(-&pass.gradient)))
+        .filter(|d| d.iter().all(|x| x.is_finite()));
+    let dist2 = step
+        .as_ref()
+        .map(|d| -pass.gradient.dot(d) / variance.max(f64::MIN_POSITIVE))
+        .filter(|d2| *d2 >= 0.0);
+    (step, dist2)
+}
+
 /// Levenberg-Marquardt at fixed weights.
 ///
 /// It ends when `S` or the scaled step change by less than the tolerance,
@@ -827,19 +848,7 @@ fn levenberg_marquardt(
         // The Gauss-Newton step `N delta = -G` and its length in standard
         // deviations: `delta^T N delta` over the variance of a real part,
         // `S / (2 n)`.
-        let variance = cur.cost / (2 * n) as f64;
-        let gauss_newton = cur
-            .normal
-            .clone()
-            .cholesky()
-            .map(|ch| ch.solve(&(-&cur.gradient)))
-            .filter(|d| d.iter().all(|x| x.is_finite()));
-        // (None where `N` is numerically indefinite: a step of negative
-        // length says nothing.)
-        let dist2 = gauss_newton
-            .as_ref()
-            .map(|d| -cur.gradient.dot(d) / variance.max(f64::MIN_POSITIVE))
-            .filter(|d2| *d2 >= 0.0);
+        let (gauss_newton, dist2) = gauss_newton_step(&cur, n);
         if dist2.is_some_and(|d2| d2 < STEP_STDS * STEP_STDS) {
             return Ok((theta, it - 1, true, Some(cur)));
         }
@@ -865,9 +874,11 @@ fn levenberg_marquardt(
         let predicted = -cur.gradient.dot(&delta) - 0.5 * delta.dot(&nd);
         let trial: Vec<f64> = theta.iter().zip(delta.iter()).map(|(t, d)| t + d).collect();
         // The trial's cost decides; its normal equations are formed only
-        // when the iteration goes on from it.
-        let next = match data.pass(WeightsFrom::Given(w), &trial, false) {
-            Ok((p, _)) => p.cost,
+        // when the iteration goes on from it: with the trial (one
+        // prediction per speed for both) where the undamped step is taken,
+        // which near the optimum is accepted, else after the trial.
+        let (next, formed) = match data.pass(WeightsFrom::Given(w), &trial, near) {
+            Ok((p, _)) => (p.cost, near.then_some(p)),
             Err(_) => {
                 mu *= nu;
                 nu *= 2.0;
@@ -887,7 +898,10 @@ fn levenberg_marquardt(
             if rel < opts.tolerance || step < opts.tolerance {
                 return Ok((theta, it, true, None));
             }
-            cur = data.pass(WeightsFrom::Given(w), &theta, true)?.0;
+            cur = match formed {
+                Some(p) => p,
+                None => data.pass(WeightsFrom::Given(w), &theta, true)?.0,
+            };
             mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
             nu = 2.0;
         } else {
