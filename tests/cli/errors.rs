@@ -228,6 +228,30 @@ fn bad_values_exit_2() {
             "paper",
             "--out",
             o,
+            "--probe-gain",
+            "b3_z:1.1",
+        ],
+        "bad channel",
+    );
+    fails(
+        &[
+            "simulate",
+            "--model",
+            "paper",
+            "--out",
+            o,
+            "--probe-gain",
+            "b1_z:-1",
+        ],
+        "factor > 0",
+    );
+    fails(
+        &[
+            "simulate",
+            "--model",
+            "paper",
+            "--out",
+            o,
             "--extra-unbalance",
             "0:1e-3:0",
         ],

@@ -77,6 +77,8 @@ fn simulate_with_flags_noise_and_layout() {
             "linear".into(),
             "--bow".into(),
             "14:1e-5:0".into(),
+            "--probe-gain".into(),
+            "b2_z:1.1".into(),
         ]
     };
     let run = |out: &std::path::Path| {
@@ -97,6 +99,7 @@ fn simulate_with_flags_noise_and_layout() {
         "pedestal",
         "bow at node 14",
         "(rpm/15000)^1",
+        "probe b2_z reads x 1.1",
         "seed 3",
     ] {
         assert!(text.contains(needle), "{needle}: {text}");

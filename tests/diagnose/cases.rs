@@ -90,6 +90,11 @@ fn run_case_with_floor(
             d.min_detectable(&case.meas, Extension::Plane { node })
                 .is_some_and(|s| h.size >= 2.0 * s)
         }
+        Effect::ProbeSensitivity => {
+            let channel = h.channel.unwrap();
+            d.min_detectable(&case.meas, Extension::Gain { channel })
+                .is_some_and(|s| (h.size - 1.0).abs() >= 2.0 * s)
+        }
         _ => true,
     };
     let visible = effect != Effect::None
@@ -119,6 +124,26 @@ fn run_case_with_floor(
         }
         (Finding::ShaftStiffnessError { factor, factor_std }, Effect::ShaftStiffnessError) => {
             Some((*factor - 1.0, h.size - 1.0, *factor_std))
+        }
+        (
+            Finding::ProbeSensitivity {
+                channel,
+                gain,
+                gain_std,
+            },
+            Effect::ProbeSensitivity,
+        ) => {
+            // The hidden channel, or its pair's other channel at 1 / g
+            // (`diagnose::sensitivity`).
+            let ch = h.channel.unwrap();
+            let name = |c: usize| format!("b{}_{}", c / 2 + 1, if c % 2 == 0 { "y" } else { "z" });
+            if *channel == name(ch) {
+                Some((*gain - 1.0, h.size - 1.0, *gain_std))
+            } else if *channel == name(ch ^ 1) {
+                Some((1.0 / *gain - 1.0, h.size - 1.0, *gain_std / (gain * gain)))
+            } else {
+                None
+            }
         }
         (
             Finding::FoundationFlexibility {
@@ -241,6 +266,11 @@ fn extra_unbalance_plane_is_named() {
 #[test]
 fn shaft_stiffness_error_is_named() {
     check_effect(Effect::ShaftStiffnessError, 5);
+}
+
+#[test]
+fn probe_sensitivity_is_named() {
+    check_effect(Effect::ProbeSensitivity, 5);
 }
 
 /// The second rotor: ROSS's stepped hollow shaft on two bearings (saved by

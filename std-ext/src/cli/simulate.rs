@@ -5,7 +5,7 @@ use clap::{Args, ValueEnum};
 
 use super::{load_model_arg, CliError, Io, RpmGridArgs};
 use crate::io::measurement::{write_csv_with_node_probes, CsvLayout};
-use crate::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
+use crate::model::extension::{Channel, Effects, ProbeGain, Runout, SpeedLaw, SpeedScaling};
 use crate::model::{BowPoint, Pedestal, Unbalance};
 use crate::simulate::SimOptions;
 
@@ -84,6 +84,15 @@ fn parse_runout(s: &str) -> Result<RunoutSpec, String> {
     }
     parse_triple::<String>(s, "CHANNEL:AMPLITUDE_M:PHASE_DEG (e.g. b1_y:2e-6:30)")
         .map(RunoutSpec::Channel)
+}
+
+fn parse_probe_gain(s: &str) -> Result<(String, f64), String> {
+    let bad = || format!("expected CHANNEL:FACTOR with a factor > 0 (e.g. b2_z:1.1), got `{s}`");
+    let (ch, f) = s.split_once(':').ok_or_else(bad)?;
+    match f.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok((ch.trim().to_string(), v)),
+        _ => Err(bad()),
+    }
 }
 
 /// Arguments of `rotorid simulate`. The effect flags add to (or, for the
@@ -179,6 +188,10 @@ pub struct SimulateArgs {
     /// drawn from the seed (repeatable).
     #[arg(long, value_name = "CH:AMP:PHASE|AMP", value_parser = parse_runout)]
     pub runout: Vec<RunoutSpec>,
+    /// Probe scale factor off: CHANNEL:FACTOR, e.g. b2_z:1.1 (that probe
+    /// reads 10 % high; repeatable).
+    #[arg(long, value_name = "CH:FACTOR", value_parser = parse_probe_gain)]
+    pub probe_gain: Vec<(String, f64)>,
     /// Extra unbalance NODE:ME_KGM:PHASE_DEG (repeatable).
     #[arg(long, value_name = "NODE:ME:PHASE", value_parser = parse_node_triple)]
     pub extra_unbalance: Vec<Triple<usize>>,
@@ -269,6 +282,14 @@ impl SimulateArgs {
                     .runout
                     .extend(crate::simulate::random_runout(n_bearings, *a, self.seed)),
             }
+        }
+        for (ch, factor) in &self.probe_gain {
+            let channel = Channel::parse(ch, n_bearings)
+                .map_err(|m| CliError(format!("--probe-gain: {m}")))?;
+            e.probe_gain.push(ProbeGain {
+                channel,
+                factor: *factor,
+            });
         }
         for u in &self.extra_unbalance {
             e.extra_unbalance.push(Unbalance {

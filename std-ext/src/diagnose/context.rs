@@ -30,6 +30,8 @@ pub(crate) struct Context<'a> {
     pub samples: &'a [Sample],
     /// Readings of the probes at other nodes per sample (empty: none).
     pub node_q: &'a [Vec<Complex64>],
+    /// The nodes (0-based) of those probes.
+    pub probe_nodes: &'a [usize],
     /// The samples' speeds (rad/s).
     pub omegas: &'a [f64],
     /// The builder of the terms at any shaft-modulus factor.

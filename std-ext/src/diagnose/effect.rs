@@ -1,5 +1,5 @@
 //! The effects a diagnosis names ([`Effect`]): nothing beyond the noise,
-//! the six hypotheses of the bank, or a misfit none of them removes; with
+//! the seven hypotheses of the bank, or a misfit none of them removes; with
 //! the names of the command-line contract.
 
 use serde::Serialize;
@@ -22,19 +22,22 @@ pub enum Effect {
     ExtraUnbalancePlane,
     /// The shaft stiffer or softer than the model.
     ShaftStiffnessError,
+    /// A probe channel whose scale factor is off.
+    ProbeSensitivity,
     /// A misfit none of the above removes.
     Unexplained,
 }
 
 impl Effect {
     /// The hypotheses of the bank, in the order they are tried.
-    pub const BANK: [Effect; 6] = [
+    pub const BANK: [Effect; 7] = [
         Effect::SpeedDependentBearing,
         Effect::FoundationFlexibility,
         Effect::ShaftBow,
         Effect::ProbeRunout,
         Effect::ExtraUnbalancePlane,
         Effect::ShaftStiffnessError,
+        Effect::ProbeSensitivity,
     ];
 
     /// The name of the command-line contract.
@@ -47,6 +50,7 @@ impl Effect {
             Effect::ProbeRunout => "probe_runout",
             Effect::ExtraUnbalancePlane => "extra_unbalance_plane",
             Effect::ShaftStiffnessError => "shaft_stiffness_error",
+            Effect::ProbeSensitivity => "probe_sensitivity",
             Effect::Unexplained => "unexplained",
         }
     }
@@ -61,6 +65,7 @@ impl Effect {
             Effect::ProbeRunout,
             Effect::ExtraUnbalancePlane,
             Effect::ShaftStiffnessError,
+            Effect::ProbeSensitivity,
             Effect::Unexplained,
         ]
         .into_iter()

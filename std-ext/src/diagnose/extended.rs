@@ -19,6 +19,7 @@
 //! | [`Extension::Bow`] | `beta = q_s (x + j y)` (m) at node `n` | `g_n beta` |
 //! | [`Extension::EScale`] | `de = 0.01 x` about the terms' own `e` | `dA de`, `dB a de` |
 //! | [`Extension::Pedestal`] | `m = m_0 e^x1`, `w_d = w_0 e^x_d`, `zeta_d = x_d / 10` | `Z_eff`, `P` |
+//! | [`Extension::Gain`] | `g = 0.01 x` on output `c` | `y_c <- (1 + g) y_c`, last |
 //!
 //! (`q_s`: RMS measured response, `s_a`: the unbalance scale of the
 //! parametrization.) A pedestal under bearing `m` with
@@ -58,6 +59,10 @@ use crate::estimate::predictor::{Entry, PredictError, Predictor};
 /// Step of the shaft modulus parameter: `de = E_STEP x`.
 pub const E_STEP: f64 = 0.01;
 
+/// Step of a probe gain parameter: `g = GAIN_STEP x`, the reading
+/// `(1 + g)` times the probe's true signal.
+pub const GAIN_STEP: f64 = 0.01;
+
 /// One effect added to the nominal model (see the module documentation).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Extension {
@@ -80,6 +85,13 @@ pub enum Extension {
     },
     /// A factor on the shaft's modulus.
     EScale,
+    /// A probe whose scale factor is off: output `channel` (0-based: the
+    /// bearing channels `b1_y, b1_z, ...`, then the probes at other
+    /// nodes) reads `1 + g` times its signal, runout included.
+    Gain {
+        /// Output index (0-based).
+        channel: usize,
+    },
 }
 
 impl Extension {
@@ -89,7 +101,7 @@ impl Extension {
             Extension::Runout => 2 * nq,
             Extension::Plane { .. } | Extension::Bow { .. } => 2,
             Extension::Pedestal { .. } => 5,
-            Extension::EScale => 1,
+            Extension::EScale | Extension::Gain { .. } => 1,
         }
     }
 }
@@ -189,6 +201,20 @@ struct Eval {
     b_eff: Option<DMatrix<Complex64>>,
     /// One per pedestal, in extension order (different bearings).
     ped: Vec<PedEval>,
+    /// One per probe gain, in extension order (different outputs).
+    gains: Vec<GainEval>,
+}
+
+/// A probe gain at one speed: `y_c = factor before`.
+struct GainEval {
+    /// Output index.
+    channel: usize,
+    /// Parameter offset.
+    o: usize,
+    /// `1 + g`.
+    factor: f64,
+    /// The reading before the gain (m).
+    before: Complex64,
 }
 
 /// The pedestal's matrices at one speed (bearing block from channel `i0`).
@@ -336,6 +362,7 @@ impl ExtendedModel {
                         t,
                     });
                 }
+                Extension::Gain { .. } => {}
             }
         }
         let h_inv = invert(h).ok_or(PredictError::Singular { omega: st.omega })?;
@@ -374,10 +401,28 @@ impl ExtendedModel {
                         };
                         x += (dp * &q + du * &a) * de;
                     }
-                    Extension::Runout | Extension::Pedestal { .. } => {}
+                    Extension::Runout | Extension::Pedestal { .. } | Extension::Gain { .. } => {}
                 }
             }
             y = DVector::from_iterator(nq + x.len(), y.iter().chain(x.iter()).copied());
+        }
+        // Probe gains, on the readings as they stand (runout included).
+        let mut gains: Vec<GainEval> = Vec::new();
+        for (k, ext) in self.ext.iter().enumerate() {
+            if let Extension::Gain { channel } = *ext {
+                let o = self.offset(k);
+                if channel >= y.len() || gains.iter().any(|g| g.channel == channel) {
+                    return Err(PredictError::Dimension);
+                }
+                let factor = 1.0 + GAIN_STEP * theta[o];
+                gains.push(GainEval {
+                    channel,
+                    o,
+                    factor,
+                    before: y[channel],
+                });
+                y[channel] *= factor;
+            }
         }
         Ok(Eval {
             q,
@@ -386,6 +431,7 @@ impl ExtendedModel {
             a,
             b_eff,
             ped,
+            gains,
         })
     }
 
@@ -547,6 +593,8 @@ impl ExtendedModel {
                             }
                         }
                     }
+                    // Its column is set once every row is (below).
+                    Extension::Gain { .. } => {}
                 }
             }
             // Probes at other nodes: P dq plus the loads' direct terms (before
@@ -604,7 +652,9 @@ impl ExtendedModel {
                                 let mut c0 = jn.column_mut(o);
                                 c0 += v;
                             }
-                            Extension::Runout | Extension::Pedestal { .. } => {}
+                            Extension::Runout
+                            | Extension::Pedestal { .. }
+                            | Extension::Gain { .. } => {}
                         }
                     }
                     Some(jn)
@@ -638,6 +688,14 @@ impl ExtendedModel {
         }
         if let Some(jn) = node_rows {
             jac_full.rows_mut(nq, jn.nrows()).copy_from(&jn);
+        }
+        // A gain scales its row (every other column, `dy_c = (1 + g) dy`)
+        // and adds its own column `dy_c / dx = GAIN_STEP y_before`.
+        for g in &ev.gains {
+            let mut row = jac_full.row_mut(g.channel);
+            row *= Complex64::from(g.factor);
+            jac_full.column_mut(g.o).fill(Complex64::new(0.0, 0.0));
+            jac_full[(g.channel, g.o)] = g.before * GAIN_STEP;
         }
         Ok(ev.y)
     }
@@ -858,7 +916,8 @@ mod tests {
     }
 
     /// The analytic Jacobian equals central differences, with and without
-    /// a pedestal, relative and absolute probes.
+    /// a pedestal, relative and absolute probes, probe gains on a bearing
+    /// channel (one under a pedestal, one with runout) and on a node probe.
     #[test]
     fn jacobian_matches_central_differences() {
         let m = RotorModel::paper();
@@ -866,10 +925,13 @@ mod tests {
             Extension::Runout,
             Extension::Plane { node: 16 },
             Extension::Bow { node: 9 },
+            Extension::Gain { channel: 1 },
             Extension::EScale,
+            Extension::Gain { channel: 5 },
         ];
         let ped = vec![
             Extension::Pedestal { bearing: 0 },
+            Extension::Gain { channel: 0 },
             Extension::Runout,
             Extension::Plane { node: 16 },
             Extension::EScale,

@@ -15,13 +15,14 @@
 //! | `probe_runout` | on one or two random channels, `U(3, 15)` um, random phase |
 //! | `extra_unbalance_plane` | at a random node that is not a plane, `U(0.3, 1) m e_ref`, random phase |
 //! | `shaft_stiffness_error` | E and G times `1 +- U(0.03, 0.10)` |
+//! | `probe_sensitivity` | one random bearing channel reads `1 +- U(0.05, 0.20)` times its signal |
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::diagnose::{rotor_mass, Effect};
 use crate::io::measurement::Measurements;
-use crate::model::extension::{Channel, Direction, Effects, Runout};
+use crate::model::extension::{Channel, Direction, Effects, ProbeGain, Runout};
 use crate::model::{BearingCoefficients, BearingLaw, BowPoint, Pedestal, RotorModel, Unbalance};
 use crate::simulate::{simulate, SimOptions, SimulateError};
 use crate::units::rpm_to_rad_s;
@@ -39,10 +40,12 @@ pub struct Hidden {
     pub bearing: Option<usize>,
     /// The main size: bow amplitude (m), extra plane `m e` (kg m), runout
     /// amplitude of the first channel (m), modulus factor, pedestal natural
-    /// frequency `w_y` (rad/s), `kappa`.
+    /// frequency `w_y` (rad/s), `kappa`, a probe's gain factor.
     pub size: f64,
     /// Phase (rad) of a phasor-valued effect.
     pub phase: f64,
+    /// Channel index of a probe gain.
+    pub channel: Option<usize>,
     /// Runout phasors by channel index.
     pub runout: Vec<(usize, num_complex::Complex64)>,
     /// The pedestal.
@@ -116,6 +119,7 @@ pub fn generate(
         bearing: None,
         size: 0.0,
         phase: 0.0,
+        channel: None,
         runout: Vec::new(),
         pedestal: None,
     };
@@ -197,14 +201,7 @@ pub fn generate(
                 let amplitude = rng.random_range(3e-6..15e-6);
                 let phase = deg(&mut rng);
                 effects.runout.push(Runout {
-                    channel: Channel {
-                        bearing: ch / 2,
-                        direction: if ch % 2 == 0 {
-                            Direction::Y
-                        } else {
-                            Direction::Z
-                        },
-                    },
+                    channel: channel_of(ch),
                     amplitude,
                     phase,
                 });
@@ -250,6 +247,23 @@ pub fn generate(
             hidden.size = 1.0 + d;
             hidden.description = format!("shaft E and G x {:.4}", 1.0 + d);
         }
+        Effect::ProbeSensitivity => {
+            let ch = rng.random_range(0..2 * truth.bearings.len());
+            let d = rng.random_range(0.05..0.20) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            let channel = channel_of(ch);
+            effects.probe_gain.push(ProbeGain {
+                channel,
+                factor: 1.0 + d,
+            });
+            hidden.channel = Some(ch);
+            hidden.size = 1.0 + d;
+            hidden.description = format!(
+                "probe b{}_{} reads x {:.4}",
+                ch / 2 + 1,
+                if ch % 2 == 0 { "y" } else { "z" },
+                1.0 + d
+            );
+        }
     }
     let sim_seed: u64 = rng.random();
     let meas = simulate(
@@ -268,6 +282,18 @@ pub fn generate(
         noise,
         meas,
     })
+}
+
+/// The bearing channel of index `ch` (`b1_y, b1_z, b2_y, ...`).
+fn channel_of(ch: usize) -> Channel {
+    Channel {
+        bearing: ch / 2,
+        direction: if ch % 2 == 0 {
+            Direction::Y
+        } else {
+            Direction::Z
+        },
+    }
 }
 
 /// Draws the effect too: `none` or one of the bank, uniformly.

@@ -23,7 +23,10 @@
 //!    * `extra_unbalance_plane`: unbalance at each node that is not a
 //!      plane, screened like the bow;
 //!    * `shaft_stiffness_error`: a factor `e` on the shaft's E and G, with
-//!      the terms rebuilt at each new `e` (exact scaling, [`terms`]).
+//!      the terms rebuilt at each new `e` (exact scaling, [`terms`]);
+//!    * `probe_sensitivity`: one probe channel read `1 + g` times its
+//!      signal, the channels screened like the bow, the first, its pair's
+//!      other direction and the second fitted.
 //! 3. **Honest choice**: a hypothesis is significant when its drop in misfit,
 //!    in units of the noise variance `sigma^2` (from the best-fitting
 //!    model), exceeds the chi-square quantile of its extra parameters at
@@ -135,6 +138,7 @@ pub fn diagnose(
         opts,
         samples,
         node_q,
+        probe_nodes: probes,
         omegas: &omegas,
         builder: &builder,
         terms: &terms,

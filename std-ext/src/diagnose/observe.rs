@@ -19,9 +19,10 @@
 //! detected, in the worst phase, when `lambda` reaches the hypothesis'
 //! threshold `t`: `|phi|_min = sqrt(t sigma^2 / mu_min(S))`. This is
 //! computed for the effects that vanish at zero parameters (bow and extra
-//! plane at every node, runout on every channel) and for the shaft modulus
-//! factor (one parameter, its threshold the chi-square quantile of one
-//! degree of freedom; `dA/de` from the terms at `e = 0.95` and `1.05`).
+//! plane at every node, runout on every channel, a gain on every probe
+//! channel) and for the shaft modulus factor (one parameter, its threshold
+//! the chi-square quantile of one degree of freedom, as for a gain; `dA/de`
+//! from the terms at `e = 0.95` and `1.05`).
 //!
 //! The speed law and the pedestal are linearised the same way
 //! ([`speed_law_min_detectable`], [`pedestal_min_detectable`]), one
@@ -51,8 +52,9 @@
 
 use serde::Serialize;
 
-use crate::diagnose::extended::{ExtendedModel, Extension};
+use crate::diagnose::extended::{ExtendedModel, Extension, GAIN_STEP};
 use crate::diagnose::fit::{self, FitData};
+use crate::diagnose::result::output_name;
 use crate::diagnose::{chi2_quantile_upper, Candidate, Diagnosis, Effect};
 use crate::units::rad_s_to_rpm;
 use nalgebra::DMatrix;
@@ -115,7 +117,10 @@ pub fn min_detectable(
             Extension::Runout => (0..nq).map(|c| o + 2 * c).collect(),
             _ => vec![o],
         };
-        let w = if *e == Extension::EScale { 1 } else { 2 };
+        let w = match e {
+            Extension::Runout => 2,
+            _ => e.n_params(nq),
+        };
         for o2 in groups {
             let gne = g.view((0, o2), (p0, w)).into_owned();
             let gee = g.view((o2, o2), (w, w)).into_owned();
@@ -184,6 +189,9 @@ pub fn suggestion(a: Effect, b: Effect) -> &'static str {
         (SpeedDependentBearing, ShaftStiffnessError) | (FoundationFlexibility, ShaftStiffnessError) => {
             "a probe at mid-span, or a speed range through the shaft's bending critical"
         }
+        (_, ProbeSensitivity) => {
+            "a static calibration of the probes (gap voltage against a micrometer on the target), or a second probe beside the suspect one"
+        }
         _ => "more speeds near the critical speeds, or a probe at another node",
     }
 }
@@ -202,9 +210,16 @@ pub fn analyse(
     let theta0 = &nominal.fit.theta;
     let n_nodes = data.terms.first().map_or(0, |t| t.b_node.ncols());
     let t2 = detection_threshold(d, 2.0);
+    let n_out = data.terms.first().map_or(0, |st| base.n_outputs(st));
     let mut out = Vec::new();
     for effect in Effect::BANK {
-        let (exts, names, scale, unit) = extensions(effect, base, n_nodes, data_de.is_some());
+        let (exts, names, scale, unit) = extensions(
+            effect,
+            base,
+            n_nodes,
+            data_de.is_some(),
+            (n_out, &d.probe_nodes),
+        );
         let special = match effect {
             Effect::SpeedDependentBearing => speed_law_sizes(d, data),
             Effect::FoundationFlexibility => pedestal_sizes(d, data),
@@ -220,6 +235,10 @@ pub fn analyse(
             (Effect::ShaftStiffnessError, Some(dd)) => {
                 let t1 = detection_threshold(d, 1.0);
                 min_detectable(base, dd, theta0, d.sigma2, t1, &exts, scale)
+            }
+            (Effect::ProbeSensitivity, _) => {
+                let t1 = detection_threshold(d, 1.0);
+                min_detectable(base, data, theta0, d.sigma2, t1, &exts, scale)
             }
             _ => min_detectable(base, data, theta0, d.sigma2, t2, &exts, scale),
         };
@@ -253,6 +272,7 @@ fn extensions(
     base: &ExtendedModel,
     n_nodes: usize,
     has_de: bool,
+    (n_out, probe_nodes): (usize, &[usize]),
 ) -> (Vec<Extension>, Vec<String>, f64, &'static str) {
     let planes = &base.pr.param.plane_nodes;
     match effect {
@@ -284,6 +304,16 @@ fn extensions(
                 .collect(),
             base.scales.q,
             "m",
+        ),
+        Effect::ProbeSensitivity => (
+            (0..n_out)
+                .map(|channel| Extension::Gain { channel })
+                .collect(),
+            (0..n_out)
+                .map(|c| output_name(c, base.n_channels(), probe_nodes))
+                .collect(),
+            GAIN_STEP,
+            "(relative change of a probe's sensitivity)",
         ),
         Effect::ShaftStiffnessError if has_de => (
             vec![Extension::EScale],
@@ -415,17 +445,18 @@ pub fn reference(d: &Diagnosis) -> Candidate {
 
 /// The smallest detectable size of `ext` alone at the reference estimate
 /// of `d` ([`reference()`]; physical units: m for bow and runout, kg m for a
-/// plane).
+/// plane, the relative gain error for a probe gain).
 pub fn min_detectable_single(d: &Diagnosis, data: &FitData<'_>, ext: Extension) -> Option<f64> {
     let nominal = reference(d);
     let base = &nominal.model;
-    let scale = match ext {
-        Extension::Plane { .. } => base.pr.param.scaling.unbalance,
-        Extension::Bow { .. } | Extension::Runout => base.scales.q,
+    let (scale, k) = match ext {
+        Extension::Plane { .. } => (base.pr.param.scaling.unbalance, 2.0),
+        Extension::Bow { .. } | Extension::Runout => (base.scales.q, 2.0),
+        Extension::Gain { .. } => (GAIN_STEP, 1.0),
         _ => return None,
     };
-    let t2 = detection_threshold(d, 2.0);
-    let v = min_detectable(base, data, &nominal.fit.theta, d.sigma2, t2, &[ext], scale)?;
+    let t = detection_threshold(d, k);
+    let v = min_detectable(base, data, &nominal.fit.theta, d.sigma2, t, &[ext], scale)?;
     v.into_iter().reduce(f64::min)
 }
 

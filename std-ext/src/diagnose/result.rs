@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use crate::diagnose::candidate::Candidate;
 use crate::diagnose::effect::Effect;
-use crate::diagnose::extended::{Extension, PedestalParams, E_STEP};
+use crate::diagnose::extended::{Extension, PedestalParams, E_STEP, GAIN_STEP};
 use crate::diagnose::fit::{Fit, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::observe;
@@ -88,6 +88,16 @@ pub enum Finding {
         factor: f64,
         /// Its standard deviation.
         factor_std: f64,
+    },
+    /// A probe whose scale factor is off: it reads `gain` times the
+    /// signal (`gain - 1` the sensitivity error).
+    ProbeSensitivity {
+        /// The channel (`b1_y`, ..., or `n7_z` for a probe at node 7).
+        channel: String,
+        /// The factor on the reading.
+        gain: f64,
+        /// Its standard deviation.
+        gain_std: f64,
     },
 }
 
@@ -180,7 +190,7 @@ impl Diagnosis {
     /// The identified size of every effect of the chosen model.
     pub fn findings(&self) -> Vec<Finding> {
         let c = self.extended();
-        findings(c, &self.terms)
+        findings(c, &self.terms, &self.probe_nodes)
     }
 }
 
@@ -237,8 +247,23 @@ fn cov2(f: &Fit, o: usize) -> Option<[[f64; 2]; 2]> {
     })
 }
 
-/// The findings of a candidate's extensions.
-pub fn findings(c: &Candidate, terms: &[SpeedTerms]) -> Vec<Finding> {
+/// The name of output `ch` with `nq` bearing channels and probes at the
+/// nodes `probe_nodes` (0-based): `b1_y`, ..., then `n7_y`, `n7_z`, ...
+/// (1-based, as in the measurement file).
+pub fn output_name(ch: usize, nq: usize, probe_nodes: &[usize]) -> String {
+    let dir = if ch % 2 == 0 { "y" } else { "z" };
+    match ch.checked_sub(nq) {
+        None => format!("b{}_{dir}", ch / 2 + 1),
+        Some(k) => match probe_nodes.get(k / 2) {
+            Some(n) => format!("n{}_{dir}", n + 1),
+            None => format!("output {}", ch + 1),
+        },
+    }
+}
+
+/// The findings of a candidate's extensions; `probe_nodes` (0-based) the
+/// nodes of the probes beyond the bearings, to name their channels.
+pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> Vec<Finding> {
     let m = &c.model;
     let f = &c.fit;
     let param = &m.pr.param;
@@ -309,6 +334,13 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms]) -> Vec<Finding> {
                     amplitude_std: sa,
                     phase_deg: p,
                     phase_deg_std: sp,
+                });
+            }
+            Extension::Gain { channel } => {
+                out.push(Finding::ProbeSensitivity {
+                    channel: output_name(channel, m.n_channels(), probe_nodes),
+                    gain: 1.0 + GAIN_STEP * f.theta[o],
+                    gain_std: GAIN_STEP * f.std(o).unwrap_or(f64::NAN),
                 });
             }
             Extension::EScale => {

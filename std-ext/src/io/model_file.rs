@@ -62,6 +62,7 @@
 //! bearing_speed_law = { rpm_ref = 15000.0, law = "quadratic" }  # or "linear"
 //! pedestal = { mass = 50.0, k = [1e8, 1e8], c = [2e3, 2e3] }  # under every bearing without one
 //! runout = [{ channel = "b1_y", amplitude = 2e-6, phase_deg = 30.0 }]
+//! probe_gain = [{ channel = "b2_z", factor = 1.1 }]
 //! extra_unbalance = [{ node = 14, me = 0.002, phase_deg = 90.0 }]
 //! ```
 //!
@@ -77,7 +78,7 @@ use serde::Deserialize;
 use thiserror::Error;
 
 use crate::io::ross::RossError;
-use crate::model::extension::{Channel, Effects, Runout, SpeedLaw, SpeedScaling};
+use crate::model::extension::{Channel, Effects, ProbeGain, Runout, SpeedLaw, SpeedScaling};
 use crate::model::plausible::{
     check, check_magnitude, Range, DAMPING_MAX, DENSITY, DIAMETER, INERTIA, LENGTH, MASS, SHEAR,
     STIFFNESS_MAX, YOUNG,
@@ -316,7 +317,16 @@ struct RawSimulate {
     #[serde(default)]
     runout: Vec<RawRunout>,
     #[serde(default)]
+    probe_gain: Vec<RawProbeGain>,
+    #[serde(default)]
     extra_unbalance: Vec<RawUnbalance>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawProbeGain {
+    channel: String,
+    factor: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -1004,6 +1014,13 @@ fn effects(s: &RawSimulate, n_bearings: usize, n_nodes: usize) -> Result<Effects
             channel: parse_channel(&f("channel"), &r.channel, n_bearings)?,
             amplitude: finite_nonneg(&f("amplitude"), r.amplitude)?,
             phase: finite(&f("phase_deg"), r.phase_deg)?.to_radians(),
+        });
+    }
+    for (i, g) in s.probe_gain.iter().enumerate() {
+        let f = |k: &str| format!("simulate.probe_gain[{}].{k}", i + 1);
+        effects.probe_gain.push(ProbeGain {
+            channel: parse_channel(&f("channel"), &g.channel, n_bearings)?,
+            factor: finite_pos(&f("factor"), g.factor)?,
         });
     }
     for (i, u) in s.extra_unbalance.iter().enumerate() {

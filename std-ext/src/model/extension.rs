@@ -7,6 +7,7 @@
 //! | [`Effects::pedestal`] | a mass on spring and damper under each bearing |
 //! | [`Effects::bow`] | a bent shaft, forcing `K_s q_bow` |
 //! | [`Runout`] | a constant phasor (m) added to a probe's signal |
+//! | [`ProbeGain`] | a probe's reading times a real factor (its sensitivity off) |
 //! | [`Effects::extra_unbalance`] | unbalance (kg m) at nodes that are not planes |
 //! | [`Effects::e_scale`] | the shaft's E and G times a factor |
 //!
@@ -119,6 +120,17 @@ impl Runout {
     }
 }
 
+/// A probe whose scale factor is off (the sensitivity set for another
+/// target material, a cable or a driver fault): the channel reads
+/// `factor` times the displacement it sees, runout included.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbeGain {
+    /// The channel.
+    pub channel: Channel,
+    /// The factor on its reading (1 = right; 1.1: reads 10 % high).
+    pub factor: f64,
+}
+
 /// Physical effects put into simulated data, beyond the model file's own
 /// description (see the README, "Simulator").
 #[derive(Debug, Clone, PartialEq)]
@@ -134,6 +146,8 @@ pub struct Effects {
     pub bow: Vec<BowPoint>,
     /// Probe runout phasors.
     pub runout: Vec<Runout>,
+    /// Probe scale factors that are off.
+    pub probe_gain: Vec<ProbeGain>,
     /// Unbalance added to the model's true unbalance (typically at a node
     /// that is not one of the model's planes).
     pub extra_unbalance: Vec<Unbalance>,
@@ -147,6 +161,7 @@ impl Default for Effects {
             pedestal: None,
             bow: Vec::new(),
             runout: Vec::new(),
+            probe_gain: Vec::new(),
             extra_unbalance: Vec::new(),
         }
     }
@@ -167,6 +182,7 @@ impl Effects {
         }
         self.bow.extend_from_slice(&other.bow);
         self.runout.extend_from_slice(&other.runout);
+        self.probe_gain.extend_from_slice(&other.probe_gain);
         self.extra_unbalance
             .extend_from_slice(&other.extra_unbalance);
         self
@@ -220,6 +236,17 @@ impl Effects {
                 },
                 r.amplitude,
                 r.phase.to_degrees()
+            ));
+        }
+        for g in &self.probe_gain {
+            out.push(format!(
+                "effect: probe b{}_{} reads x {}",
+                g.channel.bearing + 1,
+                match g.channel.direction {
+                    Direction::Y => "y",
+                    Direction::Z => "z",
+                },
+                g.factor
             ));
         }
         for u in &self.extra_unbalance {

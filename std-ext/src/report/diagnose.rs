@@ -136,6 +136,9 @@ fn what(effect: Effect) -> &'static str {
         Effect::ProbeRunout => "a constant phasor added to a probe at every speed (runout)",
         Effect::ExtraUnbalancePlane => "unbalance at a node that is not one of the model's planes",
         Effect::ShaftStiffnessError => "a shaft stiffer or softer than the model",
+        Effect::ProbeSensitivity => {
+            "a probe whose scale factor is off (a real gain on its channel at every speed)"
+        }
         Effect::Unexplained => "a misfit well above the noise that no effect of the bank removes",
     }
 }
@@ -387,6 +390,14 @@ fn finding_line(f: &Finding) -> String {
         Finding::ShaftStiffnessError { factor, factor_std } => {
             format!("shaft E and G x {factor:.4} +- {factor_std:.4}")
         }
+        Finding::ProbeSensitivity {
+            channel,
+            gain,
+            gain_std,
+        } => format!(
+            "probe {channel} reads x {gain:.4} +- {gain_std:.4} ({:+.1} % sensitivity error)",
+            100.0 * (gain - 1.0)
+        ),
     }
 }
 

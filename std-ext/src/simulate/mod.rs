@@ -13,7 +13,9 @@
 //!    displacement at each bearing node relative to the bearing housing
 //!    (the pedestal, where there is one; [`ProbeReference`]), or absolute
 //!    for `probes = "absolute"`, channels `b1_y, b1_z, b2_y, ...`;
-//! 3. probe runout phasors are added, constant across speed ([`add_runout`]);
+//! 3. probe runout phasors are added, constant across speed ([`add_runout`]),
+//!    and probes whose sensitivity is off scale their channel
+//!    ([`apply_probe_gain`]);
 //! 4. noise: every complex sample `q` of every channel gets `s |q| eps`,
 //!    `eps` standard complex Gaussian (`E|eps|^2 = 1`: real and imaginary
 //!    parts independent `N(0, 1/2)`), drawn from a ChaCha8 generator seeded
@@ -31,7 +33,7 @@ use thiserror::Error;
 use crate::fe::assembly::{Dir, FeError, FeModel};
 use crate::fe::response::{unbalance_response, Forcing};
 use crate::io::measurement::{Measurements, Sample};
-use crate::model::extension::{apply_effects, Effects, ExtensionError, Runout};
+use crate::model::extension::{apply_effects, Effects, ExtensionError, ProbeGain, Runout};
 use crate::model::{ModelError, ProbeReference, RotorModel, ShaftBow, Unbalance};
 use crate::units::rpm_to_rad_s;
 
@@ -54,6 +56,15 @@ pub enum SimulateError {
         bearing: usize,
         /// Bearings of the model.
         n_bearings: usize,
+    },
+    /// A probe gain names a bearing the model does not have, or its
+    /// factor is not finite and > 0.
+    #[error("probe gain on bearing {bearing}: {why}")]
+    ProbeGain {
+        /// The bearing (1-based).
+        bearing: usize,
+        /// What is wrong.
+        why: String,
     },
     /// A model-changing effect cannot be applied.
     #[error("{0}")]
@@ -140,6 +151,34 @@ pub fn add_runout(m: &mut Measurements, runout: &[Runout]) -> Result<(), Simulat
         for s in &mut m.samples {
             if let Some(q) = s.q.get_mut(r.channel.index()) {
                 *q += z;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Multiplies each gain's channel by its factor at every sample (after
+/// the runout: a probe's sensitivity scales all it reads).
+pub fn apply_probe_gain(m: &mut Measurements, gains: &[ProbeGain]) -> Result<(), SimulateError> {
+    for g in gains {
+        let bearing = g.channel.bearing + 1;
+        if g.channel.bearing >= m.n_bearings {
+            return Err(SimulateError::ProbeGain {
+                bearing,
+                why: format!("the model has {} bearings", m.n_bearings),
+            });
+        }
+        if !(g.factor.is_finite() && g.factor > 0.0) {
+            return Err(SimulateError::ProbeGain {
+                bearing,
+                why: format!("the factor must be finite and > 0, got {}", g.factor),
+            });
+        }
+    }
+    for g in gains {
+        for s in &mut m.samples {
+            if let Some(q) = s.q.get_mut(g.channel.index()) {
+                *q *= g.factor;
             }
         }
     }
@@ -375,6 +414,7 @@ pub fn simulate_with(
         ..Measurements::default()
     };
     add_runout(&mut out, &opts.effects.runout)?;
+    apply_probe_gain(&mut out, &opts.effects.probe_gain)?;
     add_noise(&mut out, opts.noise, opts.seed)?;
     Ok(out)
 }

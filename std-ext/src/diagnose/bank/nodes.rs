@@ -1,11 +1,10 @@
 //! `shaft_bow` and `extra_unbalance_plane`: an effect at one node (a bow
 //! offset at an interior node; unbalance at a node that is not a plane),
 //! the nodes ranked by the drop in misfit one Gauss-Newton step predicts
-//! (`screen`), the best two fitted; and the same search again on top of
+//! ([`screen`]), the best two fitted; and the same search again on top of
 //! another effect's fit for the pairs (`rescreen`).
 
-use nalgebra::DMatrix;
-
+use crate::diagnose::bank::screen;
 use crate::diagnose::candidate::Candidate;
 use crate::diagnose::context::Context;
 use crate::diagnose::effect::Effect;
@@ -31,7 +30,11 @@ pub(crate) fn node_effect(
         Effect::ShaftBow => Extension::Bow { node },
         _ => Extension::Plane { node },
     };
-    let ranked = screen(ctx.base, ctx.data, &ctx.theta0, &nodes, &make)?;
+    let exts: Vec<Extension> = nodes.iter().map(|&n| make(n)).collect();
+    let ranked: Vec<usize> = screen(ctx.base, ctx.data, &ctx.theta0, &exts)?
+        .into_iter()
+        .map(|i| nodes[i])
+        .collect();
     let mut best: Option<(Fit, ExtendedModel, usize)> = None;
     for &node in ranked.iter().take(2) {
         let m = ctx.with_ext(vec![make(node)]);
@@ -89,8 +92,9 @@ pub(crate) fn rescreen(
             Extension::Plane { node }
         }
     };
-    let ranked = match screen(&a.model, data, &a.fit.theta, &nodes, &make) {
-        Ok(r) => r,
+    let exts: Vec<Extension> = nodes.iter().map(|&n| make(n)).collect();
+    let ranked: Vec<usize> = match screen(&a.model, data, &a.fit.theta, &exts) {
+        Ok(r) => r.into_iter().map(|i| nodes[i]).collect(),
         Err(_) => return Ok(Vec::new()),
     };
     let nom = b.model.pr.n_params();
@@ -110,47 +114,4 @@ pub(crate) fn rescreen(
             c
         })
         .collect())
-}
-
-/// Ranks `nodes` by the drop in `S` that one Gauss-Newton step from the
-/// estimate `theta0` of `base` predicts when the node's effect is added
-/// (all of `base`'s parameters free): `g_s^T G_ss^-1 g_s` over the nominal columns
-/// and the node's two, from one Jacobian holding every node's columns.
-fn screen(
-    base: &ExtendedModel,
-    data: &FitData<'_>,
-    theta0: &[f64],
-    nodes: &[usize],
-    make: &dyn Fn(usize) -> Extension,
-) -> Result<Vec<usize>, DiagnoseError> {
-    let all = ExtendedModel {
-        ext: base
-            .ext
-            .iter()
-            .copied()
-            .chain(nodes.iter().map(|&n| make(n)))
-            .collect(),
-        ..base.clone()
-    };
-    let mut theta = theta0.to_vec();
-    theta.resize(all.n_params(), 0.0);
-    let en = fit::entries(&all, data);
-    let (r, jac) = fit::evaluate(&all, data, &en, &theta, true)?;
-    let Some(j) = jac else {
-        return Ok(Vec::new());
-    };
-    let g = j.tr_mul(&r);
-    let gram = fit::gram(&j);
-    let p0 = base.n_params();
-    let mut scored: Vec<(f64, usize)> = Vec::new();
-    for (k, &node) in nodes.iter().enumerate() {
-        let o = all.offset(base.ext.len() + k);
-        let idx: Vec<usize> = (0..p0).chain([o, o + 1]).collect();
-        let gs = nalgebra::DVector::from_iterator(idx.len(), idx.iter().map(|&i| g[i]));
-        let gss = DMatrix::from_fn(idx.len(), idx.len(), |a, b| gram[(idx[a], idx[b])]);
-        let drop = gss.cholesky().map(|c| gs.dot(&c.solve(&gs))).unwrap_or(0.0);
-        scored.push((drop, node));
-    }
-    scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-    Ok(scored.into_iter().map(|(_, n)| n).collect())
 }
