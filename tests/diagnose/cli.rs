@@ -213,3 +213,56 @@ fn diagnose_reads_probes_at_an_angle() {
     // tolerance: y, z scaled by (1 + 2.2e-16) alone moves it by 4.5e-4.
     assert!(gain < 1e-2, "{gain:e}");
 }
+
+/// A probe reading 10 % low, simulated by the binary on realistic data
+/// (balance grade G6.3, 0.5 % + 0.5 um probe floor) and diagnosed by it:
+/// `probe_sensitivity` in the JSON, on that probe's pair, the gain (or
+/// the pair's equivalent `1 / g` on the other direction) within 3.5
+/// reported standard deviations of 0.9.
+#[test]
+fn diagnose_names_a_probe_sensitivity_from_simulate() {
+    let csv = tmp("diag-gain.csv");
+    let json = tmp("diag-gain.json");
+    let sim = cli([
+        "simulate",
+        "--model",
+        "paper",
+        "--out",
+        csv.to_str().unwrap(),
+        "--balance-grade",
+        "6.3",
+        "--noise",
+        "0.005",
+        "--noise-floor",
+        "5e-7",
+        "--probe-gain",
+        "b1_z:0.9",
+        "--seed",
+        "5",
+    ]);
+    assert!(sim.success(), "{}", sim.stderr);
+    let out = cli([
+        "diagnose",
+        "--model",
+        "paper",
+        "--measurements",
+        csv.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(out.success(), "{}", out.stderr);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["effect"], "probe_sensitivity", "{}", out.stdout);
+    let f = &v["findings"][0];
+    assert_eq!(f["effect"], "probe_sensitivity");
+    let g = f["gain"].as_f64().unwrap();
+    let sd = f["gain_std"].as_f64().unwrap();
+    let (g, sd) = match f["channel"].as_str().unwrap() {
+        "b1_z" => (g, sd),
+        "b1_y" => (1.0 / g, sd / (g * g)),
+        other => panic!("channel {other}: {}", out.stdout),
+    };
+    assert!((g - 0.9).abs() <= 3.5 * sd, "gain {g} +- {sd}");
+    assert!(out.stdout.contains("probe b1_"), "{}", out.stdout);
+}
