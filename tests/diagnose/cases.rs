@@ -82,7 +82,7 @@ fn run_case_with_floor(
     let observable = match effect {
         Effect::ShaftBow => {
             let node = h.node.unwrap();
-            d.min_detectable(&case.meas, Extension::Bow { node })
+            d.min_detectable(&case.meas, Extension::Bow { node, line: false })
                 .is_some_and(|s| h.size >= 2.0 * s)
         }
         Effect::ExtraUnbalancePlane => {

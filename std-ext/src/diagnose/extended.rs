@@ -16,9 +16,10 @@
 //! |---|---|---|
 //! | [`Extension::Runout`] | `r_c = q_s (x + j y)` per channel | `y_c += r_c` |
 //! | [`Extension::Plane`] | `u = s_a (x + j y)` (kg m) at node `n` | `b_n u` |
-//! | [`Extension::Bow`] | `beta = q_s (x + j y)` (m) at node `n` | `g_n beta` |
+//! | [`Extension::Bow`] | `beta = q_s (x + j y)` (m) at node `n` | `g_n beta` (or the bearing line's `g_n`) |
 //! | [`Extension::EScale`] | `de = 0.01 x` about the terms' own `e` | `dA de`, `dB a de` |
 //! | [`Extension::Pedestal`] | `m = m_0 e^x1`, `w_d = w_0 e^x_d`, `zeta_d = x_d / 10` | `Z_eff`, `P` |
+//! | [`Extension::NodeRunout`] | `r = q_s (x + j y)` on output `c` (a probe at another node) | `y_c += r` |
 //! | [`Extension::Gain`] | `g = 0.01 x` on output `c` | `y_c <- (1 + g) y_c`, last |
 //!
 //! (`q_s`: RMS measured response, `s_a`: the unbalance scale of the
@@ -77,6 +78,10 @@ pub enum Extension {
     Bow {
         /// Node (0-based).
         node: usize,
+        /// Measured from the bearing line (zero at every bearing,
+        /// [`SpeedTerms::g_line`]) rather than from the line through the
+        /// shaft's ends.
+        line: bool,
     },
     /// A pedestal under a bearing (0-based).
     Pedestal {
@@ -85,6 +90,13 @@ pub enum Extension {
     },
     /// A factor on the shaft's modulus.
     EScale,
+    /// A constant phasor on output `output` (0-based, a probe at another
+    /// node: at least the number of bearing channels), the runout of a
+    /// mid-span probe ([`Extension::Runout`] covers the bearing channels).
+    NodeRunout {
+        /// Output index (0-based).
+        output: usize,
+    },
     /// A probe whose scale factor is off: output `channel` (0-based: the
     /// bearing channels `b1_y, b1_z, ...`, then the probes at other
     /// nodes) reads `1 + g` times its signal, runout included.
@@ -99,7 +111,7 @@ impl Extension {
     pub fn n_params(&self, nq: usize) -> usize {
         match self {
             Extension::Runout => 2 * nq,
-            Extension::Plane { .. } | Extension::Bow { .. } => 2,
+            Extension::Plane { .. } | Extension::Bow { .. } | Extension::NodeRunout { .. } => 2,
             Extension::Pedestal { .. } => 5,
             Extension::EScale | Extension::Gain { .. } => 1,
         }
@@ -297,18 +309,21 @@ impl ExtendedModel {
             let p = &theta[o..o + ext.n_params(nq)];
             match *ext {
                 Extension::Runout => runout = Some(p),
-                Extension::Plane { node } | Extension::Bow { node }
+                Extension::Plane { node } | Extension::Bow { node, .. }
                     if node >= st.b_node.ncols() || node >= st.g_node.ncols() =>
                 {
+                    return Err(PredictError::Dimension)
+                }
+                Extension::Bow { line: true, .. } if st.g_line.is_none() => {
                     return Err(PredictError::Dimension)
                 }
                 Extension::Plane { node } => {
                     let u = Complex64::new(p[0], p[1]) * self.pr.param.scaling.unbalance;
                     f += st.b_node.column(node) * u;
                 }
-                Extension::Bow { node } => {
+                Extension::Bow { node, line } => {
                     let beta = Complex64::new(p[0], p[1]) * self.scales.q;
-                    f += st.g_node.column(node) * beta;
+                    f += st.bow_column(node, line) * beta;
                 }
                 Extension::EScale => {
                     let de = Complex64::from(p[0] * E_STEP);
@@ -362,7 +377,7 @@ impl ExtendedModel {
                         t,
                     });
                 }
-                Extension::Gain { .. } => {}
+                Extension::Gain { .. } | Extension::NodeRunout { .. } => {}
             }
         }
         let h_inv = invert(h).ok_or(PredictError::Singular { omega: st.omega })?;
@@ -390,9 +405,9 @@ impl ExtendedModel {
                             * self.pr.param.scaling.unbalance;
                         x += nt.u_node.column(node) * u;
                     }
-                    Extension::Bow { node } => {
+                    Extension::Bow { node, line } => {
                         let beta = Complex64::new(theta[o], theta[o + 1]) * self.scales.q;
-                        x += nt.h_node.column(node) * beta;
+                        x += nt.bow_column(node, line)? * beta;
                     }
                     Extension::EScale => {
                         let de = Complex64::from(theta[o] * E_STEP);
@@ -401,10 +416,23 @@ impl ExtendedModel {
                         };
                         x += (dp * &q + du * &a) * de;
                     }
-                    Extension::Runout | Extension::Pedestal { .. } | Extension::Gain { .. } => {}
+                    Extension::Runout
+                    | Extension::Pedestal { .. }
+                    | Extension::Gain { .. }
+                    | Extension::NodeRunout { .. } => {}
                 }
             }
             y = DVector::from_iterator(nq + x.len(), y.iter().chain(x.iter()).copied());
+        }
+        // Runout of the probes at other nodes.
+        for (k, ext) in self.ext.iter().enumerate() {
+            if let Extension::NodeRunout { output } = *ext {
+                if output < nq || output >= y.len() {
+                    return Err(PredictError::Dimension);
+                }
+                let o = self.offset(k);
+                y[output] += Complex64::new(theta[o], theta[o + 1]) * self.scales.q;
+            }
         }
         // Probe gains, on the readings as they stand (runout included).
         let mut gains: Vec<GainEval> = Vec::new();
@@ -531,13 +559,13 @@ impl ExtendedModel {
                 let o = self.offset(k);
                 match *ext {
                     Extension::Runout => runout_cols = Some(o),
-                    Extension::Plane { node } | Extension::Bow { node } => {
+                    Extension::Plane { node } | Extension::Bow { node, .. } => {
                         // H^-1 (b_n or g_n) times the scale, and j times it.
                         let (col, scale) = match *ext {
-                            Extension::Plane { .. } => {
-                                (st.b_node.column(node), self.pr.param.scaling.unbalance)
+                            Extension::Bow { line, .. } => {
+                                (st.bow_column(node, line), self.scales.q)
                             }
-                            _ => (st.g_node.column(node), self.scales.q),
+                            _ => (st.b_node.column(node), self.pr.param.scaling.unbalance),
                         };
                         let scale = Complex64::from(scale);
                         for r in 0..nq {
@@ -593,8 +621,8 @@ impl ExtendedModel {
                             }
                         }
                     }
-                    // Its column is set once every row is (below).
-                    Extension::Gain { .. } => {}
+                    // Their columns are set once every row is (below).
+                    Extension::Gain { .. } | Extension::NodeRunout { .. } => {}
                 }
             }
             // Probes at other nodes: P dq plus the loads' direct terms (before
@@ -637,8 +665,8 @@ impl ExtendedModel {
                                 let mut c1 = jn.column_mut(o + 1);
                                 c1 += v * j;
                             }
-                            Extension::Bow { node } => {
-                                let v = nt.h_node.column(node) * Complex64::from(self.scales.q);
+                            Extension::Bow { node, line } => {
+                                let v = nt.bow_column(node, line)? * Complex64::from(self.scales.q);
                                 let mut c0 = jn.column_mut(o);
                                 c0 += &v;
                                 let mut c1 = jn.column_mut(o + 1);
@@ -654,7 +682,8 @@ impl ExtendedModel {
                             }
                             Extension::Runout
                             | Extension::Pedestal { .. }
-                            | Extension::Gain { .. } => {}
+                            | Extension::Gain { .. }
+                            | Extension::NodeRunout { .. } => {}
                         }
                     }
                     Some(jn)
@@ -688,6 +717,16 @@ impl ExtendedModel {
         }
         if let Some(jn) = node_rows {
             jac_full.rows_mut(nq, jn.nrows()).copy_from(&jn);
+        }
+        // A node probe's runout: `dy_c / dx = q_s`, `dy_c / dy = j q_s`.
+        for (k, ext) in self.ext.iter().enumerate() {
+            if let Extension::NodeRunout { output } = *ext {
+                let o = self.offset(k);
+                jac_full.column_mut(o).fill(Complex64::new(0.0, 0.0));
+                jac_full.column_mut(o + 1).fill(Complex64::new(0.0, 0.0));
+                jac_full[(output, o)] = Complex64::from(self.scales.q);
+                jac_full[(output, o + 1)] = Complex64::new(0.0, self.scales.q);
+            }
         }
         // A gain scales its row (every other column, `dy_c = (1 + g) dy`)
         // and adds its own column `dy_c / dx = GAIN_STEP y_before`.
@@ -773,12 +812,82 @@ mod tests {
 
     /// Bow and extra plane through the extended model equal the full FE
     /// response of the paper rotor with that bow and unbalance.
+    /// A bow from the bearing line on a rotor with three bearings (the
+    /// paper rotor with a third at mid-span, node 15) equals the FE
+    /// response to the same bow: offsets zero at the three bearings and
+    /// `beta` at node 8, at the bearing channels and at a node probe.
+    #[test]
+    fn line_bow_on_three_bearings_matches_the_fe_response() {
+        let mut m = RotorModel::paper();
+        let mut mid = m.bearings[0].clone();
+        mid.node = 14;
+        m.bearings.insert(1, mid);
+        let x = model_for(
+            &m,
+            vec![Extension::Bow {
+                node: 7,
+                line: true,
+            }],
+        );
+        let omegas = [300.0, 900.0, 1400.0];
+        let nodes = [20];
+        let terms =
+            crate::diagnose::terms::build_with_probes(&m, &omegas, 1.0, false, &nodes).unwrap();
+        assert!(terms[0].g_line.is_some());
+        let mut theta = nominal_theta(&m, &x);
+        let beta = Complex64::from_polar(2e-5, 0.4);
+        theta.extend([beta.re / 1e-5, beta.im / 1e-5]);
+        let mut forcing = Forcing::from_model(&m);
+        forcing.bow = Some(ShaftBow {
+            points: vec![
+                BowPoint {
+                    node: 7,
+                    amplitude: beta.norm(),
+                    phase: beta.arg(),
+                },
+                BowPoint {
+                    node: 14,
+                    amplitude: 0.0,
+                    phase: 0.0,
+                },
+            ],
+        });
+        let fe = FeModel::new(&m).unwrap();
+        let full = crate::fe::response::unbalance_response(&fe, &forcing, &omegas).unwrap();
+        for (k, st) in terms.iter().enumerate() {
+            let y = x
+                .predict(st, &x.pr.entries(st.omega), &theta, None)
+                .unwrap();
+            assert_eq!(y.len(), 8);
+            let dofs = [0, 14, 26, 20].into_iter().flat_map(|n| {
+                [
+                    fe.dof(n, crate::fe::assembly::Dir::Y),
+                    fe.dof(n, crate::fe::assembly::Dir::Z),
+                ]
+            });
+            for (r, d) in dofs.enumerate() {
+                let want = full[k].q[d];
+                assert!(
+                    (y[r] - want).norm() <= 1e-8 * want.norm().max(1e-9),
+                    "speed {k} output {r}: {} vs {want}",
+                    y[r]
+                );
+            }
+        }
+    }
+
     #[test]
     fn bow_and_plane_match_the_fe_response() {
         let m = RotorModel::paper();
         let x = model_for(
             &m,
-            vec![Extension::Plane { node: 15 }, Extension::Bow { node: 14 }],
+            vec![
+                Extension::Plane { node: 15 },
+                Extension::Bow {
+                    node: 14,
+                    line: false,
+                },
+            ],
         );
         let omegas = [200.0, 700.0, 1300.0];
         let terms = build(&m, &omegas, 1.0, false).unwrap();
@@ -924,10 +1033,15 @@ mod tests {
         let plain = vec![
             Extension::Runout,
             Extension::Plane { node: 16 },
-            Extension::Bow { node: 9 },
+            Extension::Bow {
+                node: 9,
+                line: false,
+            },
             Extension::Gain { channel: 1 },
             Extension::EScale,
+            Extension::NodeRunout { output: 5 },
             Extension::Gain { channel: 5 },
+            Extension::NodeRunout { output: 6 },
         ];
         let ped = vec![
             Extension::Pedestal { bearing: 0 },

@@ -279,7 +279,10 @@ fn extensions(
         Effect::ShaftBow => {
             let nodes: Vec<usize> = (1..n_nodes.saturating_sub(1)).collect();
             (
-                nodes.iter().map(|&node| Extension::Bow { node }).collect(),
+                nodes
+                    .iter()
+                    .map(|&node| Extension::Bow { node, line: false })
+                    .collect(),
                 nodes.iter().map(|n| format!("node {}", n + 1)).collect(),
                 base.scales.q,
                 "m",
@@ -297,14 +300,19 @@ fn extensions(
                 "kg m",
             )
         }
-        Effect::ProbeRunout => (
-            vec![Extension::Runout],
-            (0..base.n_channels())
-                .map(|c| format!("b{}_{}", c / 2 + 1, if c % 2 == 0 { "y" } else { "z" }))
-                .collect(),
-            base.scales.q,
-            "m",
-        ),
+        Effect::ProbeRunout => {
+            let nq = base.n_channels();
+            let mut exts = vec![Extension::Runout];
+            exts.extend((nq..n_out).map(|output| Extension::NodeRunout { output }));
+            (
+                exts,
+                (0..n_out)
+                    .map(|c| output_name(c, nq, probe_nodes))
+                    .collect(),
+                base.scales.q,
+                "m",
+            )
+        }
         Effect::ProbeSensitivity => (
             (0..n_out)
                 .map(|channel| Extension::Gain { channel })
@@ -451,7 +459,9 @@ pub fn min_detectable_single(d: &Diagnosis, data: &FitData<'_>, ext: Extension) 
     let base = &nominal.model;
     let (scale, k) = match ext {
         Extension::Plane { .. } => (base.pr.param.scaling.unbalance, 2.0),
-        Extension::Bow { .. } | Extension::Runout => (base.scales.q, 2.0),
+        Extension::Bow { .. } | Extension::Runout | Extension::NodeRunout { .. } => {
+            (base.scales.q, 2.0)
+        }
         Extension::Gain { .. } => (GAIN_STEP, 1.0),
         _ => return None,
     };

@@ -63,6 +63,10 @@ pub enum Finding {
         phase_deg: f64,
         /// Its standard deviation.
         phase_deg_std: f64,
+        /// What the offset is measured from: `"shaft ends"` (the shape
+        /// zero at the first and last node) or `"bearing line"` (zero at
+        /// every bearing).
+        reference: &'static str,
     },
     /// Probe runout per channel.
     ProbeRunout {
@@ -261,6 +265,20 @@ pub fn output_name(ch: usize, nq: usize, probe_nodes: &[usize]) -> String {
     }
 }
 
+/// The runout of one channel from parameters `o`, `o + 1` of `f` (scaled
+/// by `q_s`).
+fn runout_finding(f: &Fit, o: usize, q_s: f64, channel: String) -> RunoutFinding {
+    let (a, p, sa, sp) = polar_with_std(f.theta[o], f.theta[o + 1], q_s, cov2(f, o));
+    RunoutFinding {
+        channel,
+        amplitude: a,
+        amplitude_std: sa,
+        phase_deg: p,
+        phase_deg_std: sp,
+        significant: a > 3.0 * sa,
+    }
+}
+
 /// The findings of a candidate's extensions; `probe_nodes` (0-based) the
 /// nodes of the probes beyond the bearings, to name their channels.
 pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> Vec<Finding> {
@@ -291,24 +309,30 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
             Extension::Runout => {
                 let channels = (0..m.n_channels())
                     .map(|ch| {
-                        let oo = o + 2 * ch;
-                        let (a, p, sa, sp) =
-                            polar_with_std(f.theta[oo], f.theta[oo + 1], m.scales.q, cov2(f, oo));
-                        RunoutFinding {
-                            channel: format!(
-                                "b{}_{}",
-                                ch / 2 + 1,
-                                if ch % 2 == 0 { "y" } else { "z" }
-                            ),
-                            amplitude: a,
-                            amplitude_std: sa,
-                            phase_deg: p,
-                            phase_deg_std: sp,
-                            significant: a > 3.0 * sa,
-                        }
+                        runout_finding(
+                            f,
+                            o + 2 * ch,
+                            m.scales.q,
+                            output_name(ch, m.n_channels(), &[]),
+                        )
                     })
                     .collect();
                 out.push(Finding::ProbeRunout { channels });
+            }
+            Extension::NodeRunout { output } => {
+                let r = runout_finding(
+                    f,
+                    o,
+                    m.scales.q,
+                    output_name(output, m.n_channels(), probe_nodes),
+                );
+                match out.iter_mut().find_map(|x| match x {
+                    Finding::ProbeRunout { channels } => Some(channels),
+                    _ => None,
+                }) {
+                    Some(channels) => channels.push(r),
+                    None => out.push(Finding::ProbeRunout { channels: vec![r] }),
+                }
             }
             Extension::Plane { node } => {
                 let (a, p, sa, sp) = polar_with_std(
@@ -325,7 +349,7 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                     phase_deg_std: sp,
                 });
             }
-            Extension::Bow { node } => {
+            Extension::Bow { node, line } => {
                 let (a, p, sa, sp) =
                     polar_with_std(f.theta[o], f.theta[o + 1], m.scales.q, cov2(f, o));
                 out.push(Finding::ShaftBow {
@@ -334,6 +358,7 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                     amplitude_std: sa,
                     phase_deg: p,
                     phase_deg_std: sp,
+                    reference: if line { "bearing line" } else { "shaft ends" },
                 });
             }
             Extension::Gain { channel } => {

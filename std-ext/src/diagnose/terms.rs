@@ -63,12 +63,45 @@ pub struct SpeedTerms {
     /// `g_n` of a unit bow at every node (`2 N_b x N_nodes`, N/m; zero
     /// columns at the shaft ends, where a bow offset is a rigid motion).
     pub g_node: DMatrix<Complex64>,
+    /// `g_n` of a unit bow measured from the bearing line at every node
+    /// ([`FeModel::line_bow_shape`]; zero columns at the bearings), when
+    /// the bearings are not just the two shaft ends (where it is
+    /// `g_node`).
+    pub g_line: Option<DMatrix<Complex64>>,
     /// `dA/de` at the modulus factor the terms were built for, when asked.
     pub da_de: Option<DMatrix<Complex64>>,
     /// `dB/de`, likewise.
     pub db_de: Option<DMatrix<Complex64>>,
     /// The terms of the probes at other nodes, when there are any.
     pub probes: Option<NodeTerms>,
+}
+
+impl SpeedTerms {
+    /// `g_n` of a unit bow at `node`: from the bearing line with `line`
+    /// (the shaft-end one when the terms have no separate bearing-line
+    /// columns: there the two are the same).
+    pub fn bow_column(&self, node: usize, line: bool) -> nalgebra::DVectorView<'_, Complex64> {
+        match (&self.g_line, line) {
+            (Some(g), true) => g.column(node),
+            _ => self.g_node.column(node),
+        }
+    }
+}
+
+impl NodeTerms {
+    /// `h_k` of a unit bow at `node`, as [`SpeedTerms::bow_column`].
+    pub fn bow_column(
+        &self,
+        node: usize,
+        line: bool,
+    ) -> Result<nalgebra::DVectorView<'_, Complex64>, crate::estimate::predictor::PredictError>
+    {
+        match (&self.h_line, line) {
+            (Some(h), true) => Ok(h.column(node)),
+            (None, true) => Err(crate::estimate::predictor::PredictError::Dimension),
+            _ => Ok(self.h_node.column(node)),
+        }
+    }
 }
 
 /// The terms of probes at shaft nodes at one speed (module docs), rows
@@ -84,6 +117,9 @@ pub struct NodeTerms {
     pub u_node: DMatrix<Complex64>,
     /// `h_k` of a unit bow at every node (`2 N_n x N_nodes`, m per m).
     pub h_node: DMatrix<Complex64>,
+    /// `h_k` of a unit bow from the bearing line at every node, when the
+    /// terms have them ([`SpeedTerms::g_line`]).
+    pub h_line: Option<DMatrix<Complex64>>,
     /// `dP/de`, when derivatives were asked.
     pub dp_de: Option<DMatrix<Complex64>>,
     /// `du/de`, likewise.
@@ -131,8 +167,12 @@ pub struct Builder {
     model: RotorModel,
     fe: FeModel,
     /// Load columns: planes, unit unbalance at every node, unit bow at
-    /// every node.
+    /// every node, and unit bow from the bearing line at every node when
+    /// `line`.
     loads: DMatrix<Complex64>,
+    /// Whether the bearing-line bows differ from the shaft-end ones (the
+    /// bearings are not exactly the two shaft ends).
+    line: bool,
     probe_dofs: Vec<usize>,
     np: usize,
     n_nodes: usize,
@@ -162,7 +202,11 @@ impl Builder {
         let t_planes = fe.unbalance_distribution(&model.planes)?;
         let t_nodes = fe.unbalance_distribution(&all)?;
         let ns = fe.n_shaft_dof();
-        let mut loads = DMatrix::<Complex64>::zeros(ns, np + 2 * n_nodes);
+        let mut bearing_nodes = model.bearing_nodes();
+        bearing_nodes.sort_unstable();
+        let line = bearing_nodes != [0, n_nodes.saturating_sub(1)];
+        let n_loads = np + if line { 3 } else { 2 } * n_nodes;
+        let mut loads = DMatrix::<Complex64>::zeros(ns, n_loads);
         loads.view_mut((0, 0), (ns, np)).copy_from(&t_planes);
         loads.view_mut((0, np), (ns, n_nodes)).copy_from(&t_nodes);
         for n in 1..n_nodes.saturating_sub(1) {
@@ -176,6 +220,14 @@ impl Builder {
             let f = fe.bow_force(&bow)?;
             for (r, v) in f.iter().enumerate() {
                 loads[(r, np + n_nodes + n)] = *v;
+            }
+        }
+        if line {
+            for n in (0..n_nodes).filter(|n| !bearing_nodes.contains(n)) {
+                let f = fe.shaft_force(&fe.line_bow_shape(n, &bearing_nodes)?);
+                for (r, v) in f.iter().enumerate() {
+                    loads[(r, np + 2 * n_nodes + n)] = *v;
+                }
             }
         }
         if let Some(n) = probe_nodes.iter().find(|&&n| n >= n_nodes) {
@@ -194,6 +246,7 @@ impl Builder {
             model: model.clone(),
             fe,
             loads,
+            line,
             probe_dofs,
             np,
             n_nodes,
@@ -243,7 +296,7 @@ impl Builder {
                 "shaft modulus factor must be finite and > 0, got {e}"
             )));
         }
-        let (np, n_nodes) = (self.np, self.n_nodes);
+        let (np, n_nodes, line) = (self.np, self.n_nodes, self.line);
         let probe_dofs = &self.probe_dofs;
         let modal = self.modal.as_ref().filter(|_| modal);
         let banded = match modal {
@@ -268,6 +321,7 @@ impl Builder {
                     u: pt.l.columns(0, np) * w2,
                     u_node: pt.l.columns(np, n_nodes) * w2,
                     h_node: pt.l.columns(np + n_nodes, n_nodes).into_owned(),
+                    h_line: line.then(|| pt.l.columns(np + 2 * n_nodes, n_nodes).into_owned()),
                     p: pt.p,
                     dp_de: None,
                     du_de: None,
@@ -290,6 +344,10 @@ impl Builder {
             // `Omega / sqrt(e)`; the shaft's bow forcing is `e K_s q_bow`.
             let g_node = b_all.columns(np + n_nodes, n_nodes).into_owned()
                 * Complex64::from(e / (omega * omega));
+            let g_line = line.then(|| {
+                b_all.columns(np + 2 * n_nodes, n_nodes).into_owned()
+                    * Complex64::from(e / (omega * omega))
+            });
             let (da_de, db_de) = if derivative {
                 let h = 1e-4 * e;
                 let (ap, bp, pp) = at(omega, e + h)?;
@@ -309,6 +367,7 @@ impl Builder {
                 b,
                 b_node,
                 g_node,
+                g_line,
                 da_de,
                 db_de,
                 probes,

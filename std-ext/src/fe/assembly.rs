@@ -541,8 +541,7 @@ impl FeModel {
     ///
     /// (a feature fixed in the rotating frame, see [`crate::model`]).
     pub fn bow_shape(&self, bow: &ShaftBow) -> Result<Vec<Complex64>, FeError> {
-        let x_nodes = self.model.node_positions();
-        let mut knots: Vec<(f64, Complex64)> = Vec::with_capacity(bow.points.len() + 2);
+        let mut knots: Vec<(usize, Complex64)> = Vec::with_capacity(bow.points.len());
         for (i, p) in bow.points.iter().enumerate() {
             self.check_node(p.node)?;
             if i > 0 && p.node <= bow.points[i - 1].node {
@@ -551,20 +550,58 @@ impl FeModel {
             if !(p.amplitude.is_finite() && p.phase.is_finite()) {
                 return Err(FeError::Invalid("non-finite bow point".into()));
             }
-            knots.push((x_nodes[p.node], Complex64::from_polar(p.amplitude, p.phase)));
+            knots.push((p.node, Complex64::from_polar(p.amplitude, p.phase)));
         }
+        Ok(self.spline_shape(&knots, true))
+    }
+
+    /// The bow shape of a unit offset at `node` measured from the bearing
+    /// line: zero at every node of `bearing_nodes` (but `node`), one at
+    /// `node`, the natural cubic spline through these knots, continued as
+    /// a straight line beyond the outermost ones (no curvature, so no bow
+    /// forcing, in an overhang). With bearings at the shaft ends only this
+    /// is [`FeModel::bow_shape`] of the one point; with more bearings, or
+    /// overhung ones, it is the bow a mid-span or overhang probe sees from
+    /// the line through the bearings.
+    pub fn line_bow_shape(
+        &self,
+        node: usize,
+        bearing_nodes: &[usize],
+    ) -> Result<Vec<Complex64>, FeError> {
+        self.check_node(node)?;
+        let mut knots: Vec<(usize, Complex64)> = bearing_nodes
+            .iter()
+            .filter(|&&b| b != node)
+            .map(|&b| (b, Complex64::new(0.0, 0.0)))
+            .collect();
+        for &(b, _) in &knots {
+            self.check_node(b)?;
+        }
+        knots.push((node, Complex64::new(1.0, 0.0)));
+        knots.sort_by_key(|k| k.0);
+        knots.dedup_by_key(|k| k.0);
+        Ok(self.spline_shape(&knots, false))
+    }
+
+    /// The shaft DOFs of the spline through `knots` (node, offset; sorted
+    /// by node, distinct): with `pin_ends`, a zero offset added at the
+    /// first and the last node where no knot is; beyond the outermost
+    /// knots the spline continues as a straight line.
+    fn spline_shape(&self, knots: &[(usize, Complex64)], pin_ends: bool) -> Vec<Complex64> {
+        let x_nodes = self.model.node_positions();
         let mut q = vec![Complex64::new(0.0, 0.0); self.n_shaft_dof()];
-        if knots.is_empty() {
-            return Ok(q);
-        }
+        let (Some(first), Some(end)) = (knots.first(), knots.last()) else {
+            return q;
+        };
         let last = self.n_nodes - 1;
-        if bow.points[0].node != 0 {
-            knots.insert(0, (x_nodes[0], Complex64::new(0.0, 0.0)));
+        let mut xk: Vec<(f64, Complex64)> = knots.iter().map(|&(n, c)| (x_nodes[n], c)).collect();
+        if pin_ends && first.0 != 0 {
+            xk.insert(0, (x_nodes[0], Complex64::new(0.0, 0.0)));
         }
-        if bow.points[bow.points.len() - 1].node != last {
-            knots.push((x_nodes[last], Complex64::new(0.0, 0.0)));
+        if pin_ends && end.0 != last {
+            xk.push((x_nodes[last], Complex64::new(0.0, 0.0)));
         }
-        let spline = NaturalSpline::new(&knots);
+        let spline = NaturalSpline::new(&xk);
         let j = Complex64::new(0.0, 1.0);
         for (node, &x) in x_nodes.iter().enumerate() {
             let (c, dc) = spline.eval(x);
@@ -573,15 +610,14 @@ impl FeModel {
             q[dof(node, Dir::PhiY)] = j * dc;
             q[dof(node, Dir::PhiZ)] = dc;
         }
-        Ok(q)
+        q
     }
 
-    /// Bow forcing `K_s q_bow` on the shaft DOFs (N, N m), independent of speed.
-    pub fn bow_force(&self, bow: &ShaftBow) -> Result<Vec<Complex64>, FeError> {
-        let q = self.bow_shape(bow)?;
+    /// `K_s q` on the shaft DOFs for a shape `q` of the shaft DOFs.
+    pub fn shaft_force(&self, q: &[Complex64]) -> Vec<Complex64> {
         let ns = self.n_shaft_dof();
         let mut f = vec![Complex64::new(0.0, 0.0); ns];
-        for (j, qj) in q.iter().enumerate() {
+        for (j, qj) in q.iter().enumerate().take(ns) {
             for (i, fi) in f
                 .iter_mut()
                 .enumerate()
@@ -591,7 +627,13 @@ impl FeModel {
                 *fi += self.k_band[bidx(i, j)] * qj;
             }
         }
-        Ok(f)
+        f
+    }
+
+    /// Bow forcing `K_s q_bow` on the shaft DOFs (N, N m), independent of speed.
+    pub fn bow_force(&self, bow: &ShaftBow) -> Result<Vec<Complex64>, FeError> {
+        let q = self.bow_shape(bow)?;
+        Ok(self.shaft_force(&q))
     }
 }
 
@@ -646,26 +688,21 @@ impl NaturalSpline {
         NaturalSpline { x, y, m }
     }
 
-    /// Value and derivative at `t` (clamped to the knot range: constant
-    /// outside, which does not occur for node positions).
+    /// Value and derivative at `t`; outside the knot range the straight
+    /// line through the end knot with its slope (the natural spline's
+    /// curvature is zero there, so the continuation is smooth).
     fn eval(&self, t: f64) -> (Complex64, Complex64) {
         let n = self.x.len();
         if n == 1 {
             return (self.y[0], Complex64::new(0.0, 0.0));
         }
-        if t <= self.x[0] {
-            return if t < self.x[0] {
-                (self.y[0], Complex64::new(0.0, 0.0))
-            } else {
-                self.piece(0, t)
-            };
+        if t < self.x[0] {
+            let (v, d) = self.piece(0, self.x[0]);
+            return (v + d * (t - self.x[0]), d);
         }
-        if t >= self.x[n - 1] {
-            return if t > self.x[n - 1] {
-                (self.y[n - 1], Complex64::new(0.0, 0.0))
-            } else {
-                self.piece(n - 2, t)
-            };
+        if t > self.x[n - 1] {
+            let (v, d) = self.piece(n - 2, self.x[n - 1]);
+            return (v + d * (t - self.x[n - 1]), d);
         }
         let i = self
             .x
@@ -760,5 +797,48 @@ mod tests {
         assert!((q[dof(0, Dir::PhiY)] - Complex64::new(0.0, 1.0) * pz).norm() < 1e-18);
         let f = fe.bow_force(&bow).unwrap();
         assert!(f.iter().map(|v| v.norm()).fold(0.0, f64::max) > 1.0);
+    }
+
+    /// The bow from the bearing line: with bearings at the two shaft ends
+    /// it is the shaft-end bow of the one point; with an overhung bearing
+    /// it is zero at every bearing, one at its node, and straight (no
+    /// curvature, no bow forcing) beyond the outermost bearings.
+    #[test]
+    fn line_bow_shape_is_zero_at_the_bearings_and_straight_outside() {
+        let m = RotorModel::paper();
+        let fe = FeModel::new(&m).unwrap();
+        let one = ShaftBow {
+            points: vec![BowPoint {
+                node: 9,
+                amplitude: 1.0,
+                phase: 0.0,
+            }],
+        };
+        let a = fe.bow_shape(&one).unwrap();
+        let b = fe.line_bow_shape(9, &[0, 26]).unwrap();
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).norm() <= 1e-15, "{x} vs {y}");
+        }
+        // Bearings at nodes 4 and 20 (overhangs at both ends), offset at 12.
+        let q = fe.line_bow_shape(12, &[4, 20]).unwrap();
+        assert!(q[dof(4, Dir::Y)].norm() < 1e-15 && q[dof(20, Dir::Y)].norm() < 1e-15);
+        assert!((q[dof(12, Dir::Y)] - 1.0).norm() < 1e-15);
+        let x = m.node_positions();
+        for ends in [[0, 1, 2, 3, 4], [20, 21, 22, 24, 26]] {
+            let slope = q[dof(ends[0], Dir::PhiZ)];
+            for &n in &ends {
+                assert!((q[dof(n, Dir::PhiZ)] - slope).norm() < 1e-12, "node {n}");
+                let lin = q[dof(ends[0], Dir::Y)] + slope * (x[n] - x[ends[0]]);
+                assert!((q[dof(n, Dir::Y)] - lin).norm() < 1e-12, "node {n}");
+            }
+        }
+        // A straight overhang carries no bow forcing beyond the bearing.
+        let f = fe.shaft_force(&q);
+        for n in [0, 1, 2, 3, 22, 23, 24, 25, 26] {
+            assert!(
+                f[dof(n, Dir::Y)].norm() < 1e-6 * f[dof(12, Dir::Y)].norm(),
+                "node {n}"
+            );
+        }
     }
 }

@@ -356,8 +356,9 @@ fn finding_line(f: &Finding) -> String {
             amplitude_std,
             phase_deg,
             phase_deg_std,
+            reference,
         } => format!(
-            "bow at node {node}: {:.2} +- {:.2} um at {phase_deg:.1} +- {phase_deg_std:.1} deg",
+            "bow at node {node} (from the {reference}): {:.2} +- {:.2} um at {phase_deg:.1} +- {phase_deg_std:.1} deg",
             amplitude * 1e6,
             amplitude_std * 1e6
         ),

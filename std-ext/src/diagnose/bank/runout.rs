@@ -1,6 +1,9 @@
-//! `probe_runout`: a constant phasor added to every channel, the better of
-//! two starts: the readings at the lowest speed, and the slow-roll
-//! estimate refined by the output-error fit that solves for the runout.
+//! `probe_runout`: a constant phasor added to every channel (the bearing
+//! channels and the probes at other nodes), the better of two starts: the
+//! readings at the lowest speed, and the slow-roll estimate refined by the
+//! output-error fit that solves for the runout.
+
+use num_complex::Complex64;
 
 use crate::diagnose::candidate::Candidate;
 use crate::diagnose::context::Context;
@@ -16,20 +19,29 @@ use crate::io::measurement::Sample;
 /// slow-roll runout refined with them; the better fit. `None` when the
 /// equations leave no room or the fit fails.
 pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
-    let m = ctx.with_ext(vec![Extension::Runout]);
+    let (samples, setup) = (ctx.samples, ctx.setup);
+    let nq = ctx.base.n_channels();
+    // The lowest speed's sample: its reading is mostly runout (the
+    // unbalance response vanishes like Omega^2).
+    let i_low = (0..samples.len()).min_by(|&a, &b| samples[a].omega.total_cmp(&samples[b].omega));
+    let node_low: Vec<Complex64> = i_low
+        .and_then(|i| ctx.node_q.get(i))
+        .cloned()
+        .unwrap_or_default();
+    let mut ext = vec![Extension::Runout];
+    ext.extend((0..node_low.len()).map(|k| Extension::NodeRunout { output: nq + k }));
+    let m = ctx.with_ext(ext);
     if !ctx.n_room(m.n_params()) {
         return None;
     }
-    let (samples, setup) = (ctx.samples, ctx.setup);
     let scales = setup.scales;
-    // Start: the reading at the lowest speed is mostly runout (the
-    // unbalance response vanishes like Omega^2); the nominal
-    // parameters refitted to the data without it.
-    let low = samples
+    let node_r0: Vec<f64> = node_low
         .iter()
-        .min_by(|a, b| a.omega.total_cmp(&b.omega))
-        .map(|s| s.q.clone())
-        .unwrap_or_default();
+        .flat_map(|r| [r.re / scales.q, r.im / scales.q])
+        .collect();
+    // Start: the lowest speed's readings as runout, the nominal
+    // parameters refitted to the data without it.
+    let low = i_low.map(|i| samples[i].q.clone()).unwrap_or_default();
     let corrected: Vec<Sample> = samples
         .iter()
         .map(|s| Sample {
@@ -53,6 +65,7 @@ pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
         Err(_) => ctx.theta0.clone(),
     };
     t.extend_from_slice(&r0);
+    t.extend_from_slice(&node_r0);
     t.resize(m.n_params(), 0.0);
     let mut best = fit::fit(&m, ctx.data, &t, 50).ok();
     // Second start: the slow-roll runout (fitted over the lowest speeds,
@@ -72,6 +85,7 @@ pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
     ) {
         if r2.len() == low.len() {
             t2.extend(r2.iter().flat_map(|r| [r.re / scales.q, r.im / scales.q]));
+            t2.extend_from_slice(&node_r0);
             t2.resize(m.n_params(), 0.0);
             if let Ok(f2) = fit::fit(&m, ctx.data, &t2, 50) {
                 if best.as_ref().is_none_or(|b| f2.s < b.s) {
@@ -83,7 +97,11 @@ pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
     let f = best?;
     Some(Candidate::new(
         vec![Effect::ProbeRunout],
-        "runout phasor on every channel".into(),
+        if node_low.is_empty() {
+            "runout phasor on every channel".into()
+        } else {
+            "runout phasor on every channel, node probes included".into()
+        },
         m,
         f,
         1.0,
