@@ -5,3 +5,4 @@ mod cases;
 mod cli;
 mod pedestal_grid;
 mod sensitivity;
+mod three_bearing;
