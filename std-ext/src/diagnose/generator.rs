@@ -23,7 +23,9 @@ use rand_chacha::ChaCha8Rng;
 use crate::diagnose::{rotor_mass, Effect};
 use crate::io::measurement::Measurements;
 use crate::model::extension::{Channel, Direction, Effects, ProbeGain, Runout};
-use crate::model::{BearingCoefficients, BearingLaw, BowPoint, Pedestal, RotorModel, Unbalance};
+use crate::model::{
+    BearingCoefficients, BearingLaw, BowPoint, Pedestal, RotorModel, TableInterpolation, Unbalance,
+};
 use crate::simulate::{simulate, SimOptions, SimulateError};
 use crate::units::rpm_to_rad_s;
 
@@ -69,13 +71,67 @@ pub struct Case {
     pub meas: Measurements,
 }
 
+/// The form an effect takes on a machine, beyond the bank's own
+/// hypothesis form ([`Form::Bank`]):
+///
+/// | form | effect | draw |
+/// |---|---|---|
+/// | `EOnly` | `shaft_stiffness_error` | E alone times `1 +- U(0.03, 0.10)`, G kept (a material off) |
+/// | `Diameter` | `shaft_stiffness_error` | the outer diameter of a third of the elements (a contiguous section) times `1 +- U(0.02, 0.05)`: stiffness and mass |
+/// | `FilmTable` | `speed_dependent_bearing` | a table over 6 speeds, linear between: direct stiffness `K (0.75 + 0.5 r^1.5)`, cross-coupled `+-0.3 K r` (signs of a fluid film: `k_yz > 0`, `k_zy < 0`), damping `C (1.4 - 0.6 r)`, `r = Omega / Omega_max` |
+/// | `PedestalMasses` | `foundation_flexibility` | the pedestal's z mass `U(1.2, 1.6)` times its y mass |
+/// | `TwoKnotBow` | `shaft_bow` | offsets at two interior nodes 2 to 4 apart (not bearings), `U(10, 50)` um and `U(0.6, 1)` of it, phases within 0.3 rad |
+/// | `DistributedUnbalance` | `extra_unbalance_plane` | the extra unbalance spread equally over three consecutive nodes (none a plane), phases within 0.2 rad |
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Form {
+    /// The bank's own form of the effect (the table of the module docs).
+    Bank,
+    /// E alone.
+    EOnly,
+    /// A section's diameter.
+    Diameter,
+    /// Bearing coefficients from a fluid-film-like table.
+    FilmTable,
+    /// A pedestal with different masses in y and z.
+    PedestalMasses,
+    /// A bow of two knots.
+    TwoKnotBow,
+    /// An extra unbalance spread over three nodes.
+    DistributedUnbalance,
+}
+
+impl Form {
+    /// The forms beyond the bank's, with their effect.
+    pub const MACHINE: [(Effect, Form); 6] = [
+        (Effect::ShaftStiffnessError, Form::EOnly),
+        (Effect::ShaftStiffnessError, Form::Diameter),
+        (Effect::SpeedDependentBearing, Form::FilmTable),
+        (Effect::FoundationFlexibility, Form::PedestalMasses),
+        (Effect::ShaftBow, Form::TwoKnotBow),
+        (Effect::ExtraUnbalancePlane, Form::DistributedUnbalance),
+    ];
+}
+
 /// Generates a case around `model` with `effect` hidden (`Effect::None`:
 /// nothing; `Unexplained` is not drawn), at the speeds `speeds_rpm`, with
 /// the noise `noise` or a drawn one.
-// Long (~200 lines): a short `match` arm per effect, the draws in the order the seeds fix.
 pub fn generate(
     model: &RotorModel,
     effect: Effect,
+    seed: u64,
+    speeds_rpm: &[f64],
+    noise: Option<f64>,
+) -> Result<Case, SimulateError> {
+    generate_form(model, effect, Form::Bank, seed, speeds_rpm, noise)
+}
+
+/// [`generate`] with the effect in the form `form` ([`Form`]; a form of
+/// another effect is the bank's form).
+// Long (~250 lines): a short `match` arm per effect, the draws in the order the seeds fix.
+pub fn generate_form(
+    model: &RotorModel,
+    effect: Effect,
+    form: Form,
     seed: u64,
     speeds_rpm: &[f64],
     noise: Option<f64>,
@@ -127,6 +183,34 @@ pub fn generate(
     let bearing_nodes = model.bearing_nodes();
     match effect {
         Effect::None | Effect::Unexplained => {}
+        Effect::SpeedDependentBearing if form == Form::FilmTable => {
+            let speeds: Vec<f64> = (0..6).map(|i| omega_max * i as f64 / 5.0).collect();
+            for b in &mut truth.bearings {
+                let co = b.law.at(0.0);
+                let (kd, cd) = (0.5 * (co.k[0] + co.k[3]), 0.5 * (co.c[0] + co.c[3]));
+                let coefficients = speeds
+                    .iter()
+                    .map(|&w| {
+                        let r = w / omega_max;
+                        let direct = 0.75 + 0.5 * r.powf(1.5);
+                        let cross = 0.3 * kd * r;
+                        let damp = 1.4 - 0.6 * r;
+                        BearingCoefficients {
+                            k: [co.k[0] * direct, cross, -cross, co.k[3] * direct],
+                            c: [co.c[0] * damp, 0.1 * cd * r, 0.1 * cd * r, co.c[3] * damp],
+                        }
+                    })
+                    .collect();
+                b.law = BearingLaw::Table {
+                    speeds: speeds.clone(),
+                    coefficients,
+                    interpolation: TableInterpolation::LinearHold,
+                };
+            }
+            hidden.size = 0.5;
+            hidden.description =
+                "bearings from a fluid-film-like table: K x (0.75 + 0.5 r^1.5), cross-coupling 0.3 K r, C x (1.4 - 0.6 r)".into();
+        }
         Effect::SpeedDependentBearing => {
             let kappa = rng.random_range(0.2..0.6) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
             for b in &mut truth.bearings {
@@ -151,10 +235,15 @@ pub fn generate(
             let wz = wy * rng.random_range(1.0..1.3);
             let zy = rng.random_range(0.02..0.08);
             let zz = rng.random_range(0.02..0.08);
+            let mz = if form == Form::PedestalMasses {
+                mass * rng.random_range(1.2..1.6)
+            } else {
+                mass
+            };
             let p = Pedestal {
-                mass: [mass, mass],
-                k: [mass * wy * wy, mass * wz * wz],
-                c: [2.0 * zy * mass * wy, 2.0 * zz * mass * wz],
+                mass: [mass, mz],
+                k: [mass * wy * wy, mz * wz * wz],
+                c: [2.0 * zy * mass * wy, 2.0 * zz * mz * wz],
             };
             truth.bearings[b].pedestal = Some(p);
             hidden.bearing = Some(b);
@@ -179,6 +268,24 @@ pub fn generate(
                 amplitude,
                 phase,
             });
+            if form == Form::TwoKnotBow {
+                // A second knot 2-4 nodes away on the side with room, not a
+                // bearing or a shaft end.
+                let gap = rng.random_range(2..=4);
+                let second = if node + gap < n_nodes - 1 && !bearing_nodes.contains(&(node + gap)) {
+                    node + gap
+                } else {
+                    node.saturating_sub(gap).max(1)
+                };
+                if second != node && !bearing_nodes.contains(&second) {
+                    effects.bow.push(BowPoint {
+                        node: second,
+                        amplitude: amplitude * rng.random_range(0.6..1.0),
+                        phase: phase + rng.random_range(-0.3..0.3),
+                    });
+                    effects.bow.sort_by_key(|p| p.node);
+                }
+            }
             hidden.node = Some(node);
             hidden.size = amplitude;
             hidden.phase = phase;
@@ -231,7 +338,33 @@ pub fn generate(
             let node = nodes[rng.random_range(0..nodes.len())];
             let me = me_ref * rng.random_range(0.3..1.0);
             let phase = deg(&mut rng);
-            effects.extra_unbalance.push(Unbalance { node, me, phase });
+            let spread: Vec<usize> = if form == Form::DistributedUnbalance {
+                // Three consecutive nodes, none a plane, `node` in the middle
+                // where there is room.
+                let run: Vec<usize> = (node.saturating_sub(1)..=(node + 1).min(n_nodes - 1))
+                    .filter(|n| !model.planes.contains(n))
+                    .collect();
+                if run.len() == 3 {
+                    run
+                } else {
+                    vec![node]
+                }
+            } else {
+                vec![node]
+            };
+            let share = me / spread.len() as f64;
+            for &n in &spread {
+                let ph = if spread.len() > 1 {
+                    phase + rng.random_range(-0.2..0.2)
+                } else {
+                    phase
+                };
+                effects.extra_unbalance.push(Unbalance {
+                    node: n,
+                    me: share,
+                    phase: ph,
+                });
+            }
             hidden.node = Some(node);
             hidden.size = me;
             hidden.phase = phase;
@@ -239,6 +372,30 @@ pub fn generate(
                 "extra unbalance {me:.3e} kg m at node {}, {:.0} deg",
                 node + 1,
                 phase.to_degrees()
+            );
+        }
+        Effect::ShaftStiffnessError if form == Form::EOnly => {
+            let d = rng.random_range(0.03..0.10) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            for el in &mut truth.shaft {
+                el.material.e *= 1.0 + d;
+            }
+            hidden.size = 1.0 + d;
+            hidden.description = format!("shaft E alone x {:.4}", 1.0 + d);
+        }
+        Effect::ShaftStiffnessError if form == Form::Diameter => {
+            let d = rng.random_range(0.02..0.05) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            let n_el = truth.shaft.len();
+            let len = (n_el / 3).max(1);
+            let first = rng.random_range(0..=n_el - len);
+            for el in &mut truth.shaft[first..first + len] {
+                el.outer_diameter *= 1.0 + d;
+            }
+            hidden.size = 1.0 + d;
+            hidden.description = format!(
+                "outer diameter of elements {}..{} x {:.4}",
+                first + 1,
+                first + len,
+                1.0 + d
             );
         }
         Effect::ShaftStiffnessError => {
