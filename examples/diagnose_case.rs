@@ -5,7 +5,9 @@
 //!
 //! ```sh
 //! cargo run --release --example diagnose_case -- shaft_bow 3 draw
-//! cargo run --release --example diagnose_case -- EFFECT [SEED [NOISE [MODEL [RPM_MAX [FLOOR_UM GRADE]]]]]
+//! cargo run --release --example diagnose_case -- EFFECT [SEED [NOISE [MODEL [RPM_MAX [FLOOR_UM GRADE [FORM]]]]]]
+//! # a case of the machine-form cases (form FilmTable, its seed 2_000_003 (k + 1) + n):
+//! cargo run --release --example diagnose_case -- speed_dependent_bearing 6000012 0.005 paper 15000 0.5 6.3 FilmTable
 //! # a case of the realistic confusion matrix (seed 1_000_003 (effect + 1) + k):
 //! cargo run --release --example diagnose_case -- foundation_flexibility 3000010 0.005 paper 15000 0.5 6.3
 //! ```
@@ -15,9 +17,11 @@
 //! own draw, as the confusion matrix does; MODEL `paper` or a model file;
 //! RPM_MAX the top speed (15000); FLOOR_UM a probe noise floor (um, SPEC
 //! section 7) added to the case, and GRADE a balance grade (mm/s) the
-//! model's unbalance is scaled to, as the realistic confusion matrix does.
+//! model's unbalance is scaled to, as the realistic confusion matrix does;
+//! FORM one of `generator::Form` (`Bank`, `EOnly`, `Diameter`,
+//! `FilmTable`, `PedestalMasses`, `TwoKnotBow`, `DistributedUnbalance`).
 
-use rotorid::diagnose::generator::generate;
+use rotorid::diagnose::generator::{generate_form, Form};
 use rotorid::diagnose::{diagnose, DiagnoseOptions, Effect};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -48,7 +52,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let speeds: Vec<f64> = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
 
-    let mut case = generate(&model, effect, seed, &speeds, noise)?;
+    let form = match arg(7) {
+        None => Form::Bank,
+        Some(name) => [Form::Bank]
+            .into_iter()
+            .chain(Form::MACHINE.map(|(_, f)| f))
+            .find(|f| format!("{f:?}") == name)
+            .ok_or(format!("no form named {name}"))?,
+    };
+    let mut case = generate_form(&model, effect, form, seed, &speeds, noise)?;
     rotorid::simulate::add_floor_noise(&mut case.meas, floor, seed)?;
     let d = diagnose(&model, &case.meas, &DiagnoseOptions::default())?;
     println!("hidden {} (noise {})", case.hidden.description, case.noise);
