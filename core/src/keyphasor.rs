@@ -121,6 +121,11 @@ pub struct Keyphasor<T> {
     level: T,
     rearm: T,
     armed: bool,
+    /// The samples that change nothing but `prev`, `lo <= k < hi`: armed,
+    /// `[-M, L)` (`M` the largest finite `f32`: no event, stays armed);
+    /// disarmed, `[L - h, inf)` (stays disarmed). Every other sample
+    /// (infinite, NaN, or one that arms or fires) takes the full test.
+    quiet: [T; 2],
     prev: T,
     /// Index the next sample gets.
     next: u64,
@@ -143,9 +148,19 @@ impl<T: Real> Keyphasor<T> {
             level,
             rearm,
             armed: false,
+            quiet: Self::quiet_range(false, level, rearm),
             prev: T::zero(),
             next: 0,
         })
+    }
+
+    /// [`Keyphasor::quiet`] for the armed state `armed`.
+    fn quiet_range(armed: bool, level: T, rearm: T) -> [T; 2] {
+        if armed {
+            [-T::lit(f64::from(f32::MAX)), level]
+        } else {
+            [rearm, T::lit(f64::INFINITY)]
+        }
     }
 
     /// The level `L`.
@@ -166,14 +181,30 @@ impl<T: Real> Keyphasor<T> {
     /// Back to the state of [`Keyphasor::new`] (disarmed, sample count 0).
     pub fn reset(&mut self) {
         self.armed = false;
+        self.quiet = Self::quiet_range(false, self.level, self.rearm);
         self.prev = T::zero();
         self.next = 0;
     }
 
     /// One sample `k` of the pulse channel.
+    #[inline]
     pub fn push(&mut self, k: T) -> Crossing<T> {
         let n = self.next;
         self.next = self.next.wrapping_add(1);
+        // Two comparisons for the samples that change nothing (NaN fails
+        // both).
+        if k >= self.quiet[0] && k < self.quiet[1] {
+            self.prev = k;
+            return Crossing::None;
+        }
+        let out = self.change(k, n);
+        self.quiet = Self::quiet_range(self.armed, self.level, self.rearm);
+        out
+    }
+
+    /// [`Keyphasor::push`] of a sample `k` (index `n`) outside the quiet
+    /// range.
+    fn change(&mut self, k: T, n: u64) -> Crossing<T> {
         if !k.is_finite() {
             self.armed = false;
             return Crossing::Invalid;

@@ -105,6 +105,7 @@ use crate::ordertrack::{
     MAX_CAPACITY,
 };
 use crate::scalar::Real;
+use core::marker::PhantomData;
 use num_complex::Complex;
 
 /// The default [`StreamTracker::angle_tolerance`] (rad).
@@ -168,21 +169,28 @@ pub struct StreamOutput<T, const NC: usize> {
 }
 
 /// What [`StreamTracker::push_sample`] brought, for
-/// [`StreamTracker::finish_sample`].
+/// [`StreamTracker::finish_sample`]: a few flags (the event's time is kept
+/// in the tracker), so that it travels in a register.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[must_use]
 pub struct SampleOutcome<T> {
-    /// The open revolution has run longer than any allowed.
-    overrun: bool,
-    /// The keyphasor channel's sample.
-    crossing: Crossing<T>,
+    /// [`OVERRUN`], [`INVALID`], [`EVENT`].
+    flags: u8,
+    scalar: PhantomData<T>,
 }
+
+/// The open revolution has run longer than any allowed.
+const OVERRUN: u8 = 1;
+/// The keyphasor channel's sample is not finite.
+const INVALID: u8 = 2;
+/// A keyphasor event (its time in [`StreamTracker::event`]).
+const EVENT: u8 = 4;
 
 impl<T> SampleOutcome<T> {
     /// Nothing to finish: no event, a finite keyphasor sample, no
     /// revolution run too long.
     pub fn is_quiet(&self) -> bool {
-        !self.overrun && matches!(self.crossing, Crossing::None)
+        self.flags == 0
     }
 }
 
@@ -261,6 +269,9 @@ pub struct StreamTracker<T, const NC: usize> {
     /// revolution's start).
     done: usize,
     open: Option<Open<T, NC>>,
+    /// The keyphasor event of the last sample that had one (for
+    /// [`StreamTracker::finish_sample`]).
+    event: EventTime<T>,
     /// The two last periods (samples): `[P', P]`.
     periods: [Option<T>; 2],
     seq: u64,
@@ -294,6 +305,10 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             pos: 0,
             done: 0,
             open: None,
+            event: EventTime {
+                sample: 0,
+                frac: T::zero(),
+            },
             periods: [None; 2],
             seq: 0,
             counts: Counts::default(),
@@ -344,6 +359,10 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         self.pos = 0;
         self.done = 0;
         self.open = None;
+        self.event = EventTime {
+            sample: 0,
+            frac: T::zero(),
+        };
         self.periods = [None; 2];
         self.seq = 0;
         self.counts = Counts::default();
@@ -384,9 +403,11 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     // index proven: ring indices masked.
     #[allow(clippy::indexing_slicing)]
     pub fn push_sample(&mut self, kp: T, y: &[T; NC]) -> SampleOutcome<T> {
-        let mut overrun = false;
+        let mut flags = 0;
         if let Some(o) = &mut self.open {
-            overrun = o.since >= self.max_samples;
+            if o.since >= self.max_samples {
+                flags = OVERRUN;
+            }
             o.since += 1;
         }
         let pos = self.pos;
@@ -394,11 +415,19 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         self.pos = pos.wrapping_add(1);
         if self.pos & (BLOCK - 1) == 0 {
             // A whole block: its samples from `done` on.
-            self.fold(pos & !(BLOCK - 1) & MASK, BLOCK);
+            self.fold_block(pos & !(BLOCK - 1) & MASK);
+        }
+        match self.kp.push(kp) {
+            Crossing::None => {}
+            Crossing::Invalid => flags |= INVALID,
+            Crossing::Event(e) => {
+                self.event = e;
+                flags |= EVENT;
+            }
         }
         SampleOutcome {
-            overrun,
-            crossing: self.kp.push(kp),
+            flags,
+            scalar: PhantomData,
         }
     }
 
@@ -409,32 +438,36 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     /// dropped, a revolution closed and the next opened at an event.
     pub fn finish_sample(&mut self, outcome: SampleOutcome<T>) -> Option<StreamOutput<T, NC>> {
         let mut out = None;
-        if outcome.overrun {
+        if outcome.flags & OVERRUN != 0 {
             if let Some(o) = &self.open {
                 let start = o.start;
                 out = Some(self.drop_open(start, Rejection::NoEvent));
             }
         }
-        match outcome.crossing {
-            Crossing::None => {}
-            Crossing::Invalid => {
-                if let Some(o) = &self.open {
-                    let start = o.start;
-                    out = Some(self.drop_open(start, Rejection::NonFinite));
-                }
-                self.periods = [None; 2];
+        if outcome.flags & INVALID != 0 {
+            if let Some(o) = &self.open {
+                let start = o.start;
+                out = Some(self.drop_open(start, Rejection::NonFinite));
             }
-            Crossing::Event(e) => {
-                // The block so far (empty when it has just been folded).
-                let p = self.pos;
-                self.fold(p & !(BLOCK - 1) & MASK, p & (BLOCK - 1));
-                if self.open.is_some() {
-                    out = self.close(e);
-                }
-                self.start(e);
+            self.periods = [None; 2];
+        } else if outcome.flags & EVENT != 0 {
+            let e = self.event;
+            // The block so far (empty when it has just been folded).
+            let p = self.pos;
+            self.fold(p & !(BLOCK - 1) & MASK, p & (BLOCK - 1));
+            if self.open.is_some() {
+                out = self.close(e);
             }
+            self.start(e);
         }
         out
+    }
+
+    /// [`StreamTracker::fold`] of a whole block, out of the per-sample
+    /// path's line (its registers are saved only once a block).
+    #[inline(never)]
+    fn fold_block(&mut self, slot: usize) {
+        self.fold(slot, BLOCK);
     }
 
     /// Adds the samples `done .. to` of the block at ring slot `slot` (0 or
