@@ -308,4 +308,81 @@ mod tests {
         assert_eq!(a.since(&b), -511.5);
         assert!((b.seconds(25600.0) - ((1u64 << 40) as f64 + 511.75) / 25600.0).abs() < 1e-9);
     }
+
+    /// The quiet range's two comparisons give what the full test gives:
+    /// against the rule of the module documentation written out per
+    /// sample, on a pulse train with noise, non-finite samples, samples
+    /// right on both levels and beyond the largest `f32`.
+    #[test]
+    fn the_quiet_range_changes_nothing() {
+        fn reference(state: &mut (bool, f64), level: f64, rearm: f64, k: f64) -> Crossing<f64> {
+            let (armed, prev) = *state;
+            if !k.is_finite() {
+                state.0 = false;
+                return Crossing::Invalid;
+            }
+            let mut out = Crossing::None;
+            let mut armed_now = armed;
+            if armed && k >= level {
+                out = Crossing::Event(EventTime {
+                    sample: 0,
+                    frac: (level - prev) / (k - prev),
+                });
+                armed_now = false;
+            }
+            if k < rearm {
+                armed_now = true;
+            }
+            *state = (armed_now, k);
+            out
+        }
+        let (level, hysteresis) = (0.5, 0.2);
+        let mut kp = Keyphasor::<f64>::new(level, hysteresis).unwrap();
+        let mut state = (false, 0.0);
+        let special = [
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.5,
+            0.3,
+            f64::from(f32::MAX) * 4.0,
+            -f64::from(f32::MAX) * 4.0,
+            1.0,
+        ];
+        let mut seed = 12345u64;
+        let (mut events, mut invalid) = (0, 0);
+        for i in 0..20_000u64 {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
+            let pulse = if (i / 37) % 2 == 0 { 0.0 } else { 1.0 };
+            let k = if u < 0.01 {
+                special[(seed >> 3) as usize % special.len()]
+            } else {
+                pulse + 0.05 * (u - 0.5)
+            };
+            let got = kp.push(k);
+            let want = reference(&mut state, level, level - hysteresis, k);
+            match (got, want) {
+                (Crossing::Event(g), Crossing::Event(w)) => {
+                    events += 1;
+                    assert_eq!(g.sample, i - 1);
+                    let frac = if w.frac > 0.0 && w.frac <= 1.0 {
+                        w.frac
+                    } else {
+                        1.0
+                    };
+                    assert_eq!(g.frac, frac);
+                }
+                (Crossing::Invalid, Crossing::Invalid) => invalid += 1,
+                (Crossing::None, Crossing::None) => {}
+                (g, w) => panic!("sample {i} ({k}): {g:?} against {w:?}"),
+            }
+        }
+        assert!(
+            events > 200 && invalid > 20,
+            "{events} events, {invalid} invalid"
+        );
+    }
 }
