@@ -121,6 +121,11 @@ pub struct Keyphasor<T> {
     level: T,
     rearm: T,
     armed: bool,
+    /// The samples that change nothing but `prev`, `lo <= k < hi`: armed,
+    /// `[-M, L)` (`M` the largest finite `f32`: no event, stays armed);
+    /// disarmed, `[L - h, inf)` (stays disarmed). Every other sample
+    /// (infinite, NaN, or one that arms or fires) takes the full test.
+    quiet: [T; 2],
     prev: T,
     /// Index the next sample gets.
     next: u64,
@@ -143,9 +148,19 @@ impl<T: Real> Keyphasor<T> {
             level,
             rearm,
             armed: false,
+            quiet: Self::quiet_range(false, level, rearm),
             prev: T::zero(),
             next: 0,
         })
+    }
+
+    /// [`Keyphasor::quiet`] for the armed state `armed`.
+    fn quiet_range(armed: bool, level: T, rearm: T) -> [T; 2] {
+        if armed {
+            [-T::lit(f64::from(f32::MAX)), level]
+        } else {
+            [rearm, T::lit(f64::INFINITY)]
+        }
     }
 
     /// The level `L`.
@@ -166,14 +181,30 @@ impl<T: Real> Keyphasor<T> {
     /// Back to the state of [`Keyphasor::new`] (disarmed, sample count 0).
     pub fn reset(&mut self) {
         self.armed = false;
+        self.quiet = Self::quiet_range(false, self.level, self.rearm);
         self.prev = T::zero();
         self.next = 0;
     }
 
     /// One sample `k` of the pulse channel.
+    #[inline]
     pub fn push(&mut self, k: T) -> Crossing<T> {
         let n = self.next;
         self.next = self.next.wrapping_add(1);
+        // Two comparisons for the samples that change nothing (NaN fails
+        // both).
+        if k >= self.quiet[0] && k < self.quiet[1] {
+            self.prev = k;
+            return Crossing::None;
+        }
+        let out = self.change(k, n);
+        self.quiet = Self::quiet_range(self.armed, self.level, self.rearm);
+        out
+    }
+
+    /// [`Keyphasor::push`] of a sample `k` (index `n`) outside the quiet
+    /// range.
+    fn change(&mut self, k: T, n: u64) -> Crossing<T> {
         if !k.is_finite() {
             self.armed = false;
             return Crossing::Invalid;
@@ -276,5 +307,82 @@ mod tests {
         assert_eq!(b.since(&a), 511.5);
         assert_eq!(a.since(&b), -511.5);
         assert!((b.seconds(25600.0) - ((1u64 << 40) as f64 + 511.75) / 25600.0).abs() < 1e-9);
+    }
+
+    /// The quiet range's two comparisons give what the full test gives:
+    /// against the rule of the module documentation written out per
+    /// sample, on a pulse train with noise, non-finite samples, samples
+    /// right on both levels and beyond the largest `f32`.
+    #[test]
+    fn the_quiet_range_changes_nothing() {
+        fn reference(state: &mut (bool, f64), level: f64, rearm: f64, k: f64) -> Crossing<f64> {
+            let (armed, prev) = *state;
+            if !k.is_finite() {
+                state.0 = false;
+                return Crossing::Invalid;
+            }
+            let mut out = Crossing::None;
+            let mut armed_now = armed;
+            if armed && k >= level {
+                out = Crossing::Event(EventTime {
+                    sample: 0,
+                    frac: (level - prev) / (k - prev),
+                });
+                armed_now = false;
+            }
+            if k < rearm {
+                armed_now = true;
+            }
+            *state = (armed_now, k);
+            out
+        }
+        let (level, hysteresis) = (0.5, 0.2);
+        let mut kp = Keyphasor::<f64>::new(level, hysteresis).unwrap();
+        let mut state = (false, 0.0);
+        let special = [
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.5,
+            0.3,
+            f64::from(f32::MAX) * 4.0,
+            -f64::from(f32::MAX) * 4.0,
+            1.0,
+        ];
+        let mut seed = 12345u64;
+        let (mut events, mut invalid) = (0, 0);
+        for i in 0..20_000u64 {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
+            let pulse = if (i / 37) % 2 == 0 { 0.0 } else { 1.0 };
+            let k = if u < 0.01 {
+                special[(seed >> 3) as usize % special.len()]
+            } else {
+                pulse + 0.05 * (u - 0.5)
+            };
+            let got = kp.push(k);
+            let want = reference(&mut state, level, level - hysteresis, k);
+            match (got, want) {
+                (Crossing::Event(g), Crossing::Event(w)) => {
+                    events += 1;
+                    assert_eq!(g.sample, i - 1);
+                    let frac = if w.frac > 0.0 && w.frac <= 1.0 {
+                        w.frac
+                    } else {
+                        1.0
+                    };
+                    assert_eq!(g.frac, frac);
+                }
+                (Crossing::Invalid, Crossing::Invalid) => invalid += 1,
+                (Crossing::None, Crossing::None) => {}
+                (g, w) => panic!("sample {i} ({k}): {g:?} against {w:?}"),
+            }
+        }
+        assert!(
+            events > 200 && invalid > 20,
+            "{events} events, {invalid} invalid"
+        );
     }
 }

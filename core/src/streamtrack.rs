@@ -73,11 +73,11 @@
 //! every sample (a constant integrates to zero; the sums then carry the
 //! vibration, not a probe's gap, in their rounding).
 //!
-//! The ADC range test costs four operations a channel-sample: a
-//! multiply-subtract maps
-//! the range to `(-2, 2)`, whose high word then tells, with an integer
-//! subtract-shifted, whether the sample is surely inside; a block with a
-//! sample near or beyond a limit is tested exactly.
+//! The ADC range test costs three operations a channel-sample: a
+//! multiply-subtract maps the range to `(-2, 2)`, whose high word's bit
+//! 30 (the top bit of the exponent), ORed over the block, tells whether
+//! every sample is surely inside; a block with a sample near or beyond a
+//! limit is tested exactly.
 //!
 //! [`StreamTracker::push`] is [`StreamTracker::push_sample`], the work of
 //! every sample, followed when needed by [`StreamTracker::finish_sample`],
@@ -105,6 +105,7 @@ use crate::ordertrack::{
     MAX_CAPACITY,
 };
 use crate::scalar::Real;
+use core::marker::PhantomData;
 use num_complex::Complex;
 
 /// The default [`StreamTracker::angle_tolerance`] (rad).
@@ -168,21 +169,28 @@ pub struct StreamOutput<T, const NC: usize> {
 }
 
 /// What [`StreamTracker::push_sample`] brought, for
-/// [`StreamTracker::finish_sample`].
+/// [`StreamTracker::finish_sample`]: a few flags (the event's time is kept
+/// in the tracker), so that it travels in a register.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[must_use]
 pub struct SampleOutcome<T> {
-    /// The open revolution has run longer than any allowed.
-    overrun: bool,
-    /// The keyphasor channel's sample.
-    crossing: Crossing<T>,
+    /// [`OVERRUN`], [`INVALID`], [`EVENT`].
+    flags: u8,
+    scalar: PhantomData<T>,
 }
+
+/// The open revolution has run longer than any allowed.
+const OVERRUN: u8 = 1;
+/// The keyphasor channel's sample is not finite.
+const INVALID: u8 = 2;
+/// A keyphasor event (its time in [`StreamTracker::event`]).
+const EVENT: u8 = 4;
 
 impl<T> SampleOutcome<T> {
     /// Nothing to finish: no event, a finite keyphasor sample, no
     /// revolution run too long.
     pub fn is_quiet(&self) -> bool {
-        !self.overrun && matches!(self.crossing, Crossing::None)
+        self.flags == 0
     }
 }
 
@@ -190,8 +198,6 @@ impl<T> SampleOutcome<T> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Open<T, const NC: usize> {
     start: EventTime<T>,
-    /// Samples pushed since the start event was found.
-    since: usize,
     /// `w`, `a` of the prediction (`None`: fewer than two periods before).
     angle: Option<(T, T)>,
     /// `exp(-j theta^)` of the next sample, and `theta^'` there.
@@ -253,6 +259,9 @@ pub struct StreamTracker<T, const NC: usize> {
     /// Twice the longest revolution allowed and 7 (samples): a revolution
     /// without its end event by then is dropped ([`Rejection::NoEvent`]).
     max_samples: usize,
+    /// `pos` at the open revolution's start and `max_samples` (wrapping):
+    /// the sample that finds it run too long.
+    deadline: usize,
     /// The last 32 samples, sample `i` at `ring[i & MASK]`; `pos` samples
     /// pushed (wrapping), the block's `n` the last.
     ring: [[T; NC]; RING],
@@ -261,6 +270,9 @@ pub struct StreamTracker<T, const NC: usize> {
     /// revolution's start).
     done: usize,
     open: Option<Open<T, NC>>,
+    /// The keyphasor event of the last sample that had one (for
+    /// [`StreamTracker::finish_sample`]).
+    event: EventTime<T>,
     /// The two last periods (samples): `[P', P]`.
     periods: [Option<T>; 2],
     seq: u64,
@@ -290,10 +302,15 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             config,
             tolerance: T::lit(DEFAULT_ANGLE_TOLERANCE),
             max_samples,
+            deadline: max_samples,
             ring: [[T::zero(); NC]; RING],
             pos: 0,
             done: 0,
             open: None,
+            event: EventTime {
+                sample: 0,
+                frac: T::zero(),
+            },
             periods: [None; 2],
             seq: 0,
             counts: Counts::default(),
@@ -342,8 +359,13 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         self.kp.reset();
         self.ring = [[T::zero(); NC]; RING];
         self.pos = 0;
+        self.deadline = self.max_samples;
         self.done = 0;
         self.open = None;
+        self.event = EventTime {
+            sample: 0,
+            frac: T::zero(),
+        };
         self.periods = [None; 2];
         self.seq = 0;
         self.counts = Counts::default();
@@ -384,21 +406,31 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     // index proven: ring indices masked.
     #[allow(clippy::indexing_slicing)]
     pub fn push_sample(&mut self, kp: T, y: &[T; NC]) -> SampleOutcome<T> {
-        let mut overrun = false;
-        if let Some(o) = &mut self.open {
-            overrun = o.since >= self.max_samples;
-            o.since += 1;
-        }
+        // The keyphasor first: its sample is not kept across the block's
+        // fold.
+        let mut flags = match self.kp.push(kp) {
+            Crossing::None => 0,
+            Crossing::Invalid => INVALID,
+            Crossing::Event(e) => {
+                self.event = e;
+                EVENT
+            }
+        };
         let pos = self.pos;
+        // The open revolution's `max_samples + 1`-th sample (with none
+        // open, `finish_sample` has nothing to drop).
+        if pos == self.deadline {
+            flags |= OVERRUN;
+        }
         self.ring[pos & MASK] = *y;
         self.pos = pos.wrapping_add(1);
         if self.pos & (BLOCK - 1) == 0 {
             // A whole block: its samples from `done` on.
-            self.fold(pos & !(BLOCK - 1) & MASK, BLOCK);
+            self.fold_block(pos & !(BLOCK - 1) & MASK);
         }
         SampleOutcome {
-            overrun,
-            crossing: self.kp.push(kp),
+            flags,
+            scalar: PhantomData,
         }
     }
 
@@ -409,32 +441,36 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     /// dropped, a revolution closed and the next opened at an event.
     pub fn finish_sample(&mut self, outcome: SampleOutcome<T>) -> Option<StreamOutput<T, NC>> {
         let mut out = None;
-        if outcome.overrun {
+        if outcome.flags & OVERRUN != 0 {
             if let Some(o) = &self.open {
                 let start = o.start;
                 out = Some(self.drop_open(start, Rejection::NoEvent));
             }
         }
-        match outcome.crossing {
-            Crossing::None => {}
-            Crossing::Invalid => {
-                if let Some(o) = &self.open {
-                    let start = o.start;
-                    out = Some(self.drop_open(start, Rejection::NonFinite));
-                }
-                self.periods = [None; 2];
+        if outcome.flags & INVALID != 0 {
+            if let Some(o) = &self.open {
+                let start = o.start;
+                out = Some(self.drop_open(start, Rejection::NonFinite));
             }
-            Crossing::Event(e) => {
-                // The block so far (empty when it has just been folded).
-                let p = self.pos;
-                self.fold(p & !(BLOCK - 1) & MASK, p & (BLOCK - 1));
-                if self.open.is_some() {
-                    out = self.close(e);
-                }
-                self.start(e);
+            self.periods = [None; 2];
+        } else if outcome.flags & EVENT != 0 {
+            let e = self.event;
+            // The block so far (empty when it has just been folded).
+            let p = self.pos;
+            self.fold(p & !(BLOCK - 1) & MASK, p & (BLOCK - 1));
+            if self.open.is_some() {
+                out = self.close(e);
             }
+            self.start(e);
         }
         out
+    }
+
+    /// [`StreamTracker::fold`] of a whole block, out of the per-sample
+    /// path's line (its registers are saved only once a block).
+    #[inline(never)]
+    fn fold_block(&mut self, slot: usize) {
+        self.fold_rows_of::<true>(slot, BLOCK);
     }
 
     /// Adds the samples `done .. to` of the block at ring slot `slot` (0 or
@@ -444,15 +480,26 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     /// The ADC range test of a sample: `u = y s - m`, with `s = 2 / h`, `m =
     /// mid s`, `mid` the middle of the range and `h = (hi - lo) / 2 (1 - 8
     /// eps)`, is within `(-2, 2)` exactly when the high word `w` of `u`
-    /// (sign, exponent, leading mantissa bits) has `2 w < 2^31` (2.0 is
-    /// `0x4000_0000` in the high word of both precisions): the sign bit of
-    /// `0x7fff_ffff - 2 w`, ORed over the block. Clear, it proves `|y - mid|
-    /// < h` (the margin of `8 eps` covers the rounding of `u`), so no sample
-    /// is at or beyond a limit (a multiply-subtract, a move, a
-    /// subtract-shifted and an OR per sample); set (a sample near or beyond
+    /// (sign, exponent, leading mantissa bits) has bit 30 clear (2.0 is
+    /// `0x4000_0000` in the high word of both precisions, and every `|u| >=
+    /// 2`, infinity and NaN has that bit of the exponent set): bit 30 of
+    /// the words ORed over the block. Clear, it proves `|y - mid| < h` (the
+    /// margin of `8 eps` covers the rounding of `u`), so no sample is at or
+    /// beyond a limit (a multiply-subtract, a move and an OR per sample);
+    /// set (a sample near or beyond
     /// a limit, or not finite), the block is tested exactly, `(lo - y)(y -
     /// hi) <= 0`.
     fn fold(&mut self, slot: usize, to: usize) {
+        self.fold_rows_of::<false>(slot, to);
+    }
+
+    /// [`StreamTracker::fold`], with the loop of a whole block (a fixed
+    /// trip count) when `WHOLE` and the rows are one; the loop of any
+    /// length otherwise (the only one where the call is never for a whole
+    /// block: one copy of each loop in the per-sample half, one in the
+    /// rest).
+    #[inline(always)]
+    fn fold_rows_of<const WHOLE: bool>(&mut self, slot: usize, to: usize) {
         let from = self.done;
         self.done = to & (BLOCK - 1);
         let Some(o) = &mut self.open else { return };
@@ -462,14 +509,14 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         let rows = self.ring.get(slot + from..slot + to).unwrap_or(&[]);
         let range = (self.scale, self.mid_scaled);
         let series = &self.series;
-        let word = if let Ok(rows) = <&[[T; NC]; BLOCK]>::try_from(rows) {
-            // A whole block: a fixed trip count.
+        let whole = <&[[T; NC]; BLOCK]>::try_from(rows).ok().filter(|_| WHOLE);
+        let word = if let Some(rows) = whole {
             fold_rows(o, rows, range, series)
         } else {
             fold_rows(o, rows, range, series)
         };
         o.renormalise();
-        if word >> 31 != 0 {
+        if word & 0x4000_0000 != 0 {
             let (lo, hi) = (self.config.adc_min, self.config.adc_max);
             for y in rows.iter().flat_map(|r| r.iter()) {
                 o.outside |= ((lo - *y) * (*y - hi)).sign_word();
@@ -501,7 +548,6 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         };
         let mut o = Open {
             start: e,
-            since: 0,
             angle,
             p: zero,
             dtheta: T::zero(),
@@ -549,6 +595,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             o.head_left = 2;
         }
         self.open = Some(o);
+        self.deadline = self.pos.wrapping_add(self.max_samples);
     }
 
     /// A revolution dropped without its end event.
@@ -726,7 +773,7 @@ impl<T: Real> Series<T> {
 
 /// `sums[c] += sum_k q_k (rows[k][c] - reference[c])` for every channel,
 /// `q_k = p_k theta^'_k W_k` the open revolution's factors; returns the OR
-/// of the range words `0x7fff_ffff - 2 w` ([`StreamTracker::fold`]; `(s,
+/// of the range words, the high words `w` of `y s - m` ([`StreamTracker::fold`]; `(s,
 /// m)` the range's scale and scaled middle).
 ///
 /// The phasor: `p_(i+1) = p_i D_i` with the increment `D_i = E exp(-j a
@@ -751,7 +798,7 @@ fn fold_rows<T: Real, const NC: usize>(
         o.e * series.exp_neg_j(o.a * o.step, o.terms)
     };
     let (mut p, mut dtheta) = (o.p, o.dtheta);
-    let mut head = if o.head_left > 0 { o.head_left } else { 0 };
+    let mut head = o.head_left;
     for row in rows {
         let mut qs = dtheta;
         if head > 0 {
@@ -762,19 +809,33 @@ fn fold_rows<T: Real, const NC: usize>(
         p *= d;
         d *= o.r;
         dtheta += o.a;
-        for ((acc, y), y0) in sums.iter_mut().zip(row.iter()).zip(reference.iter()) {
-            let w = (*y * s - m).sign_word();
-            word |= 0x7fff_ffffu32.wrapping_sub(w << 1);
-            let v = *y - *y0;
-            acc.re += q.re * v;
-            acc.im += q.im * v;
-        }
+        word |= add_row(&mut sums, q, row, &reference, (s, m));
     }
     o.head_left = head;
     o.sums = sums;
     o.p = p;
     o.dtheta = dtheta;
     o.step += count::<T>(rows.len());
+    word
+}
+
+/// `sums[c] += q (row[c] - reference[c])` for every channel; the OR of the
+/// row's range words ([`fold_rows`]).
+#[inline(always)]
+fn add_row<T: Real, const NC: usize>(
+    sums: &mut [Complex<T>; NC],
+    q: Complex<T>,
+    row: &[T; NC],
+    reference: &[T; NC],
+    (s, m): (T, T),
+) -> u32 {
+    let mut word = 0u32;
+    for ((acc, y), y0) in sums.iter_mut().zip(row.iter()).zip(reference.iter()) {
+        word |= (*y * s - m).sign_word();
+        let v = *y - *y0;
+        acc.re += q.re * v;
+        acc.im += q.im * v;
+    }
     word
 }
 

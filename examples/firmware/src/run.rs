@@ -25,7 +25,7 @@ use core::fmt::{self, Write};
 use rotorid_core::identify::{Config, Estimates, IdentifierError};
 use rotorid_core::ordertrack::{Config as TrackerConfig, ConfigError};
 use rotorid_core::parametrization::COEFFICIENTS;
-use rotorid_core::streamtrack::StreamAverage;
+use rotorid_core::streamtrack::{SampleOutcome, StreamAverage};
 
 /// Hooks around each identifier update, tracker push and generated sample
 /// (stack painting, instruction-count markers on the target; nothing on the
@@ -224,11 +224,21 @@ fn track<P: Probe>(
     y: &[f32; NC],
 ) -> Option<StreamAverage<f32, NC>> {
     probe.before_push();
-    let a = crate::tracking::push(tracker, kp, y)
-        .and_then(|o| tracker.finish_sample(o))
-        .and_then(|o| o.average);
+    let outcome = crate::tracking::push(tracker, kp, y);
+    let a = if outcome.is_quiet() {
+        None
+    } else {
+        finish(tracker, outcome)
+    };
     probe.after_push();
     a
+}
+
+/// The once-a-revolution half of [`track`], out of its line (its frame
+/// and saved registers only when there is something to finish).
+#[inline(never)]
+fn finish(tracker: &mut Tracker, outcome: SampleOutcome<f32>) -> Option<StreamAverage<f32, NC>> {
+    tracker.finish_sample(outcome).and_then(|o| o.average)
 }
 
 /// The coast-down's samples through the tracker, its averages into the

@@ -15,14 +15,10 @@ pub type Tracker = StreamTracker<f32, NC>;
 
 /// The per-sample half of one sampling instant (`kp` the keyphasor, `y`
 /// the probes) through `tracker` (`StreamTracker::push_sample`); what it
-/// brought, if anything, for `StreamTracker::finish_sample` (about once a
-/// revolution, in the caller's crate, optimised for size).
+/// brought (a few flags, in a register), for `StreamTracker::finish_sample`
+/// when it is not quiet (about once a revolution, in the caller's crate,
+/// optimised for size).
 #[inline(never)]
-pub fn push(tracker: &mut Tracker, kp: f32, y: &[f32; NC]) -> Option<SampleOutcome<f32>> {
-    let outcome = tracker.push_sample(kp, y);
-    if outcome.is_quiet() {
-        None
-    } else {
-        Some(outcome)
-    }
+pub fn push(tracker: &mut Tracker, kp: f32, y: &[f32; NC]) -> SampleOutcome<f32> {
+    tracker.push_sample(kp, y)
 }
