@@ -203,8 +203,10 @@ pub struct ExtendedModel {
     pub relative_probes: bool,
 }
 
-/// One evaluation at one speed.
-struct Eval {
+/// One evaluation at one speed: what the Jacobian is formed from
+/// ([`ExtendedModel::evaluate`], then [`ExtendedModel::predict_from`]).
+#[derive(Debug, Clone)]
+pub struct Eval {
     q: DVector<Complex64>,
     y: DVector<Complex64>,
     h_inv: DMatrix<Complex64>,
@@ -217,7 +219,16 @@ struct Eval {
     gains: Vec<GainEval>,
 }
 
+impl Eval {
+    /// The probe readings `y` (m): the bearing channels, then the probes
+    /// at other nodes.
+    pub fn readings(&self) -> &DVector<Complex64> {
+        &self.y
+    }
+}
+
 /// A probe gain at one speed: `y_c = factor before`.
+#[derive(Debug, Clone)]
 struct GainEval {
     /// Output index.
     channel: usize,
@@ -230,6 +241,7 @@ struct GainEval {
 }
 
 /// The pedestal's matrices at one speed (bearing block from channel `i0`).
+#[derive(Debug, Clone)]
 struct PedEval {
     i0: usize,
     /// Parameter offset of the pedestal.
@@ -474,7 +486,6 @@ impl ExtendedModel {
     /// into it ([`ExtendedModel::n_outputs`]` x P`). `entries` are the
     /// nominal parameters' [`Entry`]s at this speed
     /// ([`Predictor::entries`]).
-    // Long (~240 lines): one pass filling the Jacobian's columns from one `eval`; a hot path.
     pub fn predict(
         &self,
         st: &SpeedTerms,
@@ -483,6 +494,34 @@ impl ExtendedModel {
         jac: Option<&mut DMatrix<Complex64>>,
     ) -> Result<DVector<Complex64>, PredictError> {
         let ev = self.eval(st, entries, theta)?;
+        self.predict_from(ev, st, entries, theta, jac)
+    }
+
+    /// The evaluation at one speed that [`ExtendedModel::predict`] starts
+    /// from: its readings are [`Eval::readings`]. Kept, it gives the
+    /// Jacobian at the same `theta` later without evaluating again
+    /// ([`ExtendedModel::predict_from`]).
+    pub fn evaluate(
+        &self,
+        st: &SpeedTerms,
+        entries: &[Entry],
+        theta: &[f64],
+    ) -> Result<Eval, PredictError> {
+        self.eval(st, entries, theta)
+    }
+
+    /// [`ExtendedModel::predict`] from `ev`, the evaluation of this model
+    /// at `st`, `entries` and `theta` ([`ExtendedModel::evaluate`]): the
+    /// same numbers, bit for bit.
+    // Long (~240 lines): one pass filling the Jacobian's columns from one `eval`; a hot path.
+    pub fn predict_from(
+        &self,
+        ev: Eval,
+        st: &SpeedTerms,
+        entries: &[Entry],
+        theta: &[f64],
+        jac: Option<&mut DMatrix<Complex64>>,
+    ) -> Result<DVector<Complex64>, PredictError> {
         let Some(jac_full) = jac else {
             return Ok(ev.y);
         };

@@ -60,7 +60,7 @@
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
-use crate::diagnose::extended::ExtendedModel;
+use crate::diagnose::extended::{Eval, ExtendedModel};
 use crate::diagnose::terms::SpeedTerms;
 use crate::estimate::predictor::{Entry, PredictError};
 use crate::io::measurement::Sample;
@@ -262,33 +262,88 @@ pub fn evaluate(
     theta: &[f64],
     jacobian: bool,
 ) -> Result<(DVector<f64>, Option<DMatrix<f64>>), PredictError> {
-    let p = model.n_params();
-    let n = data.n_equations();
-    let mut r = DVector::zeros(n);
-    let mut jac = jacobian.then(|| DMatrix::zeros(n, p));
+    if !jacobian {
+        return residuals(model, data, entries, theta).map(|(r, _)| (r, None));
+    }
+    let (r, evals) = residuals(model, data, entries, theta)?;
+    let j = jacobian_from(model, data, entries, theta, evals)?;
+    Ok((r, Some(j)))
+}
+
+/// The number of readings per sample, checked against every sample's
+/// readings, terms and weights.
+fn outputs(model: &ExtendedModel, data: &FitData<'_>) -> Result<usize, PredictError> {
     let nq = data.terms.first().map_or(0, |st| model.n_outputs(st));
-    let mut jz = DMatrix::<Complex64>::zeros(nq, p);
+    let ok = data.readings.len() == data.terms.len()
+        && data.inv_w.len() == data.terms.len()
+        && data
+            .readings
+            .iter()
+            .zip(data.terms)
+            .zip(&data.inv_w)
+            .all(|((m, st), w)| m.len() == nq && model.n_outputs(st) == nq && w.len() == nq);
+    if ok {
+        Ok(nq)
+    } else {
+        Err(PredictError::Dimension)
+    }
+}
+
+/// Weighted residuals at `theta` and the evaluation at every speed, from
+/// which [`jacobian_from`] forms the Jacobian at the same `theta`
+/// without evaluating the model again.
+fn residuals(
+    model: &ExtendedModel,
+    data: &FitData<'_>,
+    entries: &[Vec<Entry>],
+    theta: &[f64],
+) -> Result<(DVector<f64>, Vec<Eval>), PredictError> {
+    let nq = outputs(model, data)?;
+    let mut r = DVector::zeros(data.n_equations());
+    let mut evals = Vec::with_capacity(data.terms.len());
     for (k, (meas, st)) in data.readings.iter().zip(data.terms).enumerate() {
-        if meas.len() != nq || model.n_outputs(st) != nq || data.inv_w[k].len() != nq {
-            return Err(PredictError::Dimension);
+        let ev = model.evaluate(st, &entries[k], theta)?;
+        let y = ev.readings();
+        for c in 0..nq {
+            let row = 2 * (k * nq + c);
+            let d = (meas[c] - y[c]) * data.inv_w[k][c];
+            r[row] = d.re;
+            r[row + 1] = d.im;
         }
-        let y = model.predict(st, &entries[k], theta, jacobian.then_some(&mut jz))?;
+        evals.push(ev);
+    }
+    Ok((r, evals))
+}
+
+/// The weighted Jacobian (real rows: `Re`, `Im` of each reading) at the
+/// `theta` of `evals` ([`residuals`]).
+fn jacobian_from(
+    model: &ExtendedModel,
+    data: &FitData<'_>,
+    entries: &[Vec<Entry>],
+    theta: &[f64],
+    evals: Vec<Eval>,
+) -> Result<DMatrix<f64>, PredictError> {
+    let nq = outputs(model, data)?;
+    if evals.len() != data.terms.len() {
+        return Err(PredictError::Dimension);
+    }
+    let p = model.n_params();
+    let mut j = DMatrix::zeros(data.n_equations(), p);
+    let mut jz = DMatrix::<Complex64>::zeros(nq, p);
+    for (k, (ev, st)) in evals.into_iter().zip(data.terms).enumerate() {
+        model.predict_from(ev, st, &entries[k], theta, Some(&mut jz))?;
         for c in 0..nq {
             let iw = data.inv_w[k][c];
             let row = 2 * (k * nq + c);
-            let d = (meas[c] - y[c]) * iw;
-            r[row] = d.re;
-            r[row + 1] = d.im;
-            if let Some(j) = jac.as_mut() {
-                for i in 0..p {
-                    let v = jz[(c, i)] * iw;
-                    j[(row, i)] = v.re;
-                    j[(row + 1, i)] = v.im;
-                }
+            for i in 0..p {
+                let v = jz[(c, i)] * iw;
+                j[(row, i)] = v.re;
+                j[(row + 1, i)] = v.im;
             }
         }
     }
-    Ok((r, jac))
+    Ok(j)
 }
 
 /// `J^T J`, by one matrix product (nalgebra hands a product of this size
@@ -358,7 +413,7 @@ pub fn fit_with(
         let Some(j) = jac.as_ref() else { break };
         let jtj = gram(j);
         let g = j.tr_mul(&r);
-        let mut accepted = false;
+        let mut accepted: Option<(DVector<f64>, Vec<Eval>)> = None;
         for _ in 0..12 {
             let mut a = jtj.clone();
             for i in 0..p {
@@ -370,8 +425,8 @@ pub fn fit_with(
             };
             let step = ch.solve(&g);
             let trial: Vec<f64> = theta.iter().zip(step.iter()).map(|(t, d)| t + d).collect();
-            match evaluate(model, data, &en, &trial, false) {
-                Ok((rt, _)) => {
+            match residuals(model, data, &en, &trial) {
+                Ok((rt, evals)) => {
                     let st = rt.norm_squared();
                     if st.is_finite() && st <= s {
                         let small_step =
@@ -380,7 +435,7 @@ pub fn fit_with(
                         theta = trial;
                         s = st;
                         mu = (mu / 3.0).max(1e-12);
-                        accepted = true;
+                        accepted = Some((rt, evals));
                         if small_step || small_drop {
                             converged = true;
                         }
@@ -391,12 +446,12 @@ pub fn fit_with(
                 Err(_) => mu *= 4.0,
             }
         }
-        if !accepted {
+        let Some((r_new, evals)) = accepted else {
             // No step lowers S: a minimum to the precision of the model
             // (residual and Jacobian are those of `theta` still).
             converged = true;
             break;
-        }
+        };
         history.push(s);
         if !converged && history.len() > STALL_WINDOW {
             let before = history[history.len() - 1 - STALL_WINDOW];
@@ -407,9 +462,14 @@ pub fn fit_with(
             }
         }
         let last = converged || stalled || iterations == max_iter;
-        let (r2, j2) = evaluate(model, data, &en, &theta, !last || covariance)?;
-        r = r2;
-        jac = j2;
+        // The accepted trial's residuals and evaluations are those of the
+        // new `theta`: the Jacobian comes from them.
+        r = r_new;
+        jac = if !last || covariance {
+            Some(jacobian_from(model, data, &en, &theta, evals)?)
+        } else {
+            None
+        };
         if converged || stalled {
             break;
         }

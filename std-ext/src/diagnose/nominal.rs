@@ -79,6 +79,7 @@ impl Setup {
             structure,
             scaling,
             reference.as_ref(),
+            true,
         )?;
         // A runout the slow roll shows plainly: the noise model refined by
         // the nominal fit with the runout among its unknowns (as `identify`
@@ -92,6 +93,7 @@ impl Setup {
                     structure,
                     scaling,
                     reference.as_ref(),
+                    true,
                     Some(&e.runout),
                 ) {
                     Ok((_, _, f, _)) => f.or(fitted),
@@ -271,6 +273,12 @@ pub const MIN_RELATIVE_NOISE: f64 = 1e-3;
 /// The output-error estimate of the nominal parameters on `samples` with
 /// the terms `terms` (same order): QRD/RLS start, then
 /// [`fit_output_error_with`]. Returns the predictor and its scaled parameters.
+///
+/// `refine`: the noise model's variance parameters refined by the fit
+/// (the nominal fit, which settles the diagnosis's noise model), or held
+/// as given (the bank's starts: their fits are started from here and
+/// weighted by the diagnosis's noise model anyway, so a refinement would
+/// only cost passes).
 pub(crate) fn oe_start(
     model: &RotorModel,
     samples: &[Sample],
@@ -278,9 +286,12 @@ pub(crate) fn oe_start(
     structure: Structure,
     scaling: ColumnScaling<f64>,
     noise: Option<&NoiseModel>,
+    refine: bool,
 ) -> Result<(Predictor, Vec<f64>, Option<NoiseModel>), DiagnoseError> {
-    oe_start_with_runout(model, samples, terms, structure, scaling, noise, None)
-        .map(|(pr, theta, noise, _)| (pr, theta, noise))
+    oe_start_with_runout(
+        model, samples, terms, structure, scaling, noise, refine, None,
+    )
+    .map(|(pr, theta, noise, _)| (pr, theta, noise))
 }
 
 /// What [`oe_start_with_runout`] returns: the predictor, the scaled
@@ -300,6 +311,7 @@ pub(crate) fn oe_start_with_runout(
     structure: Structure,
     scaling: ColumnScaling<f64>,
     noise: Option<&NoiseModel>,
+    refine: bool,
     runout: Option<&[Complex64]>,
 ) -> Result<RunoutStart, DiagnoseError> {
     let mut o = Options::new(structure);
@@ -364,7 +376,7 @@ pub(crate) fn oe_start_with_runout(
     let oe = match noise.filter(|m| m.has_floor()) {
         Some(m) => fit(FitNoise {
             model: Some(m.clone()),
-            refine: true,
+            refine,
             runout: runout.clone(),
             ..Default::default()
         })

@@ -98,6 +98,7 @@ fn starts(ctx: &Context<'_>, m: &ExtendedModel) -> Result<(Start, Built), Diagno
             setup.structure,
             setup.scaling,
             setup.noise_model.as_ref(),
+            false,
         ) {
             let d = FitData::with_probes(ctx.samples, ctx.node_q, &te).with_floors(&setup.phi);
             let en = fit::entries(base, &d);

@@ -60,6 +60,7 @@ pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
         setup.structure,
         setup.scaling,
         setup.noise_model.as_ref(),
+        false,
     ) {
         Ok((_, th, _)) => th,
         Err(_) => ctx.theta0.clone(),
@@ -81,6 +82,7 @@ pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
         setup.structure,
         setup.scaling,
         setup.noise_model.as_ref(),
+        false,
         Some(&slow),
     ) {
         if r2.len() == low.len() {

@@ -50,6 +50,7 @@ pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
             Structure::physical(order),
             setup.scaling,
             setup.noise_model.as_ref(),
+            false,
         ) {
             if t2.len() == m.n_params() {
                 if let Ok(f2) = fit::fit(&m, ctx.data, &t2, 50) {
