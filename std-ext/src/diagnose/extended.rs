@@ -253,6 +253,12 @@ struct PedEval {
     s: Matrix2<Complex64>,
     /// `P` on the block: `S Z_P` (relative) or `I`.
     t: Matrix2<Complex64>,
+    /// `Z_P S`.
+    zp_s: Matrix2<Complex64>,
+    /// `S Z_P q_m` (`q_m` the shaft's motion at the bearing).
+    s_zp_q: nalgebra::Vector2<Complex64>,
+    /// `T q_m`.
+    t_q: nalgebra::Vector2<Complex64>,
 }
 
 /// The inverse of a small complex matrix: the output-error predictor's
@@ -387,6 +393,10 @@ impl ExtendedModel {
                         zp,
                         s,
                         t,
+                        zp_s: zp * s,
+                        // Set once `q` is known (below).
+                        s_zp_q: nalgebra::Vector2::zeros(),
+                        t_q: nalgebra::Vector2::zeros(),
                     });
                 }
                 Extension::Gain { .. } | Extension::NodeRunout { .. } => {}
@@ -395,6 +405,11 @@ impl ExtendedModel {
         let h_inv = invert(h).ok_or(PredictError::Singular { omega: st.omega })?;
         let q = &h_inv * f;
         let mut y = q.clone();
+        for pe in &mut ped {
+            let qm = nalgebra::Vector2::new(q[pe.i0], q[pe.i0 + 1]);
+            pe.s_zp_q = pe.s * pe.zp * qm;
+            pe.t_q = pe.t * qm;
+        }
         for pe in &ped {
             let i0 = pe.i0;
             for r in 0..2 {
@@ -544,14 +559,12 @@ impl ExtendedModel {
                 } else {
                     entries.len() + 5 * ev.ped.len()
                 });
-            // dq = -H^-1 [dZ_eff] q with dZ_eff = m2 on the block, into
-            // column `i`.
+            // dq = -H^-1 [dZ_eff] q with `u = dZ_eff q_m` on the block,
+            // into column `i`.
             let block_dq = |jac: &mut nalgebra::DMatrixViewMut<'_, Complex64>,
                             i: usize,
-                            m2: &Matrix2<Complex64>,
+                            u: &nalgebra::Vector2<Complex64>,
                             pe: &PedEval| {
-                let qm = nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]);
-                let u = m2 * qm;
                 for r in 0..nq {
                     jac[(r, i)] = -(ev.h_inv[(r, pe.i0)] * u[0] + ev.h_inv[(r, pe.i0 + 1)] * u[1]);
                 }
@@ -564,13 +577,16 @@ impl ExtendedModel {
                             (pe.i0..pe.i0 + 2).contains(&row) && (pe.i0..pe.i0 + 2).contains(&col)
                         });
                         if let Some(ip) = in_block {
+                            // `dZ_B = dz e_r e_c^T`: `dZ_eff q_m = (Z_P S) e_r
+                            // dz (S Z_P q_m)_c` and `dT q_m = -S e_r dz
+                            // (T q_m)_c`, outer products instead of the
+                            // matrix chain.
                             let pe = &ev.ped[ip];
-                            let mut e = Matrix2::<Complex64>::zeros();
-                            e[(row - pe.i0, col - pe.i0)] = dz;
-                            let dzeff = pe.zp * pe.s * e * pe.s * pe.zp;
-                            block_dq(&mut jac, i, &dzeff, pe);
+                            let (r, c) = (row - pe.i0, col - pe.i0);
+                            let u = pe.zp_s.column(r) * (dz * pe.s_zp_q[c]);
+                            block_dq(&mut jac, i, &u, pe);
                             if self.relative_probes {
-                                let d = -(pe.s * e * pe.t * qm(pe));
+                                let d = pe.s.column(r) * (-dz * pe.t_q[c]);
                                 extra.push((ip, i, [d[0], d[1]]));
                             }
                         } else {
@@ -653,7 +669,7 @@ impl ExtendedModel {
                                 }
                             }
                             let dzeff = pe.zb * pe.s * dzp * pe.s * pe.zb;
-                            block_dq(&mut jac, o + d, &dzeff, pe);
+                            block_dq(&mut jac, o + d, &(dzeff * qm), pe);
                             if self.relative_probes {
                                 let dt = pe.s * dzp * pe.s * pe.zb * qm;
                                 extra.push((ip, o + d, [dt[0], dt[1]]));
