@@ -1,5 +1,5 @@
 //! Where a diagnosis spends its time: one generated case per effect of the
-//! bank (and `none`) on the paper rotor, 300 speeds from 50 to 15000 rpm,
+//! bank (and `none`) on the paper rotor (or another), 300 speeds up to 15000 rpm,
 //! 0.1 % noise, each diagnosed once with every hypothesis; prints the
 //! wall-clock time of each stage ([`rotorid::diagnose::Diagnosis::stages`])
 //! and the total. The criterion benchmark `cargo bench --bench diagnose`
@@ -8,11 +8,15 @@
 //! ```sh
 //! cargo run --release --example diagnose_timing [SEED]
 //! cargo run --release --example diagnose_timing SEED realistic
+//! cargo run --release --example diagnose_timing SEED realistic tests/data/ross/stepped_hollow.toml 11000
+//! cargo run --release --example diagnose_timing SEED realistic tests/data/rotors/three_bearing.toml 12000
 //! ```
 //!
 //! `realistic`: the cases of the realistic confusion matrix instead, the
 //! unbalance at balance grade G6.3, 0.5 % relative noise and a 0.5 um
-//! probe floor (SPEC section 7).
+//! probe floor (SPEC section 7). Then, optionally, another rotor (a model
+//! file, rotorid's or ROSS's) and its top speed in rpm (300 speeds up to
+//! it).
 
 use rotorid::diagnose::generator::generate;
 use rotorid::diagnose::{diagnose, DiagnoseOptions, Effect};
@@ -27,22 +31,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => 11,
     };
     let realistic = std::env::args().nth(2).as_deref() == Some("realistic");
+    let base = match std::env::args().nth(3) {
+        Some(path) => rotorid::io::model_file::model_file_by_name_or_path(&path)?.model,
+        None => RotorModel::paper(),
+    };
+    let rpm_max: f64 = match std::env::args().nth(4) {
+        Some(s) => s.parse()?,
+        None => 15000.0,
+    };
     let model = if realistic {
-        rotorid::simulate::at_balance_grade(
-            &RotorModel::paper(),
-            6.3,
-            rotorid::units::rpm_to_rad_s(15000.0),
-        )
-        .ok_or("no unbalance to scale")?
+        rotorid::simulate::at_balance_grade(&base, 6.3, rotorid::units::rpm_to_rad_s(rpm_max))
+            .ok_or("no unbalance to scale")?
     } else {
-        RotorModel::paper()
+        base
     };
     let (noise, floor) = if realistic {
         (0.005, 0.5e-6)
     } else {
         (0.001, 0.0)
     };
-    let speeds: Vec<f64> = (1..=300).map(|i| 50.0 * i as f64).collect();
+    let speeds: Vec<f64> = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
     let mut effects = vec![Effect::None];
     effects.extend_from_slice(&Effect::BANK);
     let mut runs: Vec<Run> = Vec::new();
@@ -93,6 +101,7 @@ fn short(name: &str) -> &'static str {
         "probe_runout" => "runout",
         "extra_unbalance_plane" => "plane",
         "shaft_stiffness_error" => "modulus",
+        "probe_sensitivity" => "gain",
         _ => "unexpl.",
     }
 }

@@ -5,7 +5,8 @@
 //! node's unbalance and bow columns) and one nominal-model Jacobian pass.
 //! Then the same on realistic data, the cases of the realistic confusion
 //! matrix (unbalance at balance grade G6.3, 0.5 % relative noise and a
-//! 0.5 um probe floor).
+//! 0.5 um probe floor): `none`, and the three effects whose diagnoses took
+//! longest (a pedestal, runout, the shaft's modulus).
 //!
 //! `cargo bench --bench diagnose -- --warm-up-time 1 --measurement-time 20`
 
@@ -49,7 +50,12 @@ fn bench(c: &mut Criterion) {
     let real =
         rotorid::simulate::at_balance_grade(&model, 6.3, rotorid::units::rpm_to_rad_s(15000.0))
             .expect("unbalance");
-    for effect in [Effect::None, Effect::FoundationFlexibility] {
+    for effect in [
+        Effect::None,
+        Effect::FoundationFlexibility,
+        Effect::ProbeRunout,
+        Effect::ShaftStiffnessError,
+    ] {
         let mut case = generate(&real, effect, 11, &speeds, Some(0.005)).expect("case");
         rotorid::simulate::add_floor_noise(&mut case.meas, 0.5e-6, 11).expect("floor");
         g.bench_function(format!("diagnose_realistic_{}", effect.name()), |b| {
