@@ -149,7 +149,7 @@ fn run_case_form(
             // The hidden channel, or its pair's other channel at 1 / g
             // (`diagnose::sensitivity`).
             let ch = h.channel.unwrap();
-            let name = |c: usize| format!("b{}_{}", c / 2 + 1, if c % 2 == 0 { "y" } else { "z" });
+            let name = |c: usize| rotorid::model::extension::Channel::of_index(c).to_string();
             if *channel == name(ch) {
                 Some((*gain - 1.0, h.size - 1.0, *gain_std))
             } else if *channel == name(ch ^ 1) {

@@ -22,7 +22,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::diagnose::{rotor_mass, Effect};
 use crate::io::measurement::Measurements;
-use crate::model::extension::{Channel, Direction, Effects, ProbeGain, Runout};
+use crate::model::extension::{Channel, Effects, ProbeGain, Runout};
 use crate::model::{
     BearingCoefficients, BearingLaw, BowPoint, Pedestal, RotorModel, TableInterpolation, Unbalance,
 };
@@ -308,7 +308,7 @@ pub fn generate_form(
                 let amplitude = rng.random_range(3e-6..15e-6);
                 let phase = deg(&mut rng);
                 effects.runout.push(Runout {
-                    channel: channel_of(ch),
+                    channel: Channel::of_index(ch),
                     amplitude,
                     phase,
                 });
@@ -407,7 +407,7 @@ pub fn generate_form(
         Effect::ProbeSensitivity => {
             let ch = rng.random_range(0..2 * truth.bearings.len());
             let d = rng.random_range(0.05..0.20) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-            let channel = channel_of(ch);
+            let channel = Channel::of_index(ch);
             effects.probe_gain.push(ProbeGain {
                 channel,
                 factor: 1.0 + d,
@@ -415,9 +415,7 @@ pub fn generate_form(
             hidden.channel = Some(ch);
             hidden.size = 1.0 + d;
             hidden.description = format!(
-                "probe b{}_{} reads x {:.4}",
-                ch / 2 + 1,
-                if ch % 2 == 0 { "y" } else { "z" },
+                "probe {channel} reads x {:.4}",
                 1.0 + d
             );
         }
@@ -441,17 +439,6 @@ pub fn generate_form(
     })
 }
 
-/// The bearing channel of index `ch` (`b1_y, b1_z, b2_y, ...`).
-fn channel_of(ch: usize) -> Channel {
-    Channel {
-        bearing: ch / 2,
-        direction: if ch % 2 == 0 {
-            Direction::Y
-        } else {
-            Direction::Z
-        },
-    }
-}
 
 /// Draws the effect too: `none` or one of the bank, uniformly.
 pub fn draw(

@@ -99,6 +99,31 @@ impl Channel {
                 Direction::Z => 1,
             }
     }
+
+    /// The channel of index `ch` in `b1_y, b1_z, b2_y, ...` (the inverse
+    /// of [`Channel::index`]).
+    pub fn of_index(ch: usize) -> Channel {
+        Channel {
+            bearing: ch / 2,
+            direction: if ch % 2 == 0 {
+                Direction::Y
+            } else {
+                Direction::Z
+            },
+        }
+    }
+}
+
+/// The channel's name as in the measurement file's header: `b<k>_y` or
+/// `b<k>_z` (k 1-based), what [`Channel::parse`] reads.
+impl std::fmt::Display for Channel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let dir = match self.direction {
+            Direction::Y => "y",
+            Direction::Z => "z",
+        };
+        write!(f, "b{}_{dir}", self.bearing + 1)
+    }
 }
 
 /// Probe runout: a constant phasor added to one channel at every speed
@@ -228,25 +253,16 @@ impl Effects {
         }
         for r in &self.runout {
             out.push(format!(
-                "effect: runout on b{}_{}: {} m at {} deg",
-                r.channel.bearing + 1,
-                match r.channel.direction {
-                    Direction::Y => "y",
-                    Direction::Z => "z",
-                },
+                "effect: runout on {}: {} m at {} deg",
+                r.channel,
                 r.amplitude,
                 r.phase.to_degrees()
             ));
         }
         for g in &self.probe_gain {
             out.push(format!(
-                "effect: probe b{}_{} reads x {}",
-                g.channel.bearing + 1,
-                match g.channel.direction {
-                    Direction::Y => "y",
-                    Direction::Z => "z",
-                },
-                g.factor
+                "effect: probe {} reads x {}",
+                g.channel, g.factor
             ));
         }
         for u in &self.extra_unbalance {

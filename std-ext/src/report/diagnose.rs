@@ -11,6 +11,7 @@ use crate::diagnose::observe::Observability;
 use crate::diagnose::{estimates, Diagnosis, Effect, Finding};
 use crate::estimate::results::{BearingResult, UnbalanceResult};
 use crate::io::measurement::Sample;
+use crate::model::extension::Channel;
 use crate::report::plot::{line_plot_with, Marker, PlotError, PlotOptions, Series};
 use crate::units::rad_s_to_rpm;
 
@@ -443,7 +444,7 @@ pub fn write_plots(
     files.push(path);
     let nq = samples.first().map_or(0, |s| s.q.len());
     for c in 0..nq {
-        let name = format!("b{}_{}", c / 2 + 1, if c % 2 == 0 { "y" } else { "z" });
+        let name = Channel::of_index(c).to_string();
         let amp = |v: &dyn Fn(usize) -> f64| (0..samples.len()).map(v).collect::<Vec<f64>>();
         // The nominal model as a pale wide band under the rest: where the
         // extended model equals it (effect `none`) both stay visible.

@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use num_complex::Complex64;
 
 use crate::io::measurement::Measurements;
+use crate::model::extension::Channel;
 use crate::report::identify::ReportError;
 use crate::report::plot::{
     line_plot_with, panel_plot, Annotation, Panel, PlotError, PlotOptions, Series, PALETTE,
@@ -40,7 +41,7 @@ pub fn channels(m: &Measurements, nodes: &[usize], node_q: &[Vec<Complex64>]) ->
     let mut out = Vec::new();
     for ch in 0..2 * m.n_bearings {
         out.push(ChannelData {
-            name: format!("b{}_{}", ch / 2 + 1, if ch % 2 == 0 { "y" } else { "z" }),
+            name: Channel::of_index(ch).to_string(),
             q: m.samples
                 .iter()
                 .map(|s| {
