@@ -4,5 +4,6 @@
 mod cases;
 mod cli;
 mod pedestal_grid;
+mod ross_cases;
 mod sensitivity;
 mod three_bearing;
