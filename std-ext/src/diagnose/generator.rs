@@ -96,7 +96,8 @@ pub enum Form {
     PedestalMasses,
     /// A bow of two knots.
     TwoKnotBow,
-    /// An extra unbalance spread over three nodes.
+    /// An extra unbalance spread over three nodes, one to five times a
+    /// plane's in all.
     DistributedUnbalance,
 }
 
@@ -336,7 +337,13 @@ pub fn generate_form(
         Effect::ExtraUnbalancePlane => {
             let nodes: Vec<usize> = (0..n_nodes).filter(|n| !model.planes.contains(n)).collect();
             let node = nodes[rng.random_range(0..nodes.len())];
-            let me = me_ref * rng.random_range(0.3..1.0);
+            // Spread along a section, a part of another balance quality (a
+            // shrunk-on sleeve, deposits): one to five times a plane's.
+            let me = if form == Form::DistributedUnbalance {
+                me_ref * rng.random_range(1.0..5.0)
+            } else {
+                me_ref * rng.random_range(0.3..1.0)
+            };
             let phase = deg(&mut rng);
             let spread: Vec<usize> = if form == Form::DistributedUnbalance {
                 // Three consecutive nodes, none a plane, `node` in the middle
