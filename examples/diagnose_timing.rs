@@ -39,9 +39,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(s) => s.parse()?,
         None => 15000.0,
     };
+    // A model without unbalance (a ROSS file) gets the generator's own,
+    // balance grade G2.5 on its planes.
     let model = if realistic {
         rotorid::simulate::at_balance_grade(&base, 6.3, rotorid::units::rpm_to_rad_s(rpm_max))
-            .ok_or("no unbalance to scale")?
+            .unwrap_or(base)
     } else {
         base
     };
