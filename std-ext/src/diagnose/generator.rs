@@ -421,10 +421,7 @@ pub fn generate_form(
             });
             hidden.channel = Some(ch);
             hidden.size = 1.0 + d;
-            hidden.description = format!(
-                "probe {channel} reads x {:.4}",
-                1.0 + d
-            );
+            hidden.description = format!("probe {channel} reads x {:.4}", 1.0 + d);
         }
     }
     let sim_seed: u64 = rng.random();
@@ -445,7 +442,6 @@ pub fn generate_form(
         meas,
     })
 }
-
 
 /// Draws the effect too: `none` or one of the bank, uniformly.
 pub fn draw(

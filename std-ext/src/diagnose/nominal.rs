@@ -53,6 +53,15 @@ pub(crate) struct Setup {
 }
 
 impl Setup {
+    /// The diagnosis's noise model, held as it stands by the fit it
+    /// weights ([`StartNoise`]).
+    pub(crate) fn held_noise(&self) -> StartNoise<'_> {
+        StartNoise {
+            model: self.noise_model.as_ref(),
+            refine: false,
+        }
+    }
+
     /// The nominal output-error estimate on `samples` with the model's own
     /// `terms`, the noise model (model-free, its relative part refined by
     /// that fit where a floor is known), and the scales: `q` the RMS
@@ -78,8 +87,10 @@ impl Setup {
             terms,
             structure,
             scaling,
-            reference.as_ref(),
-            true,
+            StartNoise {
+                model: reference.as_ref(),
+                refine: true,
+            },
         )?;
         // A runout the slow roll shows plainly: the noise model refined by
         // the nominal fit with the runout among its unknowns (as `identify`
@@ -92,8 +103,10 @@ impl Setup {
                     terms,
                     structure,
                     scaling,
-                    reference.as_ref(),
-                    true,
+                    StartNoise {
+                        model: reference.as_ref(),
+                        refine: true,
+                    },
                     Some(&e.runout),
                 ) {
                     Ok((_, _, f, _)) => f.or(fitted),
@@ -273,25 +286,30 @@ pub const MIN_RELATIVE_NOISE: f64 = 1e-3;
 /// The output-error estimate of the nominal parameters on `samples` with
 /// the terms `terms` (same order): QRD/RLS start, then
 /// [`fit_output_error_with`]. Returns the predictor and its scaled parameters.
-///
-/// `refine`: the noise model's variance parameters refined by the fit
-/// (the nominal fit, which settles the diagnosis's noise model), or held
-/// as given (the bank's starts: their fits are started from here and
-/// weighted by the diagnosis's noise model anyway, so a refinement would
-/// only cost passes).
 pub(crate) fn oe_start(
     model: &RotorModel,
     samples: &[Sample],
     terms: &[SpeedTerms],
     structure: Structure,
     scaling: ColumnScaling<f64>,
-    noise: Option<&NoiseModel>,
-    refine: bool,
+    noise: StartNoise<'_>,
 ) -> Result<(Predictor, Vec<f64>, Option<NoiseModel>), DiagnoseError> {
-    oe_start_with_runout(
-        model, samples, terms, structure, scaling, noise, refine, None,
-    )
-    .map(|(pr, theta, noise, _)| (pr, theta, noise))
+    oe_start_with_runout(model, samples, terms, structure, scaling, noise, None)
+        .map(|(pr, theta, noise, _)| (pr, theta, noise))
+}
+
+/// The noise model an output-error start is weighted by, when the data
+/// show a floor (`None`: proportional weights), and whether the fit
+/// refines its variance parameters: the nominal fit does (it settles the
+/// diagnosis's noise model); the bank's starts hold it as it stands (their
+/// fits are weighted by the diagnosis's model anyway, and a refinement
+/// costs a second and third polish).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StartNoise<'a> {
+    /// The noise model.
+    pub model: Option<&'a NoiseModel>,
+    /// Refine its variance parameters.
+    pub refine: bool,
 }
 
 /// What [`oe_start_with_runout`] returns: the predictor, the scaled
@@ -310,10 +328,13 @@ pub(crate) fn oe_start_with_runout(
     terms: &[SpeedTerms],
     structure: Structure,
     scaling: ColumnScaling<f64>,
-    noise: Option<&NoiseModel>,
-    refine: bool,
+    noise: StartNoise<'_>,
     runout: Option<&[Complex64]>,
 ) -> Result<RunoutStart, DiagnoseError> {
+    let StartNoise {
+        model: noise,
+        refine,
+    } = noise;
     let mut o = Options::new(structure);
     o.scaling = Some(scaling);
     let index: HashMap<u64, usize> = terms

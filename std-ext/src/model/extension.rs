@@ -260,10 +260,7 @@ impl Effects {
             ));
         }
         for g in &self.probe_gain {
-            out.push(format!(
-                "effect: probe {} reads x {}",
-                g.channel, g.factor
-            ));
+            out.push(format!("effect: probe {} reads x {}", g.channel, g.factor));
         }
         for u in &self.extra_unbalance {
             out.push(format!(

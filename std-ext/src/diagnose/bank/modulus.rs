@@ -97,8 +97,7 @@ fn starts(ctx: &Context<'_>, m: &ExtendedModel) -> Result<(Start, Built), Diagno
             &te,
             setup.structure,
             setup.scaling,
-            setup.noise_model.as_ref(),
-            false,
+            setup.held_noise(),
         ) {
             let d = FitData::with_probes(ctx.samples, ctx.node_q, &te).with_floors(&setup.phi);
             let en = fit::entries(base, &d);

@@ -59,8 +59,7 @@ pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
         ctx.terms,
         setup.structure,
         setup.scaling,
-        setup.noise_model.as_ref(),
-        false,
+        setup.held_noise(),
     ) {
         Ok((_, th, _)) => th,
         Err(_) => ctx.theta0.clone(),
@@ -81,8 +80,7 @@ pub(crate) fn probe_runout(ctx: &Context<'_>) -> Option<Candidate> {
         ctx.terms,
         setup.structure,
         setup.scaling,
-        setup.noise_model.as_ref(),
-        false,
+        setup.held_noise(),
         Some(&slow),
     ) {
         if r2.len() == low.len() {

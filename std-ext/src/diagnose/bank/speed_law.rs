@@ -49,8 +49,7 @@ pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
             ctx.terms,
             Structure::physical(order),
             setup.scaling,
-            setup.noise_model.as_ref(),
-            false,
+            setup.held_noise(),
         ) {
             if t2.len() == m.n_params() {
                 if let Ok(f2) = fit::fit(&m, ctx.data, &t2, 50) {
