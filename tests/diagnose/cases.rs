@@ -334,6 +334,28 @@ fn realistic_confusion_matrix() {
     confusion(&m, Some(0.005), 5e-7);
 }
 
+/// Prints the confusion table `table` ((hidden, named) -> count) as a
+/// Markdown table: a row per effect of `hidden`, a column per effect of
+/// `named`.
+pub(super) fn print_confusion(
+    hidden: &[Effect],
+    named: &[Effect],
+    table: &BTreeMap<(Effect, Effect), usize>,
+) {
+    print!("| hidden \\ named |");
+    for e in named {
+        print!(" {} |", e.name());
+    }
+    println!();
+    for &h in hidden {
+        print!("| {} |", h.name());
+        for &e in named {
+            print!(" {} |", table.get(&(h, e)).copied().unwrap_or(0));
+        }
+        println!();
+    }
+}
+
 /// `ROTORID_CASES` (default 50) cases per effect of `m` with relative
 /// noise `noise` (`None`: drawn) and probe floor `floor` (m); the table
 /// printed, at least 95 % named right where observable and `none` named as
@@ -377,18 +399,7 @@ fn confusion(m: &RotorModel, noise: Option<f64>, floor: f64) {
         }
     }
     let named: Vec<Effect> = all.iter().copied().chain([Effect::Unexplained]).collect();
-    print!("| hidden \\ named |");
-    for e in &named {
-        print!(" {} |", e.name());
-    }
-    println!();
-    for &h in &all {
-        print!("| {} |", h.name());
-        for &e in &named {
-            print!(" {} |", table.get(&(h, e)).copied().unwrap_or(0));
-        }
-        println!();
-    }
+    print_confusion(&all, &named, &table);
     let acc = right as f64 / total.max(1) as f64;
     println!("accuracy on observable cases: {right}/{total} = {acc:.3}; none named as an effect: {none_named}/{n}");
     assert!(acc >= 0.95);

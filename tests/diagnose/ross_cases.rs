@@ -368,18 +368,7 @@ fn ross_cases_are_named() {
     let (mut right, mut total) = (0, 0);
     for (rotor, table) in &tables {
         println!("\n{rotor}\n");
-        print!("| hidden \\ named |");
-        for e in &named {
-            print!(" {} |", e.name());
-        }
-        println!();
-        for &h in &all {
-            print!("| {} |", h.name());
-            for &e in &named {
-                print!(" {} |", table.get(&(h, e)).copied().unwrap_or(0));
-            }
-            println!();
-        }
+        super::cases::print_confusion(&all, &named, table);
         let (r, t) = score[rotor];
         println!("\n{rotor}: {r}/{t} named right where observable");
         right += r;
