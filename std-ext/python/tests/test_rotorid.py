@@ -26,6 +26,8 @@ import rotorid
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 STEPPED = REPO / "tests" / "data" / "ross" / "stepped_hollow.toml"
+THREE = REPO / "tests" / "data" / "rotors" / "three_bearing.toml"
+THREE_ROSS = REPO / "tests" / "data" / "ross" / "cases" / "three_bearing.ross.toml"
 SPEEDS = np.arange(50.0, 15001.0, 50.0)
 
 
@@ -284,3 +286,23 @@ def test_to_ross_round_trip(sweep):
     assert isinstance(rotor, ross.Rotor)
     back = rotorid.Model.from_ross(rotor)
     assert back.bearing_nodes == [1, 27]
+
+
+def test_three_bearing_rotor_to_ross_and_back():
+    """A rotor on three bearings, two of them away from the shaft's ends:
+    identified from a realistic sweep (G6.3, 0.5 % + 0.5 um), handed to
+    ROSS and read back with its bearings where they were; and rotorid's
+    committed export of its model loads in ROSS with its three bearings."""
+    ross = pytest.importorskip("ross", reason="ROSS is not installed")
+    model = rotorid.Model.load(str(THREE))
+    assert model.bearing_nodes == [1, 21, 33]
+    speeds = np.arange(40.0, 12001.0, 40.0)
+    q = model.simulate(speeds, noise=0.005, noise_floor=0.5e-6, balance_grade=6.3)
+    ident = rotorid.identify(model, speeds, q)
+    rotor = ident.to_ross()
+    assert isinstance(rotor, ross.Rotor)
+    assert sorted(b.n for b in rotor.bearing_elements) == [0, 20, 32]
+    assert rotorid.Model.from_ross(rotor).bearing_nodes == [1, 21, 33]
+    saved = ross.Rotor.load(str(THREE_ROSS))
+    assert sorted(b.n for b in saved.bearing_elements) == [0, 20, 32]
+    assert rotorid.Model.from_ross(saved).bearing_nodes == [1, 21, 33]
