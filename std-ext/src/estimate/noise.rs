@@ -322,47 +322,50 @@ pub fn fit_variance_from(
             }
         }
     }
-    let s2_free = true;
     let free: Vec<bool> = held.iter().map(Option::is_none).collect();
     let tiny = 1e-12 * scale_x;
     let mut floor_z = vec![0.0; nq];
+    let mut sums = vec![[0.0f64; 3]; nq];
     for _ in 0..200 {
-        // Unknowns: the free floors, then s^2 (if free).
+        // Unknowns: the free floors, then s^2.
         let idx: Vec<usize> = (0..nq).filter(|&c| free[c]).collect();
-        let k = idx.len() + usize::from(s2_free);
-        if k == 0 {
-            break;
+        let k = idx.len() + 1;
+        // The normal equations are an arrow: each point touches its own
+        // channel's floor and `s^2`. Their sums per channel (in the order
+        // of the points, as a dense accumulation would add them):
+        // `sum w a^2`, `sum w a b`, `sum w a y` of the free floors, and
+        // `sum w b^2`, `sum w b (y - known)` of `s^2` (`known` a held
+        // floor's part).
+        sums.fill([0.0; 3]);
+        let (mut sbb, mut sby) = (0.0, 0.0);
+        for p in points {
+            let c = p.channel;
+            let v = (f2[c] * p.a + s2 * p.b).max(tiny * p.a.max(f64::MIN_POSITIVE));
+            let y = v * (p.x / v).min(CAP) * norm;
+            let w = 1.0 / (v * v);
+            let known = if free[c] {
+                let sc = &mut sums[c];
+                sc[0] += w * p.a * p.a;
+                sc[1] += w * p.a * p.b;
+                sc[2] += w * p.a * y;
+                0.0
+            } else {
+                f2[c] * p.a
+            };
+            sby += w * p.b * (y - known);
+            sbb += w * p.b * p.b;
         }
         let mut a = nalgebra::DMatrix::<f64>::zeros(k, k);
         let mut b = nalgebra::DVector::<f64>::zeros(k);
-        for p in points {
-            let v = (f2[p.channel] * p.a + s2 * p.b).max(tiny * p.a.max(f64::MIN_POSITIVE));
-            let y = v * (p.x / v).min(CAP) * norm;
-            let w = 1.0 / (v * v);
-            // Known part: held floors (and s^2 when held).
-            let mut known = 0.0;
-            let mut row = [(usize::MAX, 0.0); 2];
-            let mut n = 0;
-            if free[p.channel] {
-                let j = idx.iter().position(|&c| c == p.channel).unwrap_or(0);
-                row[n] = (j, p.a);
-                n += 1;
-            } else {
-                known += f2[p.channel] * p.a;
-            }
-            if s2_free {
-                row[n] = (k - 1, p.b);
-                n += 1;
-            } else {
-                known += s2 * p.b;
-            }
-            for &(i, xi) in &row[..n] {
-                b[i] += w * xi * (y - known);
-                for &(j, xj) in &row[..n] {
-                    a[(i, j)] += w * xi * xj;
-                }
-            }
+        for (j, &c) in idx.iter().enumerate() {
+            let [aa, ab, ay] = sums[c];
+            a[(j, j)] = aa;
+            a[(j, k - 1)] = ab;
+            a[(k - 1, j)] = ab;
+            b[j] = ay;
         }
+        a[(k - 1, k - 1)] = sbb;
+        b[k - 1] = sby;
         // Jacobi scaling before the Cholesky factorisation.
         let d: Vec<f64> = (0..k)
             .map(|i| a[(i, i)].max(f64::MIN_POSITIVE).sqrt())
@@ -381,11 +384,9 @@ pub fn fit_variance_from(
             change = change.max((new - f2[c]).abs() / scale_x);
             f2[c] = new;
         }
-        if s2_free {
-            let new = (sol[k - 1] / d[k - 1]).max(0.0);
-            change = change.max((new - s2).abs() / s2.max(f64::MIN_POSITIVE));
-            s2 = new;
-        }
+        let new = (sol[k - 1] / d[k - 1]).max(0.0);
+        change = change.max((new - s2).abs() / s2.max(f64::MIN_POSITIVE));
+        s2 = new;
         if !f2.iter().chain([&s2]).all(|v| v.is_finite()) {
             return None;
         }

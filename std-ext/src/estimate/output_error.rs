@@ -269,7 +269,9 @@ impl Weighting {
             return f.get(idx).copied().unwrap_or(f64::INFINITY);
         }
         match self.phi.get(c) {
-            Some(&p) if p > 0.0 => p.hypot(q.norm()),
+            // `sqrt(phi^2 + |q|^2)`: readings and floors are far from
+            // overflow and underflow, no `hypot` needed.
+            Some(&p) if p > 0.0 => (p * p + q.norm_sqr()).sqrt(),
             _ => q
                 .norm()
                 .max(self.tiny.get(c).copied().unwrap_or(f64::MIN_POSITIVE)),
@@ -853,6 +855,17 @@ fn levenberg_marquardt(
             return Ok((theta, it - 1, true, Some(cur)));
         }
         let near = undamped && dist2.is_some_and(|d2| d2 < NEAR_STDS * NEAR_STDS);
+        if near && !cur.rows.is_empty() {
+            // With the rows kept, the undamped step near the optimum is
+            // taken to first order on them (no prediction): it is the
+            // optimum of the quadratic model, and the model is exact there
+            // to far below the noise.
+            if let Some(d) = gauss_newton.as_ref() {
+                let trial = theta.iter().zip(d.iter()).map(|(t, x)| t + x).collect();
+                let moved = linear_step(data, cur, w, d);
+                return Ok((trial, it, true, Some(moved)));
+            }
+        }
         let delta = match gauss_newton.filter(|_| near) {
             Some(d) => d,
             None => {
@@ -990,42 +1003,49 @@ const NOISE_ROUNDS: usize = 8;
 /// Rounds of outlier exclusion and refit at most.
 const OUTLIER_ROUNDS: usize = 5;
 
-/// Variance points of a pass's residuals, excluded samples left out.
-/// Each residual is corrected for the fit's leverage: `x = |e|^2 / (1 - h)`,
-/// `h` the mean leverage of the sample's real and imaginary rows in the
-/// weighted Jacobian (`h = x_r N^-1 x_r^T`, `N = X^T X`). The few speeds
-/// near the critical speeds carry most of the information and most of the
-/// leverage, and they are the ones that determine the relative part of the
-/// noise: without the correction their shrunken residuals would make it
-/// far too small.
-///
-/// The leverages of a block of kept rows are one matrix product:
-/// `h_r = |x_r L^-T|^2` with `N = L L^T` (none if `N` is singular: no
-/// correction).
-fn residual_points(data: &Data<'_>, pass: &Pass) -> Vec<VariancePoint> {
+/// The leverage of every sample in the fit of `pass` (its rows kept): the
+/// mean of its real and imaginary rows' `h_r = x_r N^-1 x_r^T`
+/// (`N = X^T X = L L^T`), one matrix product per block of kept rows,
+/// `h_r = |x_r L^-T|^2`; empty if `N` is singular (no correction).
+fn leverages(data: &Data<'_>, pass: &Pass) -> Vec<f64> {
     let na = data.n_all();
-    let nq = data.samples.first().map_or(0, |s| s.q.len());
     let l_inv_t = pass.normal.clone().cholesky().and_then(|ch| {
         ch.l()
             .solve_lower_triangular(&DMatrix::identity(na, na))
             .map(|m| m.transpose())
     });
-    let mut h = Vec::with_capacity(2 * pass.error.len());
-    if let Some(lt) = &l_inv_t {
-        for b in &pass.rows {
-            let x = DMatrixView::from_slice(&b.x, b.k, na + 1);
-            let v = x.columns(0, na) * lt;
-            h.extend(v.row_iter().map(|r| r.norm_squared()));
+    let Some(lt) = l_inv_t else {
+        return Vec::new();
+    };
+    let mut h = Vec::with_capacity(pass.error.len());
+    let mut hr = Vec::new();
+    for b in &pass.rows {
+        let x = DMatrixView::from_slice(&b.x, b.k, na + 1);
+        let v = x.columns(0, na) * &lt;
+        hr.clear();
+        hr.resize(b.k, 0.0);
+        for col in v.column_iter() {
+            for (o, x) in hr.iter_mut().zip(col.iter()) {
+                *o += x * x;
+            }
         }
+        h.extend(hr.chunks_exact(2).map(|p| 0.5 * (p[0] + p[1])));
     }
+    h
+}
+
+/// Variance points of a pass's residuals, excluded samples left out.
+/// Each residual is corrected for the fit's leverage `h` (per sample,
+/// [`leverages`]): `x = |e|^2 / (1 - h)`. The few speeds near the critical
+/// speeds carry most of the information and most of the leverage, and they
+/// are the ones that determine the relative part of the noise: without the
+/// correction their shrunken residuals would make it far too small.
+fn residual_points(data: &Data<'_>, pass: &Pass, h: &[f64]) -> Vec<VariancePoint> {
+    let nq = data.samples.first().map_or(0, |s| s.q.len());
     (0..pass.error.len())
         .filter(|i| !data.weighting.is_excluded(*i))
         .map(|i| {
-            // Mean of the real and imaginary rows' leverages.
-            let hi = match (h.get(2 * i), h.get(2 * i + 1)) {
-                (Some(a), Some(b)) => 0.5 * (a + b),
-                _ => 0.0,
-            };
+            let hi = h.get(i).copied().unwrap_or(0.0);
             VariancePoint::residual(
                 i % nq,
                 pass.error[i] * pass.error[i],
@@ -1093,6 +1113,53 @@ fn reweigh(pass: Pass, w: &[f64], w_new: &[f64], na: usize) -> Pass {
         read: pass.read,
         rows,
     }
+}
+
+/// The pass `pass` (at `theta`, weights `w`, its rows kept) moved by the
+/// step `delta` to first order: the weighted residual rows become
+/// `y - X delta` (the rows `X` held: the Jacobian at `theta`), and with
+/// them the gradient `-X^T (y - X delta) = G + N delta`, the cost, and each
+/// sample's error `e = w (y_re + j y_im)` and reading `q_meas - e`. The
+/// normal equations stay those of `theta`.
+fn linear_step(data: &Data<'_>, mut pass: Pass, w: &[f64], delta: &DVector<f64>) -> Pass {
+    let na = data.n_all();
+    let nq = data.samples.first().map_or(1, |s| s.q.len()).max(1);
+    let mut g0 = 0;
+    for b in &mut pass.rows {
+        let k = b.k;
+        let (xs, y) = b.x.split_at_mut(na * k);
+        for (col, d) in xs.chunks_exact(k).zip(delta.iter()) {
+            for (yr, xr) in y.iter_mut().zip(col) {
+                *yr -= xr * d;
+            }
+        }
+        // Real rows 2 i and 2 i + 1 belong to sample i.
+        for (p, pair) in y.chunks_exact(2).enumerate() {
+            let i = g0 / 2 + p;
+            let wi = w.get(i).copied().unwrap_or(f64::INFINITY);
+            if !wi.is_finite() {
+                continue;
+            }
+            let e = Complex64::new(pair[0], pair[1]) * wi;
+            pass.error[i] = e.norm_sqr().sqrt();
+            pass.read[i] = (data.samples[i / nq].q[i % nq] - e).norm_sqr().sqrt();
+        }
+        g0 += k;
+    }
+    pass.cost = pass
+        .error
+        .iter()
+        .zip(w)
+        .map(|(e, wi)| {
+            if wi.is_finite() {
+                (e / wi).powi(2)
+            } else {
+                0.0
+            }
+        })
+        .sum();
+    pass.gradient += &pass.normal * delta;
+    pass
 }
 
 /// Standardised residuals `|e| / (w s_0)` from a pass's `|e|` and
@@ -1277,6 +1344,8 @@ fn fit_from(
     // weights are the prediction's at `theta` (a reweighting).
     let mut at: Option<(Pass, Vec<f64>)> = fresh;
     let mut reweighted = at.is_some();
+    // The leverages of the last refinement (per sample).
+    let mut lev: Option<Vec<f64>> = None;
     for round in 0..OUTLIER_ROUNDS {
         // Reweightings; with the noise model refined, until its floors in
         // relative units settle (the weights depend on them). The first
@@ -1290,17 +1359,40 @@ fn fit_from(
             let mut changed = 0.0f64;
             if refine && (k > 0 || round > 0) {
                 if let Some(m) = model.as_mut() {
-                    let before = m.relative_floor();
                     let cur = match at.take() {
                         Some(a) => a,
                         None => data.reweighted(&theta, true)?,
                     };
-                    at = Some(refine_noise(&mut data, &theta, cur, m)?);
+                    let cur = with_rows(&mut data, &theta, cur)?;
+                    // The previous refinement's leverages first (those of
+                    // the weights before it): where the model refitted with
+                    // them has settled, fresh ones (one product of the rows)
+                    // would not move it by more than the tolerance either.
+                    let settled_on_old = lev.as_ref().and_then(|h| {
+                        let cand = refitted(&data, &cur.0, h, m);
+                        (floor_change(m, &cand) <= NOISE_SETTLED).then_some(cand)
+                    });
+                    let next = match settled_on_old {
+                        Some(n) => n,
+                        None => {
+                            let h = leverages(&data, &cur.0);
+                            let n = refitted(&data, &cur.0, &h, m);
+                            lev = Some(h);
+                            n
+                        }
+                    };
+                    changed = floor_change(m, &next);
+                    *m = next;
+                    at = Some(if changed <= NOISE_SETTLED {
+                        // Settled: the weights at hand are within the
+                        // tolerance of the new model's, and the estimate
+                        // under them is final.
+                        data.weighting.set_noise(m);
+                        cur
+                    } else {
+                        apply_noise(&mut data, cur, m)
+                    });
                     reweighted = true;
-                    for (a, b) in before.iter().zip(m.relative_floor()) {
-                        let d = (a - b).abs() / a.max(b).max(f64::MIN_POSITIVE);
-                        changed = changed.max(d);
-                    }
                 }
             }
             let (cur, w) = match at.take() {
@@ -1370,6 +1462,7 @@ fn fit_from(
             });
         }
         at = None;
+        lev = None;
     }
     if refine && !settled {
         if let Some(m) = model.as_mut() {
@@ -1377,7 +1470,10 @@ fn fit_from(
                 Some(a) => a,
                 None => data.reweighted(&theta, true)?,
             };
-            at = Some(refine_noise(&mut data, &theta, cur, m)?);
+            let cur = with_rows(&mut data, &theta, cur)?;
+            let h = leverages(&data, &cur.0);
+            *m = refitted(&data, &cur.0, &h, m);
+            at = Some(apply_noise(&mut data, cur, m));
             reweighted = true;
         }
     }
@@ -1458,36 +1554,56 @@ fn fit_from(
     })
 }
 
-/// `model` refitted by maximum likelihood to the residuals of `at` (the
-/// pass at `theta` and its weights; [`crate::estimate::noise::noise_from_points`]; a
-/// given floor is held), the data's weighting set to it, and the pass at
-/// `theta` under the new weights ([`reweigh`]).
-fn refine_noise(
+/// `at` (the pass at `theta` and its weights) with its rows: one pass
+/// keeps them where they were not kept.
+fn with_rows(
     data: &mut Data<'_>,
     theta: &[f64],
     at: (Pass, Vec<f64>),
-    model: &mut NoiseModel,
 ) -> Result<(Pass, Vec<f64>), PredictError> {
-    let (pass, w) = if at.0.rows.is_empty() {
-        // Rows not kept: one pass keeps them.
-        let keep = data.keep_rows;
-        data.keep_rows = true;
-        let p = data.pass(WeightsFrom::Given(&at.1), theta, true);
-        data.keep_rows = keep;
-        (p?.0, at.1)
-    } else {
-        at
-    };
-    let points = residual_points(data, &pass);
+    if !at.0.rows.is_empty() {
+        return Ok(at);
+    }
+    let keep = data.keep_rows;
+    data.keep_rows = true;
+    let p = data.pass(WeightsFrom::Given(&at.1), theta, true);
+    data.keep_rows = keep;
+    Ok((p?.0, at.1))
+}
+
+/// `model` refitted by maximum likelihood to the residuals of `pass` with
+/// the leverages `h` ([`residual_points`],
+/// [`crate::estimate::noise::noise_from_points`]; a given floor is held).
+fn refitted(data: &Data<'_>, pass: &Pass, h: &[f64], model: &NoiseModel) -> NoiseModel {
+    let points = residual_points(data, pass, h);
     let nq = model.floor_m.len();
     let given =
         (model.source == NoiseSource::Given).then(|| model.floor_m.first().copied().unwrap_or(0.0));
-    if let Some(m) = noise_from_points_near(&points, nq, given, Some(model)) {
-        *model = NoiseModel {
+    match noise_from_points_near(&points, nq, given, Some(model)) {
+        Some(m) => NoiseModel {
             source: model.source,
             ..m
-        };
+        },
+        None => model.clone(),
     }
+}
+
+/// The largest relative change of the floors in relative units
+/// (`f_c / s`) from `before` to `after`.
+fn floor_change(before: &NoiseModel, after: &NoiseModel) -> f64 {
+    before
+        .relative_floor()
+        .iter()
+        .zip(after.relative_floor())
+        .map(|(a, b)| (a - b).abs() / a.max(b).max(f64::MIN_POSITIVE))
+        .fold(0.0, f64::max)
+}
+
+/// The data's weighting set to `model`, and the pass of `at` (rows kept)
+/// under the new weights at the same `theta` ([`reweigh`]).
+fn apply_noise(data: &mut Data<'_>, at: (Pass, Vec<f64>), model: &NoiseModel) -> (Pass, Vec<f64>) {
+    let (pass, w) = at;
+    let nq = model.floor_m.len();
     data.weighting.set_noise(model);
     let w_new: Vec<f64> = pass
         .read
@@ -1496,13 +1612,9 @@ fn refine_noise(
         .map(|(i, r)| data.weighting.weight(i, i % nq, Complex64::new(*r, 0.0)))
         .collect();
     let next = reweigh(pass, &w, &w_new, data.n_all());
-    Ok((next, w_new))
+    (next, w_new)
 }
 
-/// The Fisher information of `theta` per unit noise, `2 Re(J^H J)` with
-/// `J = (dq/dtheta) / |q|` at `theta` (floored as in the fit): divide by
-/// `s^2` for the information of data with relative noise `s`. Its inverse
-/// times `s^2` is the Cramér-Rao bound on the covariance of any unbiased
 /// estimate.
 pub fn fisher_information(
     pr: &Predictor,
@@ -1740,7 +1852,7 @@ mod tests {
         // the normal equations): row norms of Q.
         let q = x.qr().q();
         let (p2, _) = data.pass(WeightsFrom::Given(&w), &theta, true).unwrap();
-        let points = residual_points(&data, &p2);
+        let points = residual_points(&data, &p2, &leverages(&data, &p2));
         assert_eq!(points.len(), n_all);
         let mut total = 0.0;
         for (i, pt) in points.iter().enumerate() {
