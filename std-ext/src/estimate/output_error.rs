@@ -1153,18 +1153,7 @@ fn reweigh(pass: Pass, w: &[f64], w_new: &[f64], na: usize) -> Pass {
         b.gram.extend(part.view((0, 0), (na, na)).iter().copied());
         g0 += k;
     }
-    let cost = pass
-        .error
-        .iter()
-        .zip(w_new)
-        .map(|(e, wn)| {
-            if wn.is_finite() {
-                (e / wn).powi(2)
-            } else {
-                0.0
-            }
-        })
-        .sum();
+    let cost = weighted_cost(&pass.error, w_new);
     Pass {
         normal: out.view((0, 0), (na, na)).into_owned(),
         gradient: -out.view((0, na), (na, 1)).column(0).into_owned(),
@@ -1173,6 +1162,22 @@ fn reweigh(pass: Pass, w: &[f64], w_new: &[f64], na: usize) -> Pass {
         read: pass.read,
         rows,
     }
+}
+
+/// `S = sum |e|^2 / w^2` over the samples of finite weight (`|e|` and `w`
+/// at `n * nq + c`).
+fn weighted_cost(error: &[f64], w: &[f64]) -> f64 {
+    error
+        .iter()
+        .zip(w)
+        .map(|(e, wi)| {
+            if wi.is_finite() {
+                (e / wi).powi(2)
+            } else {
+                0.0
+            }
+        })
+        .sum()
 }
 
 /// The pass `pass` (at `theta`, weights `w`, its rows kept) moved by the
@@ -1206,18 +1211,7 @@ fn linear_step(data: &Data<'_>, mut pass: Pass, w: &[f64], delta: &DVector<f64>)
         }
         g0 += k;
     }
-    pass.cost = pass
-        .error
-        .iter()
-        .zip(w)
-        .map(|(e, wi)| {
-            if wi.is_finite() {
-                (e / wi).powi(2)
-            } else {
-                0.0
-            }
-        })
-        .sum();
+    pass.cost = weighted_cost(&pass.error, w);
     pass.gradient += &pass.normal * delta;
     pass
 }
