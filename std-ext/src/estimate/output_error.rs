@@ -193,16 +193,50 @@ struct Pass {
     rows: Vec<Block>,
 }
 
-/// The weighted rows `[X y]` of a block of speeds, `k x (na + 1)`,
-/// column-major: real rows `2 i` and `2 i + 1` of the block's sample `i`.
+/// The weighted rows of a block of speeds: the dense columns `[X_m y]`,
+/// `k x (nm + 1)`, column-major (real rows `2 i` and `2 i + 1` of the
+/// block's sample `i`), and, when a runout is fitted, its columns in
+/// sparse form ([`Rows`]): real row `r` has its one value `d_r` in the
+/// column `nm + (r mod 2 nq)` (the real rows of a speed's sample of channel
+/// `c` are `2 c` and `2 c + 1`, those of `Re r_c` and `Im r_c`).
 #[derive(Clone)]
 struct Block {
     k: usize,
+    /// Dense columns of `X` (the model's; all of them where `d` is empty).
+    nm: usize,
     x: Vec<f64>,
+    /// The runout columns' value per real row (`k`), or empty.
+    d: Vec<f64>,
     /// The block's own share of the normal equations, `X_b^T X_b`
     /// (`na x na`, column-major): with `N^-1` it gives the sum of the
     /// block's leverages, `tr(N^-1 X_b^T X_b)` ([`leverages`]).
     gram: Vec<f64>,
+}
+
+impl Block {
+    /// Runout parameters (`2 nq`, or 0).
+    fn nr(&self, na: usize) -> usize {
+        if self.d.is_empty() {
+            0
+        } else {
+            na - self.nm
+        }
+    }
+
+    /// The rows `[X y]` with the runout's columns written out (`k x (na +
+    /// 1)`).
+    #[cfg(test)]
+    fn dense(&self, na: usize) -> DMatrix<f64> {
+        let (k, nm, nr) = (self.k, self.nm, self.nr(na));
+        let x = DMatrixView::from_slice(&self.x, k, nm + 1);
+        let mut out = DMatrix::zeros(k, na + 1);
+        out.columns_mut(0, nm).copy_from(&x.columns(0, nm));
+        out.column_mut(na).copy_from(&x.column(nm));
+        for (r, dr) in self.d.iter().enumerate() {
+            out[(r, nm + r % nr)] = *dr;
+        }
+        out
+    }
 }
 
 /// The parameters' entries at every sample's speed.
@@ -316,6 +350,9 @@ struct Data<'a> {
     /// The instrumental-variable passes solve for the runout too (else
     /// they hold it).
     iv_runout: bool,
+    /// The runout's columns kept sparse ([`Rows`]; the dense form is the
+    /// reference in the tests).
+    sparse_runout: bool,
 }
 
 impl<'a> Data<'a> {
@@ -339,6 +376,7 @@ impl<'a> Data<'a> {
             runout_scale: Vec::new(),
             keep_rows: false,
             iv_runout: true,
+            sparse_runout: true,
         }
     }
 
@@ -373,6 +411,23 @@ impl<'a> Data<'a> {
         jacobian: bool,
     ) -> Result<(Pass, Vec<f64>), PredictError> {
         pass(self, weights, theta, jacobian)
+    }
+
+    /// The rows of a pass over `unknowns` parameters (the model's, then
+    /// the runout's if any), with instruments or not.
+    fn rows(&self, unknowns: usize, instruments: bool) -> Rows {
+        let pr = self.pr;
+        let (np, nq, npl) = (
+            pr.n_params(),
+            2 * pr.param.n_bearings(),
+            pr.param.n_planes(),
+        );
+        let nr = unknowns.saturating_sub(np);
+        if self.sparse_runout && nr > 0 {
+            Rows::new(nq, npl, np, nr, instruments)
+        } else {
+            Rows::new(nq, npl, unknowns, 0, instruments)
+        }
     }
 
     /// Complex samples that count (not excluded).
@@ -421,10 +476,26 @@ const BLOCK: usize = 64;
 /// are multiplied at once (a dense matrix product, vectorised; the
 /// columns padded with zeros to a multiple of [`PAD`] so that its kernels
 /// run on whole tiles).
+///
+/// A runout's columns `R` (`nr = 2 nq`, after the model's `nm`) have one
+/// entry per sample: `d = scale_c / w` in the real row of `Re r_c`'s
+/// column and in the imaginary row of `Im r_c`'s. With `nr > 0` they are
+/// kept in that form and their products taken row by row, `O(k na)` per
+/// block instead of widening the dense product by `nr` columns:
+///
+/// ```text
+///     Z^T [X y] = [ Z_m^T X_m   Z_m^T R   Z_m^T y ]
+///                 [ R^T X_m     R^T R     R^T y   ]
+/// ```
+///
+/// with `R^T R` diagonal and `Z_m^T R = (R^T Z_m)^T` ([`assemble`]).
 struct Rows {
     nq: usize,
     npl: usize,
+    /// Dense columns of `X` (the model's, or all of them).
     np: usize,
+    /// Sparse runout columns (0 or `2 nq`).
+    nr: usize,
     /// Columns of `Z` and of `[X y]` with the padding.
     lw: usize,
     rw: usize,
@@ -442,6 +513,13 @@ struct Rows {
     out: DMatrix<f64>,
     /// The blocks of `[X y]` kept, if asked for.
     store: Option<Vec<Block>>,
+    /// The runout columns' value per real row of the block (`cap`).
+    d: Vec<f64>,
+    /// `R^T [X_m y]` (`nr x (np + 1)`), `R^T Z_m` (`nr x np`, with
+    /// instruments) and the diagonal of `R^T R` over every speed.
+    rx: DMatrix<f64>,
+    rz: DMatrix<f64>,
+    rd: Vec<f64>,
 }
 
 /// Multiple to which [`Rows`] pads its columns (the tile of the widest
@@ -449,7 +527,7 @@ struct Rows {
 const PAD: usize = 8;
 
 impl Rows {
-    fn new(nq: usize, npl: usize, np: usize, instruments: bool) -> Self {
+    fn new(nq: usize, npl: usize, np: usize, nr: usize, instruments: bool) -> Self {
         let cap = 2 * nq * BLOCK;
         let (lw, rw) = (np.div_ceil(PAD) * PAD, (np + 1).div_ceil(PAD) * PAD);
         Rows {
@@ -469,6 +547,11 @@ impl Rows {
             y: vec![Complex64::new(0.0, 0.0); nq * (nq + npl)],
             out: DMatrix::zeros(lw, rw),
             store: None,
+            nr,
+            d: vec![0.0; if nr > 0 { cap } else { 0 }],
+            rx: DMatrix::zeros(nr, np + 1),
+            rz: DMatrix::zeros(if instruments { nr } else { 0 }, np),
+            rd: vec![0.0; nr],
         }
     }
 
@@ -521,6 +604,13 @@ impl Rows {
     /// = scale_c`, `/ d Im r_c = j scale_c`, each over `w_c`.
     fn runout_columns(&mut self, np0: usize, scale: &[f64], w: &[f64]) {
         let (cap, row0, nq) = (self.cap, self.filled, self.nq);
+        if self.nr > 0 {
+            for (c, sc) in scale.iter().enumerate() {
+                self.d[row0 + 2 * c] = sc / w[c];
+                self.d[row0 + 2 * c + 1] = sc / w[c];
+            }
+            return;
+        }
         let with_z = !self.z.is_empty();
         for (c, sc) in scale.iter().enumerate() {
             for part in 0..2 {
@@ -557,9 +647,24 @@ impl Rows {
     }
 
     fn flush(&mut self) {
-        let (k, cap) = (self.filled, self.cap);
+        let (k, cap, np, nr) = (self.filled, self.cap, self.np, self.nr);
         if k == 0 {
             return;
+        }
+        // The runout's share, row by row.
+        let mut bx = DMatrix::<f64>::zeros(nr, np + 1);
+        let mut bd = vec![0.0; nr];
+        let d = &self.d[..if nr > 0 { k } else { 0 }];
+        if nr > 0 {
+            add_runout_products(&self.x, cap, k, np + 1, d, &mut bx);
+            if !self.z.is_empty() {
+                add_runout_products(&self.z, cap, k, np, d, &mut self.rz);
+            }
+            add_runout_diag(d, &mut bd);
+            self.rx += &bx;
+            for (o, v) in self.rd.iter_mut().zip(&bd) {
+                *o += v;
+            }
         }
         // Without instruments the first lw columns of [X y] (X, then y or
         // padding) stand for Z; the rows of out past np are not read.
@@ -574,31 +679,138 @@ impl Rows {
                 let mut part = DMatrix::<f64>::zeros(self.lw, self.rw);
                 part.gemm(1.0, &zt, &xy, 0.0);
                 self.out += &part;
-                let mut x = Vec::with_capacity(k * (self.np + 1));
-                for j in 0..=self.np {
+                let mut x = Vec::with_capacity(k * (np + 1));
+                for j in 0..=np {
                     x.extend_from_slice(&self.x[j * cap..j * cap + k]);
                 }
-                let gram = part
-                    .view((0, 0), (self.np, self.np))
-                    .iter()
-                    .copied()
-                    .collect();
-                store.push(Block { k, x, gram });
+                let full = assemble(part.view((0, 0), (np, np + 1)), &bx, None, &bd);
+                let gram = full.columns(0, np + nr).iter().copied().collect();
+                store.push(Block {
+                    k,
+                    nm: np,
+                    x,
+                    d: d.to_vec(),
+                    gram,
+                });
             }
         }
         self.filled = 0;
     }
 
-    /// `Z^T [X y]` over every speed (`np x (np + 1)`), and the blocks
-    /// kept.
+    /// `Z^T [X y]` over every speed (`na x (na + 1)`, in the order of the
+    /// unknowns), and the blocks kept.
     fn finish(mut self) -> (DMatrix<f64>, Vec<Block>) {
         self.flush();
         debug_assert_eq!(self.y.len(), self.nq * (self.nq + self.npl));
+        let rz = (!self.z.is_empty()).then_some(&self.rz);
+        let dense = self.out.view((0, 0), (self.np, self.np + 1));
         (
-            self.out.view((0, 0), (self.np, self.np + 1)).into_owned(),
+            assemble(dense, &self.rx, rz, &self.rd),
             self.store.unwrap_or_default(),
         )
     }
+}
+
+/// `out += R^T C` for the runout columns `R` of a block of `k` real rows
+/// (the value `d_r` of each row, [`Block`]; `out` is `nr x ncols`, `nr =
+/// 2 nq`, the real rows of one speed) and the `ncols` columns of `c`
+/// (column `j` at `c[j * stride..]`): `out[r mod nr, j] += d_r c[r, j]`,
+/// a sum over speeds of `nr`-long elementwise products.
+fn add_runout_products(
+    c: &[f64],
+    stride: usize,
+    k: usize,
+    ncols: usize,
+    d: &[f64],
+    out: &mut DMatrix<f64>,
+) {
+    let nr = out.nrows();
+    if nr == 0 {
+        return;
+    }
+    for (j, o) in out
+        .as_mut_slice()
+        .chunks_exact_mut(nr)
+        .take(ncols)
+        .enumerate()
+    {
+        let col = &c[j * stride..j * stride + k];
+        match nr {
+            4 => add_products::<4>(col, d, o),
+            8 => add_products::<8>(col, d, o),
+            12 => add_products::<12>(col, d, o),
+            16 => add_products::<16>(col, d, o),
+            _ => {
+                for (xs, ds) in col.chunks_exact(nr).zip(d.chunks_exact(nr)) {
+                    for ((a, x), dr) in o.iter_mut().zip(xs).zip(ds) {
+                        *a += x * dr;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// `o += sum_n x_n .* d_n` over the `N`-long pieces of `x` and `d` (the
+/// real rows of one speed): fixed-size, so that it vectorises.
+fn add_products<const N: usize>(x: &[f64], d: &[f64], o: &mut [f64]) {
+    let mut acc = [0.0; N];
+    for (xs, ds) in x.chunks_exact(N).zip(d.chunks_exact(N)) {
+        if let (Ok(xs), Ok(ds)) = (<&[f64; N]>::try_from(xs), <&[f64; N]>::try_from(ds)) {
+            for ((a, x), dr) in acc.iter_mut().zip(xs).zip(ds) {
+                *a += x * dr;
+            }
+        }
+    }
+    for (o, a) in o.iter_mut().zip(acc) {
+        *o += a;
+    }
+}
+
+/// `diag += diag(R^T R)` for the runout columns of a block ([`Block`]):
+/// `diag[r mod nr] += d_r^2`.
+fn add_runout_diag(d: &[f64], diag: &mut [f64]) {
+    let nr = diag.len();
+    if nr == 0 {
+        return;
+    }
+    for ds in d.chunks_exact(nr) {
+        for (a, dr) in diag.iter_mut().zip(ds) {
+            *a += dr * dr;
+        }
+    }
+}
+
+/// `Z^T [X y]` in the order of the unknowns (`na x (na + 1)`, `na = nm +
+/// nr`) from its parts ([`Rows`]): `dense = Z_m^T [X_m y]` (`nm x (nm +
+/// 1)`), `rx = R^T [X_m y]` (`nr x (nm + 1)`), `rz = R^T Z_m` (`nr x nm`;
+/// `None` where the instruments are the regressors) and `rd` the diagonal
+/// of `R^T R`.
+fn assemble(
+    dense: DMatrixView<'_, f64>,
+    rx: &DMatrix<f64>,
+    rz: Option<&DMatrix<f64>>,
+    rd: &[f64],
+) -> DMatrix<f64> {
+    let (nm, nr) = (dense.nrows(), rd.len());
+    let na = nm + nr;
+    let mut out = DMatrix::zeros(na, na + 1);
+    out.view_mut((0, 0), (nm, nm))
+        .copy_from(&dense.columns(0, nm));
+    out.view_mut((0, na), (nm, 1))
+        .copy_from(&dense.columns(nm, 1));
+    if nr > 0 {
+        let cross = rz.unwrap_or(rx).columns(0, nm);
+        out.view_mut((0, nm), (nm, nr)).tr_copy_from(&cross);
+        out.view_mut((nm, 0), (nr, nm))
+            .copy_from(&rx.columns(0, nm));
+        out.view_mut((nm, na), (nr, 1))
+            .copy_from(&rx.columns(nm, 1));
+        for (r, v) in rd.iter().enumerate() {
+            out[(nm + r, nm + r)] = *v;
+        }
+    }
+    out
 }
 
 /// `S`, and with `jacobian` the normal equations, at `theta`; returns the
@@ -627,7 +839,7 @@ fn pass(
     let runout = data.runout(theta);
     let mut solve = Solve::new(nq, npl);
     let mut rows = jacobian.then(|| {
-        let mut r = Rows::new(nq, npl, na, false);
+        let mut r = data.rows(na, false);
         if data.keep_rows {
             r.store = Some(Vec::new());
         }
@@ -737,7 +949,7 @@ fn iv_system(data: &Data<'_>, theta: &[f64]) -> Result<(f64, DMatrix<f64>), Pred
     };
     let mut cost = 0.0;
     let mut solve = Solve::new(nq, npl);
-    let mut rows = Rows::new(nq, npl, unknowns, true);
+    let mut rows = data.rows(unknowns, true);
     let zero = Complex64::new(0.0, 0.0);
     let (mut w, mut aq, mut y0) = (vec![0.0; nq], vec![zero; nq], vec![zero; nq]);
     let mut shaft = vec![zero; nq];
@@ -1076,8 +1288,24 @@ fn leverages_screened(data: &Data<'_>, pass: &Pass, exact_below: f64) -> Vec<f64
             h.extend(std::iter::repeat_n(mean, samples));
             continue;
         }
-        let x = DMatrixView::from_slice(&b.x, k, na + 1);
-        let v = x.columns(0, na) * &lt;
+        let x = DMatrixView::from_slice(&b.x, k, b.nm + 1);
+        let mut v = x.columns(0, b.nm) * lt.rows(0, b.nm);
+        // The runout's columns: row r gains d_r times the row of L^-T of
+        // its runout parameter.
+        let nr = b.nr(na);
+        if nr > 0 {
+            // Column by column: the nr rows of a speed take the nr
+            // entries of L^-T's column in the runout's rows.
+            let cols = v.as_mut_slice().chunks_exact_mut(k);
+            for (col, l) in cols.zip(lt.as_slice().chunks_exact(na)) {
+                let l = &l[b.nm..b.nm + nr];
+                for (vs, ds) in col.chunks_exact_mut(nr).zip(b.d.chunks_exact(nr)) {
+                    for ((o, dr), lr) in vs.iter_mut().zip(ds).zip(l) {
+                        *o += dr * lr;
+                    }
+                }
+            }
+        }
         hr.clear();
         hr.resize(k, 0.0);
         for col in v.column_iter() {
@@ -1129,12 +1357,11 @@ fn reweigh(pass: Pass, w: &[f64], w_new: &[f64], na: usize) -> Pass {
             }
         })
         .collect();
-    let mut out = DMatrix::<f64>::zeros(na + 1, na + 1);
-    let mut part = DMatrix::<f64>::zeros(na + 1, na + 1);
+    let mut out = DMatrix::<f64>::zeros(na, na + 1);
     let mut rows = pass.rows;
     let mut g0 = 0;
     for b in &mut rows {
-        let k = b.k;
+        let (k, nm, nr) = (b.k, b.nm, b.nr(na));
         // Rows 2 i and 2 i + 1 belong to sample i.
         let ratio_b = ratio.get(g0 / 2..).unwrap_or_default();
         for col in b.x.chunks_exact_mut(k) {
@@ -1143,20 +1370,30 @@ fn reweigh(pass: Pass, w: &[f64], w_new: &[f64], na: usize) -> Pass {
                 pair[1] *= r;
             }
         }
-        // [X y]^T [X y] with the transpose as a strided view (one
-        // matrix-multiply kernel call).
-        let xt = DMatrixView::from_slice_with_strides(&b.x, na + 1, k, k, 1);
-        let xv = DMatrixView::from_slice(&b.x, k, na + 1);
+        for (pair, r) in b.d.chunks_exact_mut(2).zip(ratio_b) {
+            pair[0] *= r;
+            pair[1] *= r;
+        }
+        // [X_m y]^T [X_m y] with the transpose as a strided view (one
+        // matrix-multiply kernel call), the runout's share row by row.
+        let xt = DMatrixView::from_slice_with_strides(&b.x, nm + 1, k, k, 1);
+        let xv = DMatrixView::from_slice(&b.x, k, nm + 1);
+        let mut part = DMatrix::<f64>::zeros(nm + 1, nm + 1);
         part.gemm(1.0, &xt, &xv, 0.0);
-        out += &part;
+        let mut bx = DMatrix::<f64>::zeros(nr, nm + 1);
+        let mut bd = vec![0.0; nr];
+        add_runout_products(&b.x, k, k, nm + 1, &b.d, &mut bx);
+        add_runout_diag(&b.d, &mut bd);
+        let full = assemble(part.view((0, 0), (nm, nm + 1)), &bx, None, &bd);
+        out += &full;
         b.gram.clear();
-        b.gram.extend(part.view((0, 0), (na, na)).iter().copied());
+        b.gram.extend(full.columns(0, na).iter().copied());
         g0 += k;
     }
     let cost = weighted_cost(&pass.error, w_new);
     Pass {
-        normal: out.view((0, 0), (na, na)).into_owned(),
-        gradient: -out.view((0, na), (na, 1)).column(0).into_owned(),
+        normal: out.columns(0, na).into_owned(),
+        gradient: -out.column(na),
         cost,
         error: pass.error,
         read: pass.read,
@@ -1191,11 +1428,17 @@ fn linear_step(data: &Data<'_>, mut pass: Pass, w: &[f64], delta: &DVector<f64>)
     let nq = data.samples.first().map_or(1, |s| s.q.len()).max(1);
     let mut g0 = 0;
     for b in &mut pass.rows {
-        let k = b.k;
-        let (xs, y) = b.x.split_at_mut(na * k);
+        let (k, nm, nr) = (b.k, b.nm, b.nr(na));
+        let (xs, y) = b.x.split_at_mut(nm * k);
         for (col, d) in xs.chunks_exact(k).zip(delta.iter()) {
             for (yr, xr) in y.iter_mut().zip(col) {
                 *yr -= xr * d;
+            }
+        }
+        // The runout's columns: d_r in row r.
+        if nr > 0 {
+            for (r, dr) in b.d.iter().enumerate() {
+                y[r] -= dr * delta[nm + r % nr];
             }
         }
         // Real rows 2 i and 2 i + 1 belong to sample i.
@@ -1858,16 +2101,92 @@ mod tests {
         }
     }
 
+    /// With a runout fitted, its sparse columns give the normal equations
+    /// of the explicit Jacobian (`d reading_c / d Re r_c = scale_c`, `/ d
+    /// Im r_c = j scale_c`), and the same passes and instrumental-variable
+    /// equations as the dense columns.
+    #[test]
+    fn runout_columns_sparse_equal_the_jacobian_and_the_dense_form() {
+        let (pr, theta, samples, terms) = problem(Structure::physical(2));
+        let mut data = Data::new(&pr, &samples, &terms, 1e-6);
+        let theta = with_runout(&mut data, &theta);
+        let (np, na) = (pr.n_params(), data.n_all());
+        let runout = data.runout(&theta);
+        let (fast, w) = pass(&data, WeightsFrom::Prediction, &theta, true).unwrap();
+        let mut normal = DMatrix::<f64>::zeros(na, na);
+        let mut gradient = DVector::<f64>::zeros(na);
+        for ((s, t), wn) in samples.iter().zip(&terms).zip(w.chunks_exact(4)) {
+            let p = pr.predict(s.omega, t, &theta[..np], true).unwrap();
+            let jac = p.jacobian.unwrap();
+            for c in 0..4 {
+                let mut row = vec![Complex64::new(0.0, 0.0); na];
+                for (i, o) in row.iter_mut().take(np).enumerate() {
+                    *o = jac[(c, i)];
+                }
+                row[np + 2 * c] = Complex64::new(data.runout_scale[c], 0.0);
+                row[np + 2 * c + 1] = Complex64::new(0.0, data.runout_scale[c]);
+                let r = (s.q[c] - p.q[c] - runout[c]) / wn[c];
+                for i in 0..na {
+                    let ri = (-row[i] / wn[c]).conj();
+                    gradient[i] += (ri * r).re;
+                    for k in 0..na {
+                        normal[(i, k)] += (ri * (-row[k] / wn[c])).re;
+                    }
+                }
+            }
+        }
+        let scale = normal.amax();
+        assert!((&fast.normal - &normal).amax() <= 1e-12 * scale);
+        assert!((&fast.gradient - &gradient).amax() <= 1e-12 * gradient.amax());
+        // The dense form of the same columns.
+        let mut dense = Data::new(&pr, &samples, &terms, 1e-6);
+        dense.runout_scale = data.runout_scale.clone();
+        dense.sparse_runout = false;
+        let (slow, _) = pass(&dense, WeightsFrom::Prediction, &theta, true).unwrap();
+        assert!((&fast.normal - &slow.normal).amax() <= 1e-13 * scale);
+        assert!((&fast.gradient - &slow.gradient).amax() <= 1e-13 * gradient.amax());
+        assert_eq!(fast.cost, slow.cost);
+        let (c_fast, iv_fast) = iv_system(&data, &theta).unwrap();
+        let (c_slow, iv_slow) = iv_system(&dense, &theta).unwrap();
+        assert_eq!(c_fast, c_slow);
+        assert_eq!(iv_fast.shape(), (na, na + 1));
+        // Column by column: the runout's columns are far smaller than the
+        // model's.
+        for j in 0..=na {
+            let (a, b) = (iv_fast.column(j), iv_slow.column(j));
+            assert!((a - b).amax() <= 1e-13 * b.amax(), "{j}");
+        }
+    }
+
     /// The kept rows reweighed to other weights give the pass under those
     /// weights, and their leverages are the diagonal of the hat matrix
     /// `X (X^T X)^-1 X^T` formed densely.
     #[test]
     fn kept_rows_reweigh_and_give_the_leverages() {
+        kept_rows_check(false);
+        kept_rows_check(true);
+    }
+
+    /// A runout of a few per cent of the readings on the four channels of
+    /// [`problem`]: its scale and the parameters with it.
+    fn with_runout(data: &mut Data<'_>, theta: &[f64]) -> Vec<f64> {
+        data.runout_scale = vec![1e-8, 2e-8, 1.5e-8, 1e-8];
+        let mut t = theta.to_vec();
+        t.extend([0.4, -0.3, 0.1, 0.2, -0.5, 0.6, 0.3, 0.0]);
+        t
+    }
+
+    fn kept_rows_check(runout: bool) {
         let (pr, theta, samples, terms) = problem(Structure::physical(1));
         let nq = 4;
         let n_all = samples.len() * nq;
         let mut data = Data::new(&pr, &samples, &terms, 1e-6);
         data.keep_rows = true;
+        let theta = if runout {
+            with_runout(&mut data, &theta)
+        } else {
+            theta
+        };
         let (p, w) = data.reweighted(&theta, true).unwrap();
         // Other weights: a floor in relative units on every channel.
         let noise = NoiseModel {
@@ -1887,17 +2206,17 @@ mod tests {
             assert!((a - b).abs() <= 1e-14 * b, "{a} {b}");
         }
         let rows = p.rows.clone();
-        let re = reweigh(p, &w, &w_new, pr.n_params());
+        let na = data.n_all();
+        let re = reweigh(p, &w, &w_new, na);
         let scale = direct.normal.amax();
         assert!((&re.normal - &direct.normal).amax() <= 1e-12 * scale);
         assert!((&re.gradient - &direct.gradient).amax() <= 1e-12 * direct.gradient.amax());
         assert!((re.cost - direct.cost).abs() <= 1e-12 * direct.cost);
         // Leverages against the dense hat matrix of the original rows.
-        let na = pr.n_params();
         let mut x = DMatrix::<f64>::zeros(2 * n_all, na);
         let mut r0 = 0;
         for b in &rows {
-            let v = DMatrixView::from_slice(&b.x, b.k, na + 1);
+            let v = b.dense(na);
             x.view_mut((r0, 0), (b.k, na)).copy_from(&v.columns(0, na));
             r0 += b.k;
         }
