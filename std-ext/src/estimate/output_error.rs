@@ -684,7 +684,8 @@ impl Rows {
                     x.extend_from_slice(&self.x[j * cap..j * cap + k]);
                 }
                 let full = assemble(part.view((0, 0), (np, np + 1)), &bx, None, &bd);
-                let gram = full.columns(0, np + nr).iter().copied().collect();
+                let na = np + nr;
+                let gram = full.as_slice()[..na * na].to_vec();
                 store.push(Block {
                     k,
                     nm: np,
@@ -1277,7 +1278,12 @@ fn leverages_screened(data: &Data<'_>, pass: &Pass, exact_below: f64) -> Vec<f64
         // Rows per block are even: two per sample.
         let samples = k / 2;
         let total: f64 = if b.gram.len() == na * na {
-            n_inv.iter().zip(&b.gram).map(|(a, g)| a * g).sum()
+            n_inv
+                .as_slice()
+                .iter()
+                .zip(&b.gram)
+                .map(|(a, g)| a * g)
+                .sum()
         } else {
             f64::INFINITY
         };
@@ -1308,8 +1314,8 @@ fn leverages_screened(data: &Data<'_>, pass: &Pass, exact_below: f64) -> Vec<f64
         }
         hr.clear();
         hr.resize(k, 0.0);
-        for col in v.column_iter() {
-            for (o, x) in hr.iter_mut().zip(col.iter()) {
+        for col in v.as_slice().chunks_exact(k) {
+            for (o, x) in hr.iter_mut().zip(col) {
                 *o += x * x;
             }
         }
@@ -1358,6 +1364,12 @@ fn reweigh(pass: Pass, w: &[f64], w_new: &[f64], na: usize) -> Pass {
         })
         .collect();
     let mut out = DMatrix::<f64>::zeros(na, na + 1);
+    // Each block's products (every block has the same columns).
+    let (mut part, mut bx, mut bd) = (
+        DMatrix::<f64>::zeros(0, 0),
+        DMatrix::<f64>::zeros(0, 0),
+        Vec::new(),
+    );
     let mut rows = pass.rows;
     let mut g0 = 0;
     for b in &mut rows {
@@ -1378,16 +1390,20 @@ fn reweigh(pass: Pass, w: &[f64], w_new: &[f64], na: usize) -> Pass {
         // matrix-multiply kernel call), the runout's share row by row.
         let xt = DMatrixView::from_slice_with_strides(&b.x, nm + 1, k, k, 1);
         let xv = DMatrixView::from_slice(&b.x, k, nm + 1);
-        let mut part = DMatrix::<f64>::zeros(nm + 1, nm + 1);
+        if part.nrows() != nm + 1 {
+            part = DMatrix::zeros(nm + 1, nm + 1);
+            bx = DMatrix::zeros(nr, nm + 1);
+            bd = vec![0.0; nr];
+        }
         part.gemm(1.0, &xt, &xv, 0.0);
-        let mut bx = DMatrix::<f64>::zeros(nr, nm + 1);
-        let mut bd = vec![0.0; nr];
+        bx.fill(0.0);
+        bd.fill(0.0);
         add_runout_products(&b.x, k, k, nm + 1, &b.d, &mut bx);
         add_runout_diag(&b.d, &mut bd);
         let full = assemble(part.view((0, 0), (nm, nm + 1)), &bx, None, &bd);
         out += &full;
         b.gram.clear();
-        b.gram.extend(full.columns(0, na).iter().copied());
+        b.gram.extend_from_slice(&full.as_slice()[..na * na]);
         g0 += k;
     }
     let cost = weighted_cost(&pass.error, w_new);
