@@ -248,12 +248,6 @@ pub const CAP: f64 = 4.0;
 /// proportional model, which gives exactly the weights of SPEC section 4).
 pub const FLOOR_SIGNIFICANCE: f64 = 4.0;
 
-/// Change of every variance parameter in one iteration, in its standard
-/// errors, below which [`fit_variance`] stops (as the output-error polish
-/// stops at a thousandth of a standard deviation): what a further
-/// iteration changes is far inside the parameters' own uncertainty.
-pub const VARIANCE_STEP_SE: f64 = 1e-3;
-
 /// The variance parameters fitted by [`fit_variance`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct VarianceFit {
@@ -280,8 +274,7 @@ pub struct VarianceFit {
 /// far above their expectation (a local fit across a resonance, a glitch)
 /// have bounded influence. A parameter the iteration drives below zero is
 /// held at zero. The standard errors are those of the gamma regression
-/// (dispersion 1), `(X^T W X)^-1`; the iteration stops when no parameter
-/// moves by more than [`VARIANCE_STEP_SE`] of its standard error.
+/// (dispersion 1), `(X^T W X)^-1`.
 ///
 /// `held[c] = Some(f2)` holds channel `c`'s floor at `f2` (a given
 /// floor, or 0); `None` fits it. `None` when there are no points or the
@@ -333,15 +326,6 @@ pub fn fit_variance_from(
     let tiny = 1e-12 * scale_x;
     let mut floor_z = vec![0.0; nq];
     let mut sums = vec![[0.0f64; 3]; nq];
-    // A step in standard errors (relative to `scale` where the standard
-    // error is not usable).
-    let steps = |delta: f64, se: f64, scale: f64| {
-        if se.is_finite() && se > 0.0 {
-            delta.abs() / se
-        } else {
-            delta.abs() / scale.max(f64::MIN_POSITIVE)
-        }
-    };
     for _ in 0..200 {
         // Unknowns: the free floors, then s^2.
         let idx: Vec<usize> = (0..nq).filter(|&c| free[c]).collect();
@@ -394,21 +378,19 @@ pub fn fit_variance_from(
         let mut change: f64 = 0.0;
         for (j, &c) in idx.iter().enumerate() {
             let new = sol[j] / d[j];
-            let se = inv_diag[(j, j)].sqrt() / d[j];
-            floor_z[c] = new / se;
+            floor_z[c] = new / (inv_diag[(j, j)].sqrt() / d[j]);
             // Projected onto f_c^2 >= 0 (the iteration may bring it back).
             let new = new.max(0.0);
-            change = change.max(steps(new - f2[c], se, scale_x));
+            change = change.max((new - f2[c]).abs() / scale_x);
             f2[c] = new;
         }
         let new = (sol[k - 1] / d[k - 1]).max(0.0);
-        let se = inv_diag[(k - 1, k - 1)].sqrt() / d[k - 1];
-        change = change.max(steps(new - s2, se, s2));
+        change = change.max((new - s2).abs() / s2.max(f64::MIN_POSITIVE));
         s2 = new;
         if !f2.iter().chain([&s2]).all(|v| v.is_finite()) {
             return None;
         }
-        if change < VARIANCE_STEP_SE {
+        if change < 1e-8 {
             break;
         }
     }
