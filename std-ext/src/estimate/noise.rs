@@ -231,11 +231,6 @@ impl VariancePoint {
     pub fn known(channel: usize, v: f64, q2: f64) -> Self {
         Self::residual(channel, v, q2, 1.0)
     }
-
-    /// The response scale of the point, `b / a` (m^2).
-    fn q2(&self) -> f64 {
-        self.b / self.a
-    }
 }
 
 /// Residuals of a local quadratic beyond which a window is treated as
@@ -276,6 +271,18 @@ pub struct VarianceFit {
 /// held at zero. The standard errors are those of the gamma regression
 /// (dispersion 1), `(X^T W X)^-1`.
 ///
+/// These scoring steps converge linearly (by a factor of 0.1-0.4 per step
+/// on sweeps). From a start near the root (a refinement's previous
+/// estimate) or once a scoring step is under [`NEWTON_BELOW`] (relative),
+/// with every free parameter inside its bound, the iteration takes
+/// Newton's steps on the same score equations instead, which converge
+/// quadratically: with `m = min(x, CAP v) / (1 - e^-CAP)`, the score of
+/// each parameter is `sum_i u_i (m_i - v_i) / v_i^2` (`u_i` its
+/// coefficient `a_i` or `b_i`) and its derivative `-sum_i u_i u_i^T (2 m_i
+/// / v_i - 1 - dm_i/dv_i) / v_i^2`. It stops when a scoring step is under
+/// 1e-8 or a Newton step under [`NEWTON_DONE`] (relative), which leaves an
+/// error of about `2 NEWTON_DONE^2`.
+///
 /// `held[c] = Some(f2)` holds channel `c`'s floor at `f2` (a given
 /// floor, or 0); `None` fits it. `None` when there are no points or the
 /// system is singular.
@@ -290,16 +297,51 @@ pub fn fit_variance_from(
     held: &[Option<f64>],
     start: Option<(&[f64], f64)>,
 ) -> Option<VarianceFit> {
+    fit_variance_channels(&ChannelPoints::of(points, held.len())?, held, start, true)
+}
+
+/// Variance points channel by channel, `[a, b, x]` each, in their order
+/// ([`VariancePoint`] without the channel).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ChannelPoints(pub Vec<Vec<[f64; 3]>>);
+
+impl ChannelPoints {
+    /// `points` on `nq` channels; `None` when a point's channel is not
+    /// below `nq`.
+    pub fn of(points: &[VariancePoint], nq: usize) -> Option<Self> {
+        let mut by_channel = vec![Vec::with_capacity(points.len() / nq.max(1) + 1); nq];
+        for p in points {
+            by_channel.get_mut(p.channel)?.push([p.a, p.b, p.x]);
+        }
+        Some(ChannelPoints(by_channel))
+    }
+
+    fn len(&self) -> usize {
+        self.0.iter().map(Vec::len).sum()
+    }
+}
+
+/// [`fit_variance_from`] on points by channel; `newton` false takes only
+/// scoring steps (the reference of the tests).
+fn fit_variance_channels(
+    points: &ChannelPoints,
+    held: &[Option<f64>],
+    start: Option<(&[f64], f64)>,
+    newton_steps: bool,
+) -> Option<VarianceFit> {
     let nq = held.len();
-    if points.is_empty() || points.iter().any(|p| p.channel >= nq) {
+    let n = points.len();
+    if n == 0 || points.0.len() != nq {
         return None;
     }
     let norm = (1.0 - (-CAP).exp()).recip();
     let scale_x = points
+        .0
         .iter()
-        .map(|p| p.x / p.a.max(f64::MIN_POSITIVE))
+        .flatten()
+        .map(|[a, _, x]| x / a.max(f64::MIN_POSITIVE))
         .sum::<f64>()
-        / points.len() as f64;
+        / n as f64;
     if !(scale_x.is_finite() && scale_x > 0.0) {
         return None;
     }
@@ -309,7 +351,8 @@ pub fn fit_variance_from(
     // given start covers every free parameter).
     let given = start.filter(|(f0, s0)| f0.len() == nq && s0.is_finite() && *s0 > 0.0);
     let usable = |c: usize| given.is_some_and(|(f0, _)| f0[c].is_finite() && f0[c] > 0.0);
-    let (mut s2, mut f2) = if given.is_some() && (0..nq).all(|c| held[c].is_some() || usable(c)) {
+    let near = given.is_some() && (0..nq).all(|c| held[c].is_some() || usable(c));
+    let (mut s2, mut f2) = if near {
         (0.0, held.iter().map(|h| h.unwrap_or(0.0)).collect())
     } else {
         start_from_points(points, held, scale_x)
@@ -325,74 +368,67 @@ pub fn fit_variance_from(
     let free: Vec<bool> = held.iter().map(Option::is_none).collect();
     let tiny = 1e-12 * scale_x;
     let mut floor_z = vec![0.0; nq];
-    let mut sums = vec![[0.0f64; 3]; nq];
+    let mut sums = vec![ArrowSums::default(); nq];
+    // Unknowns: the free floors, then s^2.
+    let idx: Vec<usize> = (0..nq).filter(|&c| free[c]).collect();
+    // Newton's steps from the start when it is the previous estimate.
+    let mut newton = near && newton_steps;
     for _ in 0..200 {
-        // Unknowns: the free floors, then s^2.
-        let idx: Vec<usize> = (0..nq).filter(|&c| free[c]).collect();
-        let k = idx.len() + 1;
         // The normal equations are an arrow: each point touches its own
-        // channel's floor and `s^2`. Their sums per channel (in the order
-        // of the points, as a dense accumulation would add them):
-        // `sum w a^2`, `sum w a b`, `sum w a y` of the free floors, and
-        // `sum w b^2`, `sum w b (y - known)` of `s^2` (`known` a held
-        // floor's part).
-        sums.fill([0.0; 3]);
-        let (mut sbb, mut sby) = (0.0, 0.0);
-        for p in points {
-            let c = p.channel;
-            let v = (f2[c] * p.a + s2 * p.b).max(tiny * p.a.max(f64::MIN_POSITIVE));
-            let y = v * (p.x / v).min(CAP) * norm;
-            let w = 1.0 / (v * v);
-            let known = if free[c] {
-                let sc = &mut sums[c];
-                sc[0] += w * p.a * p.a;
-                sc[1] += w * p.a * p.b;
-                sc[2] += w * p.a * y;
-                0.0
-            } else {
-                f2[c] * p.a
-            };
-            sby += w * p.b * (y - known);
-            sbb += w * p.b * p.b;
+        // channel's floor and `s^2`. Their sums per channel, of the scoring
+        // step and of Newton's, and those of `s^2` (a held floor's part
+        // `known` in `v`).
+        let mut ss = ArrowSums::default();
+        for (c, pts) in points.0.iter().enumerate() {
+            let (own, of_s) = channel_sums(pts, f2[c], s2, free[c], norm, tiny);
+            sums[c] = own;
+            ss.merge(&of_s);
         }
-        let mut a = nalgebra::DMatrix::<f64>::zeros(k, k);
-        let mut b = nalgebra::DVector::<f64>::zeros(k);
-        for (j, &c) in idx.iter().enumerate() {
-            let [aa, ab, ay] = sums[c];
-            a[(j, j)] = aa;
-            a[(j, k - 1)] = ab;
-            a[(k - 1, j)] = ab;
-            b[j] = ay;
+        // The scoring (IRLS) step: regress `y` with weights `1 / v^2`.
+        let k = idx.len() + 1;
+        let scoring = ArrowSums::solve(&idx, &sums, &ss, |s| (s.faa, s.fab, s.fay))?;
+        let inv_diag = scoring.1;
+        let mut sol = scoring.0;
+        // Newton's step on the same score equations, once the scoring
+        // steps are small and every free parameter is inside its bound:
+        // converges quadratically to the same root (the scoring steps
+        // only linearly, the more slowly the more the data's spread
+        // departs from the model's).
+        let mut quadratic = false;
+        if newton {
+            let step = ArrowSums::solve(&idx, &sums, &ss, |s| (s.haa, s.hab, s.g));
+            if let Some((d, _)) = step {
+                quadratic = true;
+                for (j, &c) in idx.iter().enumerate() {
+                    sol[j] = f2[c] + d[j];
+                }
+                sol[k - 1] = s2 + d[k - 1];
+            }
         }
-        a[(k - 1, k - 1)] = sbb;
-        b[k - 1] = sby;
-        // Jacobi scaling before the Cholesky factorisation.
-        let d: Vec<f64> = (0..k)
-            .map(|i| a[(i, i)].max(f64::MIN_POSITIVE).sqrt())
-            .collect();
-        let scaled = nalgebra::DMatrix::from_fn(k, k, |i, j| a[(i, j)] / (d[i] * d[j]));
-        let chol = scaled.cholesky()?;
-        let rhs = nalgebra::DVector::from_fn(k, |i, _| b[i] / d[i]);
-        let sol = chol.solve(&rhs);
-        let inv_diag = chol.inverse();
         let mut change: f64 = 0.0;
+        let mut inside = true;
         for (j, &c) in idx.iter().enumerate() {
-            let new = sol[j] / d[j];
-            floor_z[c] = new / (inv_diag[(j, j)].sqrt() / d[j]);
+            let new = sol[j];
+            floor_z[c] = new / inv_diag[j].sqrt();
             // Projected onto f_c^2 >= 0 (the iteration may bring it back).
+            inside &= new > 0.0;
             let new = new.max(0.0);
             change = change.max((new - f2[c]).abs() / scale_x);
             f2[c] = new;
         }
-        let new = (sol[k - 1] / d[k - 1]).max(0.0);
+        let new = sol[k - 1].max(0.0);
+        inside &= new > 0.0;
         change = change.max((new - s2).abs() / s2.max(f64::MIN_POSITIVE));
         s2 = new;
         if !f2.iter().chain([&s2]).all(|v| v.is_finite()) {
             return None;
         }
-        if change < 1e-8 {
+        // A Newton step of relative size `d` leaves an error of order
+        // `d^2` (about `2 d^2` on sweeps): 2e-8 at most.
+        if change < 1e-8 || (quadratic && change < NEWTON_DONE) {
             break;
         }
+        newton = newton_steps && inside && change < NEWTON_BELOW;
     }
     Some(VarianceFit {
         floor2: f2,
@@ -401,21 +437,164 @@ pub fn fit_variance_from(
     })
 }
 
+/// Relative change of the variance parameters per step below which
+/// [`fit_variance_from`] takes Newton's steps instead of scoring steps.
+pub const NEWTON_BELOW: f64 = 0.05;
+
+/// Relative size of a Newton step after which [`fit_variance_from`] stops.
+pub const NEWTON_DONE: f64 = 1e-4;
+
+/// Sums of one unknown's points in [`fit_variance_from`]: of the scoring
+/// step (weights `w = 1 / v^2`: `sum w a^2`, `sum w a b`, `sum w a y`) and
+/// of Newton's (`sum w_n a^2`, `sum w_n a b` with the second derivative
+/// `w_n = (2 m / v - 1 - dm/dv) / v^2` of the log-likelihood's score
+/// `sum a (m - v) / v^2`, `m = min(x, CAP v) / (1 - e^-CAP)`, and the score
+/// itself `sum a (m - v) / v^2`).
+#[derive(Debug, Clone, Copy, Default)]
+struct ArrowSums {
+    faa: f64,
+    fab: f64,
+    fay: f64,
+    haa: f64,
+    hab: f64,
+    g: f64,
+}
+
+impl ArrowSums {
+    /// Adds a point of coefficients `a`, `b` (`b` 0 for the row of `s^2`
+    /// itself, whose coefficient is passed as `a`).
+    #[inline(always)]
+    fn add(&mut self, a: f64, b: f64, w: f64, wn: f64, y: f64, g: f64) {
+        let (wa, wna) = (w * a, wn * a);
+        self.faa += wa * a;
+        self.fab += wa * b;
+        self.fay += wa * y;
+        self.haa += wna * a;
+        self.hab += wna * b;
+        self.g += g * a;
+    }
+
+    /// Adds the sums of `other`.
+    fn merge(&mut self, other: &ArrowSums) {
+        self.faa += other.faa;
+        self.fab += other.fab;
+        self.fay += other.fay;
+        self.haa += other.haa;
+        self.hab += other.hab;
+        self.g += other.g;
+    }
+
+    /// Solves the arrow system whose diagonal, border and right-hand side
+    /// `pick` reads from the free channels' sums (`idx`) and those of
+    /// `s^2` (`ss`: diagonal and right-hand side; its border is the
+    /// channels'), with Jacobi scaling before the Cholesky factorisation.
+    /// The solution and the diagonal of the inverse; `None` when the
+    /// matrix is not positive definite.
+    fn solve(
+        idx: &[usize],
+        sums: &[ArrowSums],
+        ss: &ArrowSums,
+        pick: impl Fn(&ArrowSums) -> (f64, f64, f64),
+    ) -> Option<(Vec<f64>, Vec<f64>)> {
+        let k = idx.len() + 1;
+        let mut a = nalgebra::DMatrix::<f64>::zeros(k, k);
+        let mut b = nalgebra::DVector::<f64>::zeros(k);
+        for (j, &c) in idx.iter().enumerate() {
+            let (aa, ab, ay) = pick(&sums[c]);
+            a[(j, j)] = aa;
+            a[(j, k - 1)] = ab;
+            a[(k - 1, j)] = ab;
+            b[j] = ay;
+        }
+        let (bb, _, by) = pick(ss);
+        a[(k - 1, k - 1)] = bb;
+        b[k - 1] = by;
+        let d: Vec<f64> = (0..k)
+            .map(|i| a[(i, i)].max(f64::MIN_POSITIVE).sqrt())
+            .collect();
+        let scaled = nalgebra::DMatrix::from_fn(k, k, |i, j| a[(i, j)] / (d[i] * d[j]));
+        let chol = scaled.cholesky()?;
+        let rhs = nalgebra::DVector::from_fn(k, |i, _| b[i] / d[i]);
+        let sol = chol.solve(&rhs);
+        let inv = chol.inverse();
+        Some((
+            (0..k).map(|i| sol[i] / d[i]).collect(),
+            (0..k).map(|i| inv[(i, i)] / (d[i] * d[i])).collect(),
+        ))
+    }
+}
+
+/// One channel's sums of [`fit_variance_from`] at `f_c^2 = fc`, `s^2 = s2`:
+/// those of its floor (zero when held) and its share of those of `s^2`.
+///
+/// Per point, with `v = a f_c^2 + b s^2` (at least `tiny a`), `r = x / v`,
+/// `m / v = min(r, CAP) norm` and `dm/dv = CAP norm` where capped: the
+/// scoring weight `w = 1 / v^2`, its pseudo-observation `y = m`, Newton's
+/// weight `w_n = (2 m / v - 1 - dm/dv) w` and the score `(m - v) / v^2`.
+fn channel_sums(
+    pts: &[[f64; 3]],
+    fc: f64,
+    s2: f64,
+    free: bool,
+    norm: f64,
+    tiny: f64,
+) -> (ArrowSums, ArrowSums) {
+    let (mut own, mut of_s) = (ArrowSums::default(), ArrowSums::default());
+    let capped = CAP * norm;
+    for &[a, b, x] in pts {
+        let v0 = fc * a + s2 * b;
+        let lo = tiny
+            * if a > f64::MIN_POSITIVE {
+                a
+            } else {
+                f64::MIN_POSITIVE
+            };
+        let v = if v0 > lo { v0 } else { lo };
+        let iv = v.recip();
+        let r = x * iv * norm;
+        let (mv, dm) = if r < capped {
+            (r, 0.0)
+        } else {
+            (capped, capped)
+        };
+        let w = iv * iv;
+        let y = v * mv;
+        let wn = (2.0 * mv - 1.0 - dm) * w;
+        let g = (mv - 1.0) * iv;
+        let known = if free {
+            own.add(a, b, w, wn, y, g);
+            0.0
+        } else {
+            fc * a
+        };
+        of_s.add(b, 0.0, w, wn, y - known, g);
+    }
+    (own, of_s)
+}
+
 /// The data's start of [`fit_variance_from`]: `s^2` from the upper half of
 /// the responses (the median of `x / b` over `ln 2`, the median of an
 /// `Exp(1)` variable), `f_c^2` from the lower quarter of each channel
 /// (the median of `x / a` over `ln 2`), held floors as given.
 fn start_from_points(
-    points: &[VariancePoint],
+    points: &ChannelPoints,
     held: &[Option<f64>],
     scale_x: f64,
 ) -> (f64, Vec<f64>) {
-    let mut by_q: Vec<&VariancePoint> = points.iter().filter(|p| p.a > 0.0).collect();
-    by_q.sort_by(|a, b| a.q2().total_cmp(&b.q2()));
+    // (q2, channel, point)
+    let mut by_q: Vec<(f64, usize, [f64; 3])> = points
+        .0
+        .iter()
+        .enumerate()
+        .flat_map(|(c, pts)| pts.iter().map(move |p| (c, *p)))
+        .filter(|(_, [a, ..])| *a > 0.0)
+        .map(|(c, p)| (p[1] / p[0], c, p))
+        .collect();
+    by_q.sort_by(|a, b| a.0.total_cmp(&b.0));
     let upper: Vec<f64> = by_q[by_q.len() / 2..]
         .iter()
-        .filter(|p| p.b > 0.0)
-        .map(|p| p.x / p.b)
+        .filter(|(_, _, [_, b, _])| *b > 0.0)
+        .map(|(_, _, [_, b, x])| x / b)
         .collect();
     let s2 = median(upper).unwrap_or(0.0) / core::f64::consts::LN_2;
     let f2 = (0..held.len())
@@ -423,10 +602,14 @@ fn start_from_points(
             if let Some(h) = held[c] {
                 return h;
             }
-            let ch: Vec<&&VariancePoint> = by_q.iter().filter(|p| p.channel == c).collect();
+            let ch: Vec<&[f64; 3]> = by_q
+                .iter()
+                .filter(|(_, pc, _)| *pc == c)
+                .map(|(_, _, p)| p)
+                .collect();
             let low: Vec<f64> = ch[..ch.len().div_ceil(4)]
                 .iter()
-                .map(|p| p.x / p.a)
+                .map(|[a, _, x]| x / a)
                 .collect();
             let m = median(low).unwrap_or(scale_x) / core::f64::consts::LN_2;
             m.max(1e-6 * scale_x)
@@ -466,6 +649,16 @@ pub fn noise_from_points_near(
     given_floor: Option<f64>,
     near: Option<&NoiseModel>,
 ) -> Option<NoiseModel> {
+    noise_from_channels_near(&ChannelPoints::of(points, nq)?, given_floor, near)
+}
+
+/// [`noise_from_points_near`] on points by channel.
+pub fn noise_from_channels_near(
+    points: &ChannelPoints,
+    given_floor: Option<f64>,
+    near: Option<&NoiseModel>,
+) -> Option<NoiseModel> {
+    let nq = points.0.len();
     let start: Option<(Vec<f64>, f64)> = near.map(|m| {
         (
             m.floor_m.iter().map(|f| f * f).collect(),
@@ -473,7 +666,8 @@ pub fn noise_from_points_near(
         )
     });
     let start = start.as_ref().map(|(f, s)| (f.as_slice(), *s));
-    let fit_variance = |p: &[VariancePoint], h: &[Option<f64>]| fit_variance_from(p, h, start);
+    let fit_variance =
+        |p: &ChannelPoints, h: &[Option<f64>]| fit_variance_channels(p, h, start, true);
     if let Some(f) = given_floor {
         let fit = fit_variance(points, &vec![Some(f * f); nq])?;
         return Some(NoiseModel {
@@ -686,6 +880,59 @@ mod tests {
             assert_eq!(g.source, NoiseSource::Given);
             assert_eq!(g.floor_m, vec![f; 4]);
             assert!((g.relative / s - 1.0).abs() < 0.1, "{}", g.relative);
+        }
+    }
+
+    /// The score `sum u (m - v) / v^2` of the points at `f2`, `s2` (per
+    /// free floor, then `s^2`), each relative to the sum of its terms'
+    /// magnitudes: written out from the likelihood, not from the sums of
+    /// the iteration.
+    fn relative_score(points: &ChannelPoints, f2: &[f64], s2: f64) -> Vec<f64> {
+        let norm = 1.0 / (1.0 - (-CAP).exp());
+        let mut out = Vec::new();
+        let mut gs = (0.0, 0.0);
+        for (c, pts) in points.0.iter().enumerate() {
+            let mut g = (0.0, 0.0);
+            for &[a, b, x] in pts {
+                let v = a * f2[c] + b * s2;
+                let t = ((x.min(CAP * v) * norm) - v) / (v * v);
+                g = (g.0 + a * t, g.1 + (a * t).abs());
+                gs = (gs.0 + b * t, gs.1 + (b * t).abs());
+            }
+            out.push(g.0 / g.1);
+        }
+        out.push(gs.0 / gs.1);
+        out
+    }
+
+    #[test]
+    fn newton_steps_reach_the_scoring_root() {
+        for (f, s, seed) in [(5e-7, 5e-3, 11), (2e-6, 1e-2, 12), (1e-7, 5e-3, 13)] {
+            let samples = composite(f, s, seed, 3000);
+            let floor = vec![f; 4];
+            let points = ChannelPoints::of(&local_points(&samples, &floor), 4).unwrap();
+            let free = vec![None; 4];
+            let scoring = fit_variance_channels(&points, &free, None, false).unwrap();
+            // From the previous estimate (here the root moved by 5 %):
+            // Newton's steps, and the scoring steps alone.
+            let f0: Vec<f64> = scoring.floor2.iter().map(|v| v * 1.05).collect();
+            let start = Some((f0.as_slice(), scoring.relative2 * 0.95));
+            let newton = fit_variance_channels(&points, &free, start, true).unwrap();
+            let slow = fit_variance_channels(&points, &free, start, false).unwrap();
+            for fit in [&newton, &slow] {
+                for (a, b) in fit.floor2.iter().zip(&scoring.floor2) {
+                    assert!((a / b - 1.0).abs() < 1e-7, "{f} {s}: {a} {b}");
+                }
+                assert!((fit.relative2 / scoring.relative2 - 1.0).abs() < 1e-7);
+                // (Read at the iterate before the last step.)
+                for (a, b) in fit.floor_z.iter().zip(&scoring.floor_z) {
+                    assert!((a / b - 1.0).abs() < 1e-4, "{a} {b}");
+                }
+            }
+            // The root: every score equation zero to rounding.
+            for g in relative_score(&points, &newton.floor2, newton.relative2) {
+                assert!(g.abs() < 1e-6, "{f} {s}: score {g}");
+            }
         }
     }
 

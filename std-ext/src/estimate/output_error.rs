@@ -79,7 +79,9 @@ use nalgebra::{DMatrix, DMatrixView, DVector};
 use num_complex::Complex64;
 use thiserror::Error;
 
-use crate::estimate::noise::{noise_from_points_near, NoiseModel, NoiseSource, VariancePoint};
+use crate::estimate::noise::{
+    noise_from_channels_near, ChannelPoints, NoiseModel, NoiseSource, VariancePoint,
+};
 use crate::estimate::predictor::{Entry, PredictError, Predictor, Solve, Terms};
 use crate::io::measurement::Sample;
 
@@ -1330,20 +1332,18 @@ fn leverages_screened(data: &Data<'_>, pass: &Pass, exact_below: f64) -> Vec<f64
 /// speeds carry most of the information and most of the leverage, and they
 /// are the ones that determine the relative part of the noise: without the
 /// correction their shrunken residuals would make it far too small.
-fn residual_points(data: &Data<'_>, pass: &Pass, h: &[f64]) -> Vec<VariancePoint> {
+fn residual_points(data: &Data<'_>, pass: &Pass, h: &[f64]) -> ChannelPoints {
     let nq = data.samples.first().map_or(0, |s| s.q.len());
-    (0..pass.error.len())
-        .filter(|i| !data.weighting.is_excluded(*i))
-        .map(|i| {
-            let hi = h.get(i).copied().unwrap_or(0.0);
-            VariancePoint::residual(
-                i % nq,
-                pass.error[i] * pass.error[i],
-                pass.read[i] * pass.read[i],
-                1.0 / (1.0 - hi).max(1e-3),
-            )
-        })
-        .collect()
+    let mut out = vec![Vec::with_capacity(pass.error.len() / nq.max(1) + 1); nq];
+    for (i, (e, r)) in pass.error.iter().zip(&pass.read).enumerate() {
+        if data.weighting.is_excluded(i) {
+            continue;
+        }
+        let hi = h.get(i).copied().unwrap_or(0.0);
+        let p = VariancePoint::residual(i % nq, e * e, r * r, 1.0 / (1.0 - hi).max(1e-3));
+        out[i % nq].push([p.a, p.b, p.x]);
+    }
+    ChannelPoints(out)
 }
 
 /// The pass `pass` (at some `theta`, with weights `w`) under the weights
@@ -1889,10 +1889,12 @@ fn with_rows(
 /// [`crate::estimate::noise::noise_from_points`]; a given floor is held).
 fn refitted(data: &Data<'_>, pass: &Pass, h: &[f64], model: &NoiseModel) -> NoiseModel {
     let points = residual_points(data, pass, h);
-    let nq = model.floor_m.len();
+    if points.0.len() != model.floor_m.len() {
+        return model.clone();
+    }
     let given =
         (model.source == NoiseSource::Given).then(|| model.floor_m.first().copied().unwrap_or(0.0));
-    match noise_from_points_near(&points, nq, given, Some(model)) {
+    match noise_from_channels_near(&points, given, Some(model)) {
         Some(m) => NoiseModel {
             source: model.source,
             ..m
@@ -2242,14 +2244,17 @@ mod tests {
         let q = x.qr().q();
         let (p2, _) = data.pass(WeightsFrom::Given(&w), &theta, true).unwrap();
         let points = residual_points(&data, &p2, &leverages_screened(&data, &p2, 0.0));
-        assert_eq!(points.len(), n_all);
+        let nq = points.0.len();
+        assert_eq!(points.0.iter().map(Vec::len).sum::<usize>(), n_all);
         let mut total = 0.0;
         let mut exact = Vec::new();
-        for (i, pt) in points.iter().enumerate() {
+        for i in 0..n_all {
+            let [a, b, x] = points.0[i % nq][i / nq];
             let h = 0.5 * (q.row(2 * i).norm_squared() + q.row(2 * i + 1).norm_squared());
             let expect = p2.error[i].powi(2) / (1.0 - h).max(1e-3);
-            assert!((pt.x - expect).abs() <= 1e-9 * expect.max(1e-300), "{i}");
-            assert_eq!(pt.b, p2.read[i].powi(2));
+            assert!((x - expect).abs() <= 1e-9 * expect.max(1e-300), "{i}");
+            assert_eq!(a, 1.0);
+            assert_eq!(b, p2.read[i].powi(2));
             total += 2.0 * h;
             exact.push(h);
         }
