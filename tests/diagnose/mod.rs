@@ -6,4 +6,5 @@ mod cli;
 mod pedestal_grid;
 mod ross_cases;
 mod sensitivity;
+mod threads;
 mod three_bearing;

@@ -627,6 +627,7 @@ fn diagnose<'py>(
         false_alarm,
         relative_probes: model.file.model.probes == rotorid::model::ProbeReference::Relative,
         noise_floor: rotorid::cli::noise_floor_option(noise_floor).map_err(cli_err)?,
+        ..Default::default()
     };
     let rotor = model.file.model.clone();
     let d = py

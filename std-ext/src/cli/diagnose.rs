@@ -68,6 +68,7 @@ pub fn run(args: &DiagnoseArgs, io: &mut Io<'_>) -> Result<(), CliError> {
         false_alarm: args.false_alarm,
         relative_probes: model.probes == ProbeReference::Relative,
         noise_floor: super::noise_floor_option(args.noise_floor)?,
+        ..Default::default()
     };
     let mut d =
         diagnose(&model, &meas, &opts).map_err(|e| CliError::new(format!("diagnose: {e}")))?;

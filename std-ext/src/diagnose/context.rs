@@ -72,6 +72,14 @@ impl Context<'_> {
         t
     }
 
+    /// The threads of the hypotheses' fits ([`DiagnoseOptions::threads`]).
+    pub(crate) fn threads(&self) -> usize {
+        match self.opts.threads {
+            0 => crate::diagnose::parallel::available_threads(),
+            n => n,
+        }
+    }
+
     /// Whether the real equations outnumber `p` parameters by more than 4.
     pub(crate) fn n_room(&self, p: usize) -> bool {
         self.setup.n_real > p + 4

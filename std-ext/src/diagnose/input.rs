@@ -28,6 +28,9 @@ pub struct DiagnoseOptions {
     /// The probes' noise floor (m, every channel); `None`: estimated from
     /// the data (SPEC section 7).
     pub noise_floor: Option<f64>,
+    /// Threads for the hypotheses' fits (0: one per core of the machine).
+    /// The diagnosis is the same on any number.
+    pub threads: usize,
 }
 
 impl Default for DiagnoseOptions {
@@ -37,6 +40,7 @@ impl Default for DiagnoseOptions {
             false_alarm: 1e-3,
             relative_probes: true,
             noise_floor: None,
+            threads: 0,
         }
     }
 }

@@ -83,6 +83,7 @@ mod input;
 mod nominal;
 pub mod observe;
 mod pairs;
+mod parallel;
 mod result;
 mod stages;
 mod stats;

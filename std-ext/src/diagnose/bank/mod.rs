@@ -32,6 +32,7 @@ use crate::diagnose::fit::{self, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::stages::Stages;
 use crate::diagnose::terms::SpeedTerms;
+use modulus::ModulusFit;
 
 /// The fitted bank.
 pub(crate) struct Bank {
@@ -46,32 +47,101 @@ pub(crate) struct Bank {
     pub terms_de: Option<Vec<SpeedTerms>>,
 }
 
-/// Fits every family of the bank in turn, a lap of `clock` each (bow and
-/// extra plane one lap).
-pub(crate) fn run(ctx: &Context<'_>, clock: &mut Stages) -> Result<Bank, DiagnoseError> {
-    let mut hypotheses: Vec<Candidate> = Vec::new();
-    hypotheses.extend(speed_law::speed_dependent_bearing(ctx));
-    clock.lap(Effect::SpeedDependentBearing.name());
-    // foundation_flexibility: a pedestal under each bearing in turn.
-    hypotheses.extend(pedestal::foundation_flexibility(ctx));
-    clock.lap(Effect::FoundationFlexibility.name());
-    // shaft_bow and extra_unbalance_plane: screened over nodes.
-    for effect in [Effect::ShaftBow, Effect::ExtraUnbalancePlane] {
-        hypotheses.extend(nodes::node_effect(ctx, effect)?);
+/// The families of the bank, in the order of [`Bank::hypotheses`] (bow
+/// and extra plane one family).
+#[derive(Debug, Clone, Copy)]
+enum Family {
+    SpeedLaw,
+    Pedestal,
+    Nodes,
+    Runout,
+    Modulus,
+    Gain,
+}
+
+impl Family {
+    const ALL: [Family; 6] = [
+        Family::SpeedLaw,
+        Family::Pedestal,
+        Family::Nodes,
+        Family::Runout,
+        Family::Modulus,
+        Family::Gain,
+    ];
+
+    /// The order the workers take them in: the longest first (measured
+    /// on the paper, stepped hollow and three-bearing rotors), so that
+    /// the short ones fill in beside them.
+    const LONGEST_FIRST: [usize; 6] = [1, 0, 4, 2, 3, 5];
+
+    /// The name of its lap.
+    fn name(self) -> &'static str {
+        match self {
+            Family::SpeedLaw => Effect::SpeedDependentBearing.name(),
+            Family::Pedestal => Effect::FoundationFlexibility.name(),
+            Family::Nodes => "shaft_bow, extra_unbalance_plane",
+            Family::Runout => Effect::ProbeRunout.name(),
+            Family::Modulus => Effect::ShaftStiffnessError.name(),
+            Family::Gain => Effect::ProbeSensitivity.name(),
+        }
     }
-    clock.lap("shaft_bow, extra_unbalance_plane");
-    hypotheses.extend(runout::probe_runout(ctx));
-    clock.lap(Effect::ProbeRunout.name());
-    // shaft_stiffness_error: rounds of terms rebuilt at the new factor.
-    let modulus = modulus::shaft_stiffness_error(ctx)?;
-    hypotheses.extend(modulus.candidate);
-    clock.lap(Effect::ShaftStiffnessError.name());
-    hypotheses.extend(gain::probe_sensitivity(ctx)?);
-    clock.lap(Effect::ProbeSensitivity.name());
+
+    /// Its fit: the best candidate of each of its hypotheses, and for the
+    /// modulus its terms.
+    fn fit(self, ctx: &Context<'_>) -> Result<(Vec<Candidate>, Option<ModulusFit>), DiagnoseError> {
+        Ok(match self {
+            Family::SpeedLaw => (
+                speed_law::speed_dependent_bearing(ctx)
+                    .into_iter()
+                    .collect(),
+                None,
+            ),
+            Family::Pedestal => (
+                pedestal::foundation_flexibility(ctx).into_iter().collect(),
+                None,
+            ),
+            Family::Nodes => {
+                let mut c = Vec::new();
+                for effect in [Effect::ShaftBow, Effect::ExtraUnbalancePlane] {
+                    c.extend(nodes::node_effect(ctx, effect)?);
+                }
+                (c, None)
+            }
+            Family::Runout => (runout::probe_runout(ctx).into_iter().collect(), None),
+            Family::Modulus => (Vec::new(), Some(modulus::shaft_stiffness_error(ctx)?)),
+            Family::Gain => (gain::probe_sensitivity(ctx)?.into_iter().collect(), None),
+        })
+    }
+}
+
+/// Fits every family of the bank, side by side on the context's threads
+/// ([`crate::diagnose::parallel::map`]): the families read the context
+/// only, so the result is the same on any number of cores. A lap of
+/// `clock` each, its own duration (with more than one core the laps add
+/// up to more than the bank's wall-clock time).
+pub(crate) fn run(ctx: &Context<'_>, clock: &mut Stages) -> Result<Bank, DiagnoseError> {
+    let fitted = crate::diagnose::parallel::map(&Family::LONGEST_FIRST, ctx.threads(), |&k| {
+        let t = std::time::Instant::now();
+        let out = Family::ALL[k].fit(ctx);
+        (k, out, t.elapsed().as_secs_f64())
+    });
+    let mut by_family: Vec<_> = fitted.into_iter().collect();
+    by_family.sort_by_key(|(k, ..)| *k);
+    let mut hypotheses: Vec<Candidate> = Vec::new();
+    let (mut e_terms, mut terms_de) = (None, None);
+    for (k, out, seconds) in by_family {
+        let (c, m) = out?;
+        hypotheses.extend(c);
+        if let Some(m) = m {
+            hypotheses.extend(m.candidate);
+            (e_terms, terms_de) = (m.e_terms, m.terms_de);
+        }
+        clock.record(Family::ALL[k].name(), seconds);
+    }
     Ok(Bank {
         hypotheses,
-        e_terms: modulus.e_terms,
-        terms_de: modulus.terms_de,
+        e_terms,
+        terms_de,
     })
 }
 

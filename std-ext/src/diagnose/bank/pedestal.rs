@@ -12,6 +12,7 @@ use crate::diagnose::context::Context;
 use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::{ExtendedModel, Extension, PedestalParams};
 use crate::diagnose::fit::{self, Fit};
+use crate::diagnose::parallel;
 
 /// Natural frequencies of the starts of the pedestal search, as fractions
 /// of the top measured speed (besides two at the largest nominal misfit).
@@ -31,7 +32,8 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
         .map(|(r, _)| r)
         .ok();
     let n_out = data.inv_w.first().map_or(0, Vec::len);
-    let mut queue: Vec<(Fit, usize)> = Vec::new();
+    // Each bearing's model and natural frequencies of the starts.
+    let mut singles: Vec<(usize, ExtendedModel, Vec<f64>)> = Vec::new();
     for bearing in 0..ctx.model.bearings.len() {
         let m = ctx.with_ext(vec![Extension::Pedestal { bearing }]);
         if !ctx.n_room(m.n_params()) {
@@ -45,8 +47,15 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
         if let Some(p) = peak_ratio {
             ratios.extend([0.97 * p, 1.03 * p]);
         }
-        for starts in single_starts(ctx, &m, &ratios) {
-            queue.extend(starts.into_iter().take(2).map(|f| (f, bearing)));
+        singles.push((bearing, m, ratios));
+    }
+    // Every bearing's screening fits side by side, then each list's two
+    // best.
+    let screened = single_starts(ctx, &singles);
+    let mut queue: Vec<(Fit, usize)> = Vec::new();
+    for ((bearing, ..), lists) in singles.iter().zip(screened) {
+        for starts in lists {
+            queue.extend(starts.into_iter().take(2).map(|f| (f, *bearing)));
         }
     }
     // The full fits, best screened start first (the thinned `S` of all
@@ -95,18 +104,24 @@ fn peak_ratio(ctx: &Context<'_>, r: &DVector<f64>, n_out: usize, bearing: usize)
     Some(samples[k].omega / ctx.setup.scales.omega)
 }
 
-/// The screened starts of the single pedestal `m`, best first, in two
-/// lists: the bearings started from the nominal fit, and from the model's
-/// own values. Natural frequencies `ratios` of the top speed (y and z
-/// alike), masses 0.5, 1 and 1.5 times the rotor's mass per bearing, damping
-/// ratio 0.05.
+/// The screened starts of each single pedestal of `singles` (bearing,
+/// model, natural frequencies `ratios` of the top speed), best first, in
+/// two lists: the bearings started from the nominal fit, and from the
+/// model's own values. Natural frequencies `ratios` (y and z alike), masses
+/// 0.5, 1 and 1.5 times the rotor's mass per bearing, damping ratio 0.05.
+/// The screening fits of every bearing run side by side
+/// ([`crate::diagnose::parallel::map`]; the same result on any number of
+/// cores).
 ///
 /// The two lists are ranked apart: a large pedestal distorts the nominal
 /// fit's bearings, and the starts from them screen lower after a few
 /// iterations while their full fits stall (on a pedestal resonating among
 /// the rotor's critical speeds, 3 to 4 times the noise), where a start
 /// from the model's bearings that screens higher reaches the noise.
-fn single_starts(ctx: &Context<'_>, m: &ExtendedModel, ratios: &[f64]) -> [Vec<Fit>; 2] {
+fn single_starts(
+    ctx: &Context<'_>,
+    singles: &[(usize, ExtendedModel, Vec<f64>)],
+) -> Vec<[Vec<Fit>; 2]> {
     let scales = ctx.setup.scales;
     // Screen a grid of natural frequencies and masses by three
     // iterations each (fewer rank the starts wrongly: the basin of
@@ -114,25 +129,42 @@ fn single_starts(ctx: &Context<'_>, m: &ExtendedModel, ratios: &[f64]) -> [Vec<F
     // list.
     // (Ranking on every second speed only halves this and loses
     // pedestals whose y and z frequencies lie apart.)
-    [&ctx.theta0, &ctx.theta_model].map(|nominal_start| {
-        let mut starts: Vec<Fit> = Vec::new();
-        for &ratio in ratios {
-            for mass in [0.5, 1.0, 1.5] {
-                let ped = PedestalParams {
-                    mass: mass * scales.mass,
-                    omega: [ratio * scales.omega; 2],
-                    zeta: [0.05; 2],
-                };
-                let mut t = nominal_start.clone();
-                t.extend_from_slice(&ped.to_scaled(&scales));
-                if let Ok(f) = fit::fit_with(m, ctx.data, &t, 3, false) {
-                    starts.push(f);
+    // Jobs: (single, list, ratio, mass).
+    let mut jobs: Vec<(usize, usize, f64, f64)> = Vec::new();
+    for (i, (_, _, ratios)) in singles.iter().enumerate() {
+        for list in 0..2 {
+            for &ratio in ratios {
+                for mass in [0.5, 1.0, 1.5] {
+                    jobs.push((i, list, ratio, mass));
                 }
             }
         }
-        starts.sort_by(|a, b| a.s.total_cmp(&b.s));
-        starts
-    })
+    }
+    let fits = parallel::map(&jobs, ctx.threads(), |&(i, list, ratio, mass)| {
+        let nominal_start = if list == 0 {
+            &ctx.theta0
+        } else {
+            &ctx.theta_model
+        };
+        let ped = PedestalParams {
+            mass: mass * scales.mass,
+            omega: [ratio * scales.omega; 2],
+            zeta: [0.05; 2],
+        };
+        let mut t = nominal_start.clone();
+        t.extend_from_slice(&ped.to_scaled(&scales));
+        fit::fit_with(&singles[i].1, ctx.data, &t, 3, false).ok()
+    });
+    let mut out: Vec<[Vec<Fit>; 2]> = singles.iter().map(|_| [Vec::new(), Vec::new()]).collect();
+    for ((i, list, ..), f) in jobs.into_iter().zip(fits) {
+        out[i][list].extend(f);
+    }
+    for lists in &mut out {
+        for starts in lists.iter_mut() {
+            starts.sort_by(|a, b| a.s.total_cmp(&b.s));
+        }
+    }
+    out
 }
 
 /// Pedestals under two bearings, when `c` is a single pedestal: its
@@ -197,25 +229,27 @@ pub(crate) fn two_pedestals(
 /// model's own values.
 fn pair_starts(ctx: &Context<'_>, m2: &ExtendedModel) -> Vec<Fit> {
     let scales = ctx.setup.scales;
-    let mut starts: Vec<Fit> = Vec::new();
+    let mut jobs: Vec<(&Vec<f64>, f64, f64)> = Vec::new();
     for nominal_start in [&ctx.theta0, &ctx.theta_model] {
         for &r1 in &PEDESTAL_RATIOS {
             for &r2 in &PEDESTAL_RATIOS {
-                let mut t = nominal_start.clone();
-                for r in [r1, r2] {
-                    let ped = PedestalParams {
-                        mass: scales.mass,
-                        omega: [r * scales.omega; 2],
-                        zeta: [0.05; 2],
-                    };
-                    t.extend_from_slice(&ped.to_scaled(&scales));
-                }
-                if let Ok(f) = fit::fit_with(m2, ctx.data, &t, 3, false) {
-                    starts.push(f);
-                }
+                jobs.push((nominal_start, r1, r2));
             }
         }
     }
+    let fits = parallel::map(&jobs, ctx.threads(), |&(nominal_start, r1, r2)| {
+        let mut t = nominal_start.clone();
+        for r in [r1, r2] {
+            let ped = PedestalParams {
+                mass: scales.mass,
+                omega: [r * scales.omega; 2],
+                zeta: [0.05; 2],
+            };
+            t.extend_from_slice(&ped.to_scaled(&scales));
+        }
+        fit::fit_with(m2, ctx.data, &t, 3, false).ok()
+    });
+    let mut starts: Vec<Fit> = fits.into_iter().flatten().collect();
     starts.sort_by(|a, b| a.s.total_cmp(&b.s));
     starts
 }
