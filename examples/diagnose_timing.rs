@@ -10,13 +10,16 @@
 //! cargo run --release --example diagnose_timing SEED realistic
 //! cargo run --release --example diagnose_timing SEED realistic tests/data/ross/stepped_hollow.toml 11000
 //! cargo run --release --example diagnose_timing SEED realistic tests/data/rotors/three_bearing.toml 12000
+//! cargo run --release --example diagnose_timing SEED realistic paper 15000 1
 //! ```
 //!
 //! `realistic`: the cases of the realistic confusion matrix instead, the
 //! unbalance at balance grade G6.3, 0.5 % relative noise and a 0.5 um
 //! probe floor (SPEC section 7). Then, optionally, another rotor (a model
 //! file, rotorid's or ROSS's) and its top speed in rpm (300 speeds up to
-//! it).
+//! it), and the threads of the hypotheses' fits (default 0: one per core;
+//! with more than one the stage laps are each family's own duration and
+//! add up to more than the total).
 
 use rotorid::diagnose::generator::generate;
 use rotorid::diagnose::{diagnose, DiagnoseOptions, Effect};
@@ -39,6 +42,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(s) => s.parse()?,
         None => 15000.0,
     };
+    let opts = DiagnoseOptions {
+        threads: match std::env::args().nth(5) {
+            Some(s) => s.parse()?,
+            None => 0,
+        },
+        ..Default::default()
+    };
     // A model without unbalance (a ROSS file) gets the generator's own,
     // balance grade G2.5 on its planes.
     let model = if realistic {
@@ -60,7 +70,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut case = generate(&model, effect, seed, &speeds, Some(noise))?;
         rotorid::simulate::add_floor_noise(&mut case.meas, floor, seed)?;
         let t = std::time::Instant::now();
-        let d = diagnose(&model, &case.meas, &DiagnoseOptions::default())?;
+        let d = diagnose(&model, &case.meas, &opts)?;
         let total = t.elapsed().as_secs_f64();
         runs.push((effect, d.effect, d.stages, total));
     }

@@ -6,7 +6,8 @@
 //! Then the same on realistic data, the cases of the realistic confusion
 //! matrix (unbalance at balance grade G6.3, 0.5 % relative noise and a
 //! 0.5 um probe floor): `none`, and the three effects whose diagnoses took
-//! longest (a pedestal, runout, the shaft's modulus).
+//! longest (a pedestal, runout, the shaft's modulus), on the machine's
+//! cores (the default) and on one (`_one_core`).
 //!
 //! `cargo bench --bench diagnose -- --warm-up-time 1 --measurement-time 20`
 
@@ -65,6 +66,15 @@ fn bench(c: &mut Criterion) {
                 )
             })
         });
+        // The same on one core (the requirement's reading).
+        let one = DiagnoseOptions {
+            threads: 1,
+            ..Default::default()
+        };
+        g.bench_function(
+            format!("diagnose_realistic_{}_one_core", effect.name()),
+            |b| b.iter(|| black_box(diagnose(&real, &case.meas, &one).expect("diagnose"))),
+        );
         if effect == Effect::None {
             let mut o = Options::new(rotorid::core::parametrization::Structure::physical(1));
             o.estimator = Estimator::OutputError;
