@@ -120,16 +120,16 @@ impl Family {
 /// `clock` each, its own duration (with more than one core the laps add
 /// up to more than the bank's wall-clock time).
 pub(crate) fn run(ctx: &Context<'_>, clock: &mut Stages) -> Result<Bank, DiagnoseError> {
-    let fitted = crate::diagnose::parallel::map(&Family::LONGEST_FIRST, ctx.threads(), |&k| {
+    let mut fitted = crate::diagnose::parallel::map(&Family::LONGEST_FIRST, ctx.threads(), |&k| {
         let t = std::time::Instant::now();
         let out = Family::ALL[k].fit(ctx);
         (k, out, t.elapsed().as_secs_f64())
     });
-    let mut by_family: Vec<_> = fitted.into_iter().collect();
-    by_family.sort_by_key(|(k, ..)| *k);
+    // Back in the order of the hypotheses.
+    fitted.sort_by_key(|(k, ..)| *k);
     let mut hypotheses: Vec<Candidate> = Vec::new();
     let (mut e_terms, mut terms_de) = (None, None);
-    for (k, out, seconds) in by_family {
+    for (k, out, seconds) in fitted {
         let (c, m) = out?;
         hypotheses.extend(c);
         if let Some(m) = m {
