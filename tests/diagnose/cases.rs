@@ -150,9 +150,12 @@ pub(super) fn judge(meas: &Measurements, h: &Hidden, d: &Diagnosis) -> Outcome {
             let c = &channels[ch];
             Some((c.amplitude, z.norm(), c.amplitude_std))
         }
-        (Finding::ShaftStiffnessError { factor, factor_std }, Effect::ShaftStiffnessError) => {
-            Some((*factor - 1.0, h.size - 1.0, *factor_std))
-        }
+        (
+            Finding::ShaftStiffnessError {
+                factor, factor_std, ..
+            },
+            Effect::ShaftStiffnessError,
+        ) => Some((*factor - 1.0, h.size - 1.0, *factor_std)),
         (
             Finding::ProbeSensitivity {
                 channel,

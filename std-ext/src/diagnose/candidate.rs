@@ -6,6 +6,7 @@ use super::effect::Effect;
 use super::extended::ExtendedModel;
 use super::fit::Fit;
 use super::stats::chi2_quantile_upper;
+use super::terms::StiffnessForm;
 
 /// One fitted model of the bank (or the nominal one).
 #[derive(Debug, Clone)]
@@ -18,8 +19,11 @@ pub struct Candidate {
     pub model: ExtendedModel,
     /// Its fit.
     pub fit: Fit,
-    /// The shaft modulus factor its terms were built for.
+    /// The shaft stiffness factor its terms were built for.
     pub e_terms: f64,
+    /// What that factor changes (E and G unless the modulus hypothesis
+    /// found another form).
+    pub stiffness: StiffnessForm,
     /// Alternatives tried for this hypothesis (nodes, bearings, orders).
     pub alternatives: usize,
     /// `(S_nominal - S) / sigma^2`.
@@ -51,6 +55,7 @@ impl Candidate {
             model,
             fit,
             e_terms,
+            stiffness: StiffnessForm::EAndG,
             alternatives,
             statistic: 0.0,
             threshold: 0.0,

@@ -10,7 +10,7 @@ use crate::diagnose::context::Context;
 use crate::diagnose::effect::Effect;
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::pairs::best_pair;
-use crate::diagnose::terms::SpeedTerms;
+use crate::diagnose::terms::{SpeedTerms, StiffnessForm};
 
 /// Chi-square per degree of freedom of the residual noise against the
 /// model-free noise level above which a model does not fit: the same
@@ -65,7 +65,7 @@ pub(crate) struct Choice {
 pub(crate) fn choose(
     ctx: &Context<'_>,
     hyps: &mut Vec<Candidate>,
-    e_cache: &mut Option<(f64, Vec<SpeedTerms>)>,
+    e_cache: &mut Option<(StiffnessForm, f64, Vec<SpeedTerms>)>,
 ) -> Result<Choice, DiagnoseError> {
     let nominal = ctx.nominal;
     let noise_level = ctx.setup.noise_level;

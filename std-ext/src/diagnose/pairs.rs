@@ -12,7 +12,7 @@ use crate::diagnose::extended::{ExtendedModel, Extension};
 use crate::diagnose::fit::{self, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::nominal::map_theta;
-use crate::diagnose::terms::{self, SpeedTerms};
+use crate::diagnose::terms::{self, SpeedTerms, StiffnessForm};
 
 /// The pair (or the single pedestal found by the search for two) of least
 /// BIC among: the strongest significant hypothesis of `hyps` with each
@@ -23,7 +23,7 @@ pub(crate) fn best_pair(
     ctx: &Context<'_>,
     hyps: &[Candidate],
     judge: &Judge,
-    e_cache: &mut Option<(f64, Vec<SpeedTerms>)>,
+    e_cache: &mut Option<(StiffnessForm, f64, Vec<SpeedTerms>)>,
 ) -> Result<Option<Candidate>, DiagnoseError> {
     // Pairs of the strongest effect with each other significant one.
     let mut strong: Vec<usize> = (0..hyps.len()).filter(|&i| hyps[i].significant).collect();
@@ -48,7 +48,7 @@ pub(crate) fn best_pair(
         }
     }
     for (a, b) in &trials {
-        if let Some(c) = fit_pair(ctx.builder, ctx.omegas, ctx.data, a, b, e_cache)? {
+        if let Some(c) = fit_pair(ctx, a, b, e_cache)? {
             // By BIC: a pair with a lean law beats one whose
             // extra bearing orders merely absorb the second effect.
             if pair_best
@@ -80,13 +80,12 @@ pub(crate) fn best_pair(
 /// built at that factor). `None` when the parameters do not match, the
 /// equations leave no room or the fit fails.
 fn fit_pair(
-    builder: &terms::Builder,
-    omegas: &[f64],
-    data: &FitData<'_>,
+    ctx: &Context<'_>,
     a: &Candidate,
     b: &Candidate,
-    e_cache: &mut Option<(f64, Vec<SpeedTerms>)>,
+    e_cache: &mut Option<(StiffnessForm, f64, Vec<SpeedTerms>)>,
 ) -> Result<Option<Candidate>, DiagnoseError> {
+    let data = ctx.data;
     // The richer bearing law of the two.
     let (pa, pb) = (&a.model.pr, &b.model.pr);
     let pr = if pb.param.structure.order > pa.param.structure.order {
@@ -109,15 +108,23 @@ fn fit_pair(
         return Ok(None);
     }
     let uses_e = m.ext.contains(&Extension::EScale);
-    let e = if a.model.ext.contains(&Extension::EScale) {
-        a.e_terms
+    let (e, form) = if a.model.ext.contains(&Extension::EScale) {
+        (a.e_terms, a.stiffness)
     } else {
-        b.e_terms
+        (b.e_terms, b.stiffness)
     };
     let fit = if uses_e {
         let te = match e_cache {
-            Some((ec, t)) if *ec == e && !t.is_empty() => t.clone(),
-            _ => builder.build(omegas, e, true)?,
+            Some((fc, ec, t)) if *fc == form && *ec == e && !t.is_empty() => t.clone(),
+            _ => terms::build_form(
+                ctx.builder,
+                ctx.model,
+                ctx.omegas,
+                form,
+                e,
+                true,
+                ctx.probe_nodes,
+            )?,
         };
         let d = FitData::with_probes(data.samples, data.node_q, &te)
             .with_floors(&data.phi)
@@ -139,12 +146,16 @@ fn fit_pair(
     let Ok(fit) = fit else { return Ok(None) };
     let mut effects = a.effects.clone();
     effects.extend(b.effects.iter().copied());
-    Ok(Some(Candidate::new(
+    let mut c = Candidate::new(
         effects,
         format!("{} + {}", a.label, b.label),
         m,
         fit,
         if uses_e { e } else { 1.0 },
         1,
-    )))
+    );
+    if uses_e {
+        c.stiffness = form;
+    }
+    Ok(Some(c))
 }

@@ -88,10 +88,14 @@ pub enum Finding {
     },
     /// The shaft's modulus off.
     ShaftStiffnessError {
-        /// Factor on E and G.
+        /// The factor (on what `form` says).
         factor: f64,
         /// Its standard deviation.
         factor_std: f64,
+        /// What the factor multiplies: "the shaft's E and G", "the
+        /// shaft's E (G kept)" or "the outer diameter of shaft elements
+        /// a..b" (1-based).
+        form: String,
     },
     /// A probe whose scale factor is off: it reads `gain` times the
     /// signal (`gain - 1` the sensitivity error).
@@ -208,7 +212,16 @@ pub fn predictions(
     let own;
     let terms: &[SpeedTerms] = if c.model.ext.contains(&Extension::EScale) {
         let omegas: Vec<f64> = d.terms.iter().map(|t| t.omega).collect();
-        own = terms::build_with_probes(model, &omegas, c.e_terms, true, &d.probe_nodes)?;
+        let builder = terms::Builder::new(model, &d.probe_nodes)?;
+        own = terms::build_form(
+            &builder,
+            model,
+            &omegas,
+            c.stiffness,
+            c.e_terms,
+            true,
+            &d.probe_nodes,
+        )?;
         &own
     } else {
         &d.terms
@@ -372,6 +385,7 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                 out.push(Finding::ShaftStiffnessError {
                     factor: c.e_terms + E_STEP * f.theta[o],
                     factor_std: E_STEP * f.std(o).unwrap_or(f64::NAN),
+                    form: c.stiffness.describe(),
                 });
             }
             Extension::Pedestal { bearing } => {

@@ -412,6 +412,123 @@ pub fn set_secant_derivative(
     Ok(())
 }
 
+/// The form of a shaft stiffness error (`shaft_stiffness_error`): what a
+/// factor `f` changes in the model.
+///
+/// | form | changed | what it stands for |
+/// |---|---|---|
+/// | [`StiffnessForm::EAndG`] | `E` and `G` of every element times `f` | temperature, a material's modulus with its shear modulus |
+/// | [`StiffnessForm::EAlone`] | `E` of every element times `f`, `G` kept | a material's Young's modulus |
+/// | [`StiffnessForm::Section`] | the outer diameter of elements `first..=last` times `f` (stiffness and mass) | a section of the drawing's shaft off, a softer fit |
+///
+/// Only `EAndG` scales the shaft's stiffness matrix as a whole (so its
+/// terms are the model's own at another speed, module docs); the others
+/// are built from the changed model ([`build_form`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StiffnessForm {
+    /// `E` and `G` together.
+    #[default]
+    EAndG,
+    /// `E` alone.
+    EAlone,
+    /// The outer diameter of the shaft elements `first..=last` (0-based).
+    Section {
+        /// First element (0-based).
+        first: usize,
+        /// Last element (0-based, inclusive).
+        last: usize,
+    },
+}
+
+impl StiffnessForm {
+    /// `model` with the factor `f` applied in this form. A section whose
+    /// outer diameter would not exceed its inner one is an error.
+    pub fn apply(self, model: &RotorModel, f: f64) -> Result<RotorModel, ReductionError> {
+        if !(f.is_finite() && f > 0.0) {
+            return Err(ReductionError::Invalid(format!(
+                "shaft stiffness factor must be finite and > 0, got {f}"
+            )));
+        }
+        let mut m = model.clone();
+        match self {
+            StiffnessForm::EAndG => {
+                for el in &mut m.shaft {
+                    el.material.e *= f;
+                    el.material.g *= f;
+                }
+            }
+            StiffnessForm::EAlone => {
+                for el in &mut m.shaft {
+                    el.material.e *= f;
+                }
+            }
+            StiffnessForm::Section { first, last } => {
+                let n = m.shaft.len();
+                if first > last || last >= n {
+                    return Err(ReductionError::Invalid(format!(
+                        "shaft section {}..{} outside the {n} elements",
+                        first + 1,
+                        last + 1
+                    )));
+                }
+                for el in &mut m.shaft[first..=last] {
+                    el.outer_diameter *= f;
+                    if el.outer_diameter <= el.inner_diameter {
+                        return Err(ReductionError::Invalid(format!(
+                            "outer diameter {} m at or below the inner {} m",
+                            el.outer_diameter, el.inner_diameter
+                        )));
+                    }
+                }
+            }
+        }
+        Ok(m)
+    }
+
+    /// The form in words, e.g. "outer diameter of shaft elements 5..8"
+    /// (1-based).
+    pub fn describe(self) -> String {
+        match self {
+            StiffnessForm::EAndG => "the shaft's E and G".into(),
+            StiffnessForm::EAlone => "the shaft's E (G kept)".into(),
+            StiffnessForm::Section { first, last } => format!(
+                "the outer diameter of shaft elements {}..{}",
+                first + 1,
+                last + 1
+            ),
+        }
+    }
+}
+
+/// The terms of `model` with a stiffness error of `form` and factor `f`
+/// at every speed of `omegas`, with `dA/df`, `dB/df` by a forward
+/// difference (step `1e-4 f`) when `derivative`. `EAndG` through
+/// `builder` (the model's own, [`Builder::build`]); the other forms from
+/// a [`Builder`] of the changed model (probes at `probe_nodes`).
+pub fn build_form(
+    builder: &Builder,
+    model: &RotorModel,
+    omegas: &[f64],
+    form: StiffnessForm,
+    f: f64,
+    derivative: bool,
+    probe_nodes: &[usize],
+) -> Result<Vec<SpeedTerms>, ReductionError> {
+    if form == StiffnessForm::EAndG {
+        return builder.build(omegas, f, derivative);
+    }
+    let at = |x: f64| -> Result<Vec<SpeedTerms>, ReductionError> {
+        Builder::new(&form.apply(model, x)?, probe_nodes)?.build(omegas, 1.0, false)
+    };
+    let mut t = at(f)?;
+    if derivative {
+        let h = 1e-4 * f;
+        let ahead = at(f + h)?;
+        set_secant_derivative(&mut t, f, &ahead, f + h)?;
+    }
+    Ok(t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -521,5 +638,69 @@ mod tests {
             let da = t[k].da_de.as_ref().unwrap();
             assert!((fd - da).norm() <= 1e-2 * da.norm());
         }
+    }
+
+    /// Each stiffness form changes what it names, and [`build_form`]'s
+    /// terms are the reduction of the changed model: E alone leaves G; a
+    /// section changes the outer diameter of its elements only (the FE
+    /// model's stiffness and mass there, the dense reduction of that model
+    /// at two speeds equal to the built terms); E and G through the builder
+    /// equal the modulus scaling; the forward-difference derivative agrees
+    /// with a central one; a diameter at the bore is an error.
+    #[test]
+    fn stiffness_forms_build_the_changed_model() {
+        let m = RotorModel::paper();
+        let f = 0.97;
+        let e_alone = StiffnessForm::EAlone.apply(&m, f).unwrap();
+        for (a, b) in e_alone.shaft.iter().zip(&m.shaft) {
+            assert_eq!(a.material.e, f * b.material.e);
+            assert_eq!(a.material.g, b.material.g);
+        }
+        let form = StiffnessForm::Section { first: 4, last: 9 };
+        let sec = form.apply(&m, f).unwrap();
+        for (i, (a, b)) in sec.shaft.iter().zip(&m.shaft).enumerate() {
+            let want = if (4..=9).contains(&i) { f } else { 1.0 };
+            assert_eq!(a.outer_diameter, want * b.outer_diameter);
+            assert_eq!(a.material, b.material);
+        }
+        assert_eq!(
+            form.describe(),
+            "the outer diameter of shaft elements 5..10"
+        );
+        let omegas = [400.0, 1100.0];
+        let builder = Builder::new(&m, &[]).unwrap();
+        let t = build_form(&builder, &m, &omegas, form, f, true, &[]).unwrap();
+        let fe = FeModel::new(&sec).unwrap();
+        let r = Reducer::new(&fe, &sec).unwrap();
+        for (k, &w) in omegas.iter().enumerate() {
+            let d = r.reduce(w).unwrap();
+            assert!((&t[k].a - &d.a).norm() <= 1e-9 * d.a.norm());
+            assert!((&t[k].b - &d.b).norm() <= 1e-9 * d.b.norm());
+            // The derivative against a central difference of the reduction.
+            let h = 1e-3;
+            let at = |x: f64| {
+                let mx = form.apply(&m, x).unwrap();
+                Reducer::new(&FeModel::new(&mx).unwrap(), &mx)
+                    .unwrap()
+                    .reduce(w)
+                    .unwrap()
+                    .a
+            };
+            let central = (at(f + h) - at(f - h)) / Complex64::from(2.0 * h);
+            let da = t[k].da_de.as_ref().unwrap();
+            assert!((da - &central).norm() <= 2e-3 * central.norm());
+        }
+        let eg = build_form(&builder, &m, &omegas, StiffnessForm::EAndG, f, false, &[]).unwrap();
+        let direct = builder.build(&omegas, f, false).unwrap();
+        assert_eq!(eg, direct);
+        let mut hollow = m.clone();
+        for el in &mut hollow.shaft {
+            el.inner_diameter = 0.99 * el.outer_diameter;
+        }
+        assert!(form.apply(&hollow, 0.98).is_err());
+        assert!(form.apply(&m, f64::NAN).is_err());
+        assert!(StiffnessForm::Section { first: 3, last: 99 }
+            .apply(&m, 1.0)
+            .is_err());
     }
 }

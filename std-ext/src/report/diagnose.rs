@@ -389,8 +389,12 @@ fn finding_line(f: &Finding) -> String {
         } => format!(
             "extra unbalance at node {node}: {me:.4e} +- {me_std:.1e} kg m at {phase_deg:.1} +- {phase_deg_std:.1} deg"
         ),
-        Finding::ShaftStiffnessError { factor, factor_std } => {
-            format!("shaft E and G x {factor:.4} +- {factor_std:.4}")
+        Finding::ShaftStiffnessError {
+            factor,
+            factor_std,
+            form,
+        } => {
+            format!("{form} x {factor:.4} +- {factor_std:.4}")
         }
         Finding::ProbeSensitivity {
             channel,

@@ -31,7 +31,7 @@ use crate::diagnose::extended::{ExtendedModel, Extension};
 use crate::diagnose::fit::{self, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::stages::Stages;
-use crate::diagnose::terms::SpeedTerms;
+use crate::diagnose::terms::{SpeedTerms, StiffnessForm};
 use modulus::ModulusFit;
 
 /// The fitted bank.
@@ -41,7 +41,7 @@ pub(crate) struct Bank {
     pub hypotheses: Vec<Candidate>,
     /// The terms at the fitted shaft-modulus factor, when the modulus'
     /// last round was fitted on them.
-    pub e_terms: Option<(f64, Vec<SpeedTerms>)>,
+    pub e_terms: Option<(StiffnessForm, f64, Vec<SpeedTerms>)>,
     /// The model's own terms with their derivatives in the modulus factor
     /// at `e = 1`, when the modulus hypothesis was tried.
     pub terms_de: Option<Vec<SpeedTerms>>,

@@ -1,9 +1,19 @@
-//! `shaft_stiffness_error`: a factor `e` on the shaft's E and G. The terms
-//! depend on `e` nonlinearly, so the fit runs in rounds: fitted with the
-//! terms linearised in `e` about the current factor (`dA/de`, `dB/de` by a
-//! secant), the factor moved by `E_STEP` times its offset, the terms
-//! rebuilt exactly there ([`crate::diagnose::terms`]), until the factor
-//! stops moving.
+//! `shaft_stiffness_error`: a factor on the shaft's stiffness in one of its
+//! forms ([`StiffnessForm`]): E and G together, E alone, or the outer
+//! diameter of a section of the shaft (stiffness and mass). The terms
+//! depend on the factor nonlinearly, so each form's fit runs in rounds:
+//! fitted with the terms linearised in the factor about its current value
+//! (`dA/df`, `dB/df` by a secant), the factor moved by `E_STEP` times its
+//! offset, the terms rebuilt exactly there ([`crate::diagnose::terms`]),
+//! until the factor stops moving. The forms have one parameter each, so
+//! the one of least misfit is the candidate, named in its label.
+//!
+//! The sections tried are the runs of one to three consecutive pieces of
+//! the shaft between its features (ends, bearings, disks, planes, steps of
+//! diameter or material), as a drawing divides it; they are ranked by the
+//! misfit of the nominal model estimated afresh on each section's terms at
+//! a diameter 4 % off (on the side of the global factor), and the best two
+//! are fitted.
 
 use crate::diagnose::candidate::Candidate;
 use crate::diagnose::context::Context;
@@ -12,12 +22,13 @@ use crate::diagnose::extended::{ExtendedModel, Extension, E_STEP};
 use crate::diagnose::fit::{self, Fit, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::nominal::oe_start;
-use crate::diagnose::terms::{self, SpeedTerms};
+use crate::diagnose::terms::{self, SpeedTerms, StiffnessForm};
+use crate::model::RotorModel;
 
-/// Terms built at several factors: `(e, terms at e)`.
+/// Terms built at several factors: `(f, terms at f)`.
 type Built = Vec<(f64, Vec<SpeedTerms>)>;
 
-/// The start of the rounds: `(e, S at e, scaled parameters)`.
+/// The start of the rounds: `(f, S at f, scaled parameters)`.
 type Start = (f64, f64, Vec<f64>);
 
 /// Where the rounds end.
@@ -34,17 +45,34 @@ struct End {
 pub(crate) struct ModulusFit {
     /// Its fit, when it has one.
     pub candidate: Option<Candidate>,
-    /// The terms at the fitted factor, when the last round's fit was at
-    /// the factor they were built for (the pairs reuse them).
-    pub e_terms: Option<(f64, Vec<SpeedTerms>)>,
+    /// The terms at the fitted factor of the candidate's form, when the
+    /// last round's fit was at the factor they were built for (the pairs
+    /// reuse them).
+    pub e_terms: Option<(StiffnessForm, f64, Vec<SpeedTerms>)>,
     /// The nominal terms with `dA/de`, `dB/de` at `e = 1` (central secant
-    /// through `e = 0.95` and `1.05`), for the modulus' observability.
+    /// through `e = 0.95` and `1.05`) of E and G, for the modulus'
+    /// observability.
     pub terms_de: Option<Vec<SpeedTerms>>,
 }
 
-/// The fit of the factor on the shaft's modulus: the best start of
-/// `e = 1` and `e = 1 -+ 5 %` (`starts`), then up to six rounds
-/// (`rounds`).
+/// The terms of the context's model in `form` at the factor `f`.
+fn build(ctx: &Context<'_>, form: StiffnessForm, f: f64) -> Result<Vec<SpeedTerms>, DiagnoseError> {
+    Ok(terms::build_form(
+        ctx.builder,
+        ctx.model,
+        ctx.omegas,
+        form,
+        f,
+        false,
+        ctx.probe_nodes,
+    )?)
+}
+
+/// The fit of the factor on the shaft's stiffness: for E and G, and for E
+/// alone, the best start of `f = 1` and `f = 1 -+ 5 %` (`starts`), then up
+/// to six rounds (`rounds`); for the sections, the two that `rank_sections`
+/// puts first, from their screening start. The form of least misfit is the
+/// candidate; its alternatives are the two global forms and the sections.
 pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, DiagnoseError> {
     let mut out = ModulusFit {
         candidate: None,
@@ -55,33 +83,168 @@ pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, Dia
     if !ctx.n_room(m.n_params()) {
         return Ok(out);
     }
-    let (best, built) = starts(ctx, &m)?;
+    let mut ends: Vec<(StiffnessForm, End)> = Vec::new();
+    let (best, built) = starts(ctx, &m, StiffnessForm::EAndG)?;
     out.terms_de = derivative_at_one(ctx, &built)?;
     let (e, _, theta) = best;
-    let End { last, e, cur } = rounds(ctx, &m, built, e, theta)?;
-    if let Some((_, e_fit)) = &last {
-        if *e_fit == e {
-            out.e_terms = Some((e, cur));
-        }
+    ends.push((
+        StiffnessForm::EAndG,
+        rounds(ctx, &m, StiffnessForm::EAndG, built, e, theta)?,
+    ));
+    let (best, built) = starts(ctx, &m, StiffnessForm::EAlone)?;
+    let (e, _, theta) = best;
+    ends.push((
+        StiffnessForm::EAlone,
+        rounds(ctx, &m, StiffnessForm::EAlone, built, e, theta)?,
+    ));
+    let sections = sections(ctx.model);
+    // A section's diameter moves the critical speeds the way the whole
+    // shaft's modulus does (its stiffness, `d^4`, outweighs its mass,
+    // `d^2`): the sections are screened on the side of the better global
+    // factor.
+    let global = ends
+        .iter()
+        .filter_map(|(_, end)| end.last.as_ref())
+        .min_by(|a, b| a.0.s.total_cmp(&b.0.s))
+        .map_or(1.0, |(f, e)| e + E_STEP * f.theta[m.offset(0)]);
+    let step = if global < 1.0 {
+        SECTION_STEPS[0]
+    } else {
+        SECTION_STEPS[1]
+    };
+    let ranked = rank_sections(ctx, &sections, step)?;
+    for (form, f, theta, at) in ranked.into_iter().take(2) {
+        let built = vec![(f, at), (1.0, ctx.terms.to_vec())];
+        ends.push((form, rounds(ctx, &m, form, built, f, theta)?));
     }
-    if let Some((f, e)) = last {
-        out.candidate = Some(Candidate::new(
+    let alternatives = 2 + sections.len();
+    let best = ends
+        .into_iter()
+        .filter(|(_, end)| end.last.is_some())
+        .min_by(|a, b| {
+            let s = |x: &End| x.last.as_ref().map_or(f64::INFINITY, |l| l.0.s);
+            s(&a.1).total_cmp(&s(&b.1))
+        });
+    let Some((form, End { last, e, cur })) = best else {
+        return Ok(out);
+    };
+    if let Some((f, e_fit)) = last {
+        if e_fit == e {
+            out.e_terms = Some((form, e, cur));
+        }
+        let mut c = Candidate::new(
             vec![Effect::ShaftStiffnessError],
-            "factor on the shaft's E and G".into(),
+            format!("factor on {}", form.describe()),
             m,
             f,
-            e,
-            1,
-        ));
+            e_fit,
+            alternatives,
+        );
+        c.stiffness = form;
+        out.candidate = Some(c);
     }
     Ok(out)
 }
 
-/// The best start of `m` of `e = 1` (the nominal estimate) and
+/// The factors on a section's diameter its screening fits are made at,
+/// softer and stiffer (a diameter a few per cent off changes the
+/// section's stiffness by four times as much).
+const SECTION_STEPS: [f64; 2] = [0.96, 1.04];
+
+/// The sections of the shaft a diameter error is sought in: the runs of one
+/// to three consecutive pieces between the shaft's features (its ends, the
+/// bearings, disks and planes, and every change of diameter or material
+/// between neighbouring elements).
+pub(crate) fn sections(model: &RotorModel) -> Vec<StiffnessForm> {
+    let n = model.shaft.len();
+    let mut at: Vec<usize> = vec![0, n];
+    at.extend(model.bearing_nodes());
+    at.extend(model.disks.iter().map(|d| d.node));
+    at.extend(model.planes.iter().copied());
+    for (i, w) in model.shaft.windows(2).enumerate() {
+        if w[0].outer_diameter != w[1].outer_diameter
+            || w[0].inner_diameter != w[1].inner_diameter
+            || w[0].material != w[1].material
+        {
+            at.push(i + 1);
+        }
+    }
+    at.retain(|&k| k <= n);
+    at.sort_unstable();
+    at.dedup();
+    let mut out = Vec::new();
+    for run in 1..=3 {
+        for w in at.windows(run + 1) {
+            out.push(StiffnessForm::Section {
+                first: w[0],
+                last: w[run] - 1,
+            });
+        }
+    }
+    out
+}
+
+/// A section's start: its form, the factor, the nominal parameters fitted
+/// on the terms there (with the factor's offset zero), and those terms.
+type SectionStart = (StiffnessForm, f64, Vec<f64>, Vec<SpeedTerms>);
+
+/// The sections ranked by the misfit of the nominal model refitted on the
+/// terms of the section's diameter times `step` (estimated afresh
+/// there by the filter and the output-error fit, as `starts` does: the
+/// bearings of the nominal estimate have absorbed part of the effect, so
+/// a step from it in the factor alone says little), each with that start. Sections whose terms cannot be built (a diameter at or below
+/// the bore) are left out.
+fn rank_sections(
+    ctx: &Context<'_>,
+    sections: &[StiffnessForm],
+    step: f64,
+) -> Result<Vec<SectionStart>, DiagnoseError> {
+    let setup = ctx.setup;
+    let mut scored: Vec<(f64, SectionStart)> = Vec::new();
+    for &form in sections {
+        let mut best: Option<(f64, SectionStart)> = None;
+        for f in [step] {
+            let Ok(at) = build(ctx, form, f) else {
+                continue;
+            };
+            let d = FitData::with_probes(ctx.samples, ctx.node_q, &at)
+                .with_floors(&setup.phi)
+                .with_noise_level(setup.noise_level);
+            let Ok((_, mut theta, _)) = oe_start(
+                ctx.model,
+                ctx.samples,
+                &at,
+                setup.structure,
+                setup.scaling,
+                setup.held_noise(),
+            ) else {
+                continue;
+            };
+            let en = fit::entries(ctx.base, &d);
+            let Ok((r, _)) = fit::evaluate(ctx.base, &d, &en, &theta, false) else {
+                continue;
+            };
+            let s = r.norm_squared();
+            if best.as_ref().is_none_or(|b| s < b.0) {
+                theta.push(0.0);
+                best = Some((s, (form, f, theta, at)));
+            }
+        }
+        scored.extend(best);
+    }
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(scored.into_iter().map(|(_, st)| st).collect())
+}
+
+/// The best start of `m` in `form` of `e = 1` (the nominal estimate) and
 /// `e = 0.95`, `1.05` (the nominal parameters estimated again on the
 /// terms there), by the misfit `S` of the nominal model; with the terms
 /// built at the three factors, `e = 1` first.
-fn starts(ctx: &Context<'_>, m: &ExtendedModel) -> Result<(Start, Built), DiagnoseError> {
+fn starts(
+    ctx: &Context<'_>,
+    m: &ExtendedModel,
+    form: StiffnessForm,
+) -> Result<(Start, Built), DiagnoseError> {
     let setup = ctx.setup;
     let base = ctx.base;
     // Start: the best of e = 1 and e = 1 -+ 5 % with the nominal
@@ -90,7 +253,7 @@ fn starts(ctx: &Context<'_>, m: &ExtendedModel) -> Result<(Start, Built), Diagno
     let mut built: Built = vec![(1.0, ctx.terms.to_vec())];
     let mut best = (1.0, ctx.nominal.fit.s, ctx.start_with(m, &[0.0]));
     for e_try in [0.95, 1.05] {
-        let te = ctx.builder.build(ctx.omegas, e_try, false)?;
+        let te = build(ctx, form, e_try)?;
         if let Ok((_, mut th, _)) = oe_start(
             ctx.model,
             ctx.samples,
@@ -139,11 +302,13 @@ fn derivative_at_one(
     Ok(terms_de)
 }
 
-/// Up to six rounds from the factor `e` and the parameters `theta`, the
-/// terms at `e` and at the factor nearest it taken from `built`.
+/// Up to six rounds of `form` from the factor `e` and the parameters
+/// `theta`, the terms at `e` and at the factor nearest it taken from
+/// `built`.
 fn rounds(
     ctx: &Context<'_>,
     m: &ExtendedModel,
+    form: StiffnessForm,
     mut built: Built,
     mut e: f64,
     mut theta: Vec<f64>,
@@ -182,7 +347,7 @@ fn rounds(
             break;
         }
         theta[m.offset(0)] = 0.0;
-        let mut next = ctx.builder.build(ctx.omegas, e_new, false)?;
+        let mut next = build(ctx, form, e_new)?;
         if (e_new - e).abs() < 1e-5 * e {
             // Too close for a secant without cancellation: the
             // derivative of the current factor is as good.
@@ -199,4 +364,45 @@ fn rounds(
         e = e_new;
     }
     Ok(End { last, e, cur })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The paper rotor's features (shaft ends, bearings at its ends, disks
+    /// and planes at nodes 4, 10 and 20, one diameter) cut it into four
+    /// pieces; the sections are the runs of one to three of them.
+    #[test]
+    fn sections_run_between_the_shafts_features() {
+        let m = RotorModel::paper();
+        let got: Vec<(usize, usize)> = sections(&m)
+            .into_iter()
+            .map(|s| match s {
+                StiffnessForm::Section { first, last } => (first, last),
+                other => panic!("{other:?}"),
+            })
+            .collect();
+        let want = vec![
+            (0, 3),
+            (4, 9),
+            (10, 19),
+            (20, 25),
+            (0, 9),
+            (4, 19),
+            (10, 25),
+            (0, 19),
+            (4, 25),
+        ];
+        assert_eq!(got, want);
+        // A step of diameter is a feature.
+        let mut stepped = m.clone();
+        for el in &mut stepped.shaft[13..] {
+            el.outer_diameter *= 1.2;
+        }
+        assert!(sections(&stepped).contains(&StiffnessForm::Section {
+            first: 10,
+            last: 12
+        }));
+    }
 }
