@@ -87,6 +87,9 @@ pub enum Extension {
     Pedestal {
         /// Bearing (0-based).
         bearing: usize,
+        /// Its masses in y and z differ (a sixth parameter, the log of
+        /// their ratio's square root; [`PedestalParams::split`]).
+        split: bool,
     },
     /// A factor on the shaft's modulus.
     EScale,
@@ -112,7 +115,7 @@ impl Extension {
         match self {
             Extension::Runout => 2 * nq,
             Extension::Plane { .. } | Extension::Bow { .. } | Extension::NodeRunout { .. } => 2,
-            Extension::Pedestal { .. } => 5,
+            Extension::Pedestal { split, .. } => 5 + usize::from(*split),
             Extension::EScale | Extension::Gain { .. } => 1,
         }
     }
@@ -132,8 +135,11 @@ pub struct Scales {
 /// A pedestal's physical parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PedestalParams {
-    /// Mass (kg).
+    /// Mass (kg): the geometric mean of the masses in y and z.
     pub mass: f64,
+    /// The masses in y and z are `mass e^split`, `mass e^-split` (0: one
+    /// mass).
+    pub split: f64,
     /// Natural frequencies on its own springs, y and z (rad/s).
     pub omega: [f64; 2],
     /// Damping ratios, y and z.
@@ -145,12 +151,21 @@ impl PedestalParams {
     pub fn from_scaled(p: &[f64], s: &Scales) -> Self {
         PedestalParams {
             mass: s.mass * p[0].exp(),
+            split: p.get(5).copied().unwrap_or(0.0),
             omega: [s.omega * p[1].exp(), s.omega * p[2].exp()],
             zeta: [0.1 * p[3], 0.1 * p[4]],
         }
     }
 
-    /// The scaled parameters.
+    /// The masses in y and z (kg).
+    pub fn masses(&self) -> [f64; 2] {
+        [
+            self.mass * self.split.exp(),
+            self.mass * (-self.split).exp(),
+        ]
+    }
+
+    /// The scaled parameters of the one-mass form (`split` left out).
     pub fn to_scaled(&self, s: &Scales) -> [f64; 5] {
         [
             (self.mass / s.mass).ln(),
@@ -161,24 +176,30 @@ impl PedestalParams {
         ]
     }
 
-    /// Stiffness `k_d = m w_d^2` (N/m) and damping `c_d = 2 zeta_d m w_d`
-    /// (N s/m).
+    /// Stiffness `k_d = m_d w_d^2` (N/m) and damping `c_d = 2 zeta_d m_d
+    /// w_d` (N s/m).
     pub fn k_c(&self) -> ([f64; 2], [f64; 2]) {
-        let k = self.omega.map(|w| self.mass * w * w);
+        let m = self.masses();
+        let k = [
+            m[0] * self.omega[0] * self.omega[0],
+            m[1] * self.omega[1] * self.omega[1],
+        ];
         let c = [
-            2.0 * self.zeta[0] * self.mass * self.omega[0],
-            2.0 * self.zeta[1] * self.mass * self.omega[1],
+            2.0 * self.zeta[0] * m[0] * self.omega[0],
+            2.0 * self.zeta[1] * m[1] * self.omega[1],
         ];
         (k, c)
     }
 
-    /// `Z_P(Omega)` (N/m), diagonal.
+    /// `Z_P(Omega)` (N/m), diagonal: `m_d (w_d^2 - Omega^2) + j 2 zeta_d
+    /// m_d w_d Omega`.
     pub fn impedance(&self, omega: f64) -> Matrix2<Complex64> {
+        let m = self.masses();
         let z = |d: usize| {
             let w = self.omega[d];
             Complex64::new(
-                self.mass * (w * w - omega * omega),
-                2.0 * self.mass * self.zeta[d] * w * omega,
+                m[d] * (w * w - omega * omega),
+                2.0 * m[d] * self.zeta[d] * w * omega,
             )
         };
         Matrix2::new(
@@ -355,7 +376,7 @@ impl ExtendedModel {
                     be += db * de;
                     b_eff = Some(be);
                 }
-                Extension::Pedestal { bearing } => {
+                Extension::Pedestal { bearing, .. } => {
                     let i0 = 2 * bearing;
                     if i0 + 2 > nq || ped.iter().any(|pe| pe.i0 == i0) {
                         return Err(PredictError::Dimension);
@@ -649,7 +670,8 @@ impl ExtendedModel {
                         let qm = qm(pe);
                         let w = st.omega;
                         let pp = &pe.params;
-                        for d in 0..5 {
+                        let mass = pp.masses();
+                        for d in 0..ext.n_params(nq) {
                             // dZ_P / dx_d, diagonal.
                             let mut dzp = Matrix2::<Complex64>::zeros();
                             match d {
@@ -658,14 +680,19 @@ impl ExtendedModel {
                                     let k = d - 1;
                                     let wk = pp.omega[k];
                                     dzp[(k, k)] = Complex64::new(
-                                        2.0 * pp.mass * wk * wk,
-                                        2.0 * pp.mass * pp.zeta[k] * wk * w,
+                                        2.0 * mass[k] * wk * wk,
+                                        2.0 * mass[k] * pp.zeta[k] * wk * w,
                                     );
                                 }
-                                _ => {
+                                3 | 4 => {
                                     let k = d - 3;
                                     dzp[(k, k)] =
-                                        Complex64::new(0.0, 0.2 * pp.mass * pp.omega[k] * w);
+                                        Complex64::new(0.0, 0.2 * mass[k] * pp.omega[k] * w);
+                                }
+                                _ => {
+                                    // The split: Z_P,y e^s and Z_P,z e^-s.
+                                    dzp[(0, 0)] = pe.zp[(0, 0)];
+                                    dzp[(1, 1)] = -pe.zp[(1, 1)];
                                 }
                             }
                             let dzeff = pe.zb * pe.s * dzp * pe.s * pe.zb;
@@ -1024,13 +1051,18 @@ mod tests {
 
     /// The extended prediction with pedestals under `bearings` against the
     /// FE response of the model with those pedestals (the second one
-    /// lighter and stiffer).
+    /// lighter and stiffer; the first with one mass, the others with
+    /// their masses in y and z apart, [`PedestalParams::split`]).
     fn pedestals_match_the_fe_response(m: &RotorModel, bearings: &[usize]) {
         let mut x = model_for(
             m,
             bearings
                 .iter()
-                .map(|&bearing| Extension::Pedestal { bearing })
+                .enumerate()
+                .map(|(i, &bearing)| Extension::Pedestal {
+                    bearing,
+                    split: i > 0,
+                })
                 .collect(),
         );
         let mut mp = m.clone();
@@ -1038,16 +1070,20 @@ mod tests {
         for (i, &b) in bearings.iter().enumerate() {
             let ped = PedestalParams {
                 mass: 80.0 / (1 + i) as f64,
+                split: if i > 0 { 0.2 } else { 0.0 },
                 omega: [900.0 + 400.0 * i as f64, 1100.0],
                 zeta: [0.05, 0.03],
             };
             let (k, c) = ped.k_c();
             mp.bearings[b].pedestal = Some(crate::model::Pedestal {
-                mass: [ped.mass, ped.mass],
+                mass: ped.masses(),
                 k,
                 c,
             });
             theta.extend(ped.to_scaled(&x.scales));
+            if i > 0 {
+                theta.push(ped.split);
+            }
         }
         let omegas = [300.0, 950.0, 1400.0];
         let terms = build(m, &omegas, 1.0, false).unwrap();
@@ -1099,16 +1135,25 @@ mod tests {
             Extension::NodeRunout { output: 6 },
         ];
         let ped = vec![
-            Extension::Pedestal { bearing: 0 },
+            Extension::Pedestal {
+                bearing: 0,
+                split: false,
+            },
             Extension::Gain { channel: 0 },
             Extension::Runout,
             Extension::Plane { node: 16 },
             Extension::EScale,
         ];
         let two = vec![
-            Extension::Pedestal { bearing: 1 },
+            Extension::Pedestal {
+                bearing: 1,
+                split: true,
+            },
             Extension::Plane { node: 16 },
-            Extension::Pedestal { bearing: 0 },
+            Extension::Pedestal {
+                bearing: 0,
+                split: false,
+            },
         ];
         for (ext, relative) in [
             (plain, true),

@@ -722,7 +722,10 @@ pub fn pedestal_min_detectable(
             continue;
         }
         let m = ExtendedModel {
-            ext: vec![Extension::Pedestal { bearing }],
+            ext: vec![Extension::Pedestal {
+                bearing,
+                split: false,
+            }],
             ..base.clone()
         };
         let en = fit::entries(&m, data);
@@ -730,6 +733,7 @@ pub fn pedestal_min_detectable(
         for &w in omegas {
             let ped = PedestalParams {
                 mass: 1.0 / (eps_step * w * w),
+                split: 0.0,
                 omega: [w; 2],
                 zeta: [PEDESTAL_ZETA; 2],
             };
@@ -872,11 +876,15 @@ mod tests {
         assert_eq!(v.len(), 6);
         for p in &v {
             let m = ExtendedModel {
-                ext: vec![Extension::Pedestal { bearing: p.bearing }],
+                ext: vec![Extension::Pedestal {
+                    bearing: p.bearing,
+                    split: false,
+                }],
                 ..base.clone()
             };
             let ped = PedestalParams {
                 mass: 1.0 / (p.compliance * p.omega * p.omega),
+                split: 0.0,
                 omega: [p.omega; 2],
                 zeta: [PEDESTAL_ZETA; 2],
             };

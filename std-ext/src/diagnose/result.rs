@@ -36,10 +36,13 @@ pub enum Finding {
     FoundationFlexibility {
         /// Bearing node (1-based).
         node: usize,
-        /// Mass (kg).
+        /// Mass (kg): the geometric mean of `masses`.
         mass: f64,
         /// Its standard deviation.
         mass_std: f64,
+        /// Masses in y and z (kg): equal unless the variant with two
+        /// masses was found.
+        masses: [f64; 2],
         /// Natural frequencies on its springs, y and z (Hz).
         natural_frequency_hz: [f64; 2],
         /// Their standard deviations.
@@ -388,8 +391,9 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                     form: c.stiffness.describe(),
                 });
             }
-            Extension::Pedestal { bearing } => {
-                let p = PedestalParams::from_scaled(&f.theta[o..o + 5], &m.scales);
+            Extension::Pedestal { bearing, split } => {
+                let p =
+                    PedestalParams::from_scaled(&f.theta[o..o + 5 + usize::from(split)], &m.scales);
                 let (k, cc) = p.k_c();
                 let sd = |i: usize| f.std(o + i).unwrap_or(f64::NAN);
                 let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
@@ -400,6 +404,7 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                         .map_or(bearing + 1, |n| n + 1),
                     mass: p.mass,
                     mass_std: p.mass * sd(0),
+                    masses: p.masses(),
                     natural_frequency_hz: [hz(p.omega[0]), hz(p.omega[1])],
                     natural_frequency_hz_std: [hz(p.omega[0]) * sd(1), hz(p.omega[1]) * sd(2)],
                     damping_ratio: p.zeta,

@@ -336,12 +336,18 @@ fn finding_line(f: &Finding) -> String {
             node,
             mass,
             mass_std,
+            masses,
             natural_frequency_hz,
             natural_frequency_hz_std,
             damping_ratio,
             ..
         } => format!(
-            "pedestal under the bearing at node {node}: mass {mass:.2} +- {mass_std:.2} kg, natural frequency y {:.1} +- {:.1} Hz ({:.0} rpm), z {:.1} +- {:.1} Hz ({:.0} rpm), damping ratio {:.3}/{:.3}",
+            "pedestal under the bearing at node {node}: mass {mass:.2} +- {mass_std:.2} kg{}, natural frequency y {:.1} +- {:.1} Hz ({:.0} rpm), z {:.1} +- {:.1} Hz ({:.0} rpm), damping ratio {:.3}/{:.3}",
+            if masses[0] == masses[1] {
+                String::new()
+            } else {
+                format!(" (y {:.2}, z {:.2} kg)", masses[0], masses[1])
+            },
             natural_frequency_hz[0],
             natural_frequency_hz_std[0],
             natural_frequency_hz[0] * 60.0,

@@ -1,8 +1,9 @@
 //! `foundation_flexibility`: a pedestal (mass, two springs, two dampers)
 //! under each bearing in turn, its fits started from a grid of natural
 //! frequencies across the speed range ([`PEDESTAL_RATIOS`], and two about
-//! the speed where the nominal model misfits the bearing most); and the
-//! pedestals under two bearings the pairs try.
+//! the speed where the nominal model misfits the bearing most), then the
+//! best one's variant with different masses in y and z, kept on BIC; and
+//! the pedestals under two bearings the pairs try.
 
 use nalgebra::DVector;
 
@@ -13,6 +14,7 @@ use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::{ExtendedModel, Extension, PedestalParams};
 use crate::diagnose::fit::{self, Fit};
 use crate::diagnose::parallel;
+use crate::diagnose::stats::bic;
 
 /// Natural frequencies of the starts of the pedestal search, as fractions
 /// of the top measured speed (besides two at the largest nominal misfit).
@@ -35,7 +37,10 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
     // Each bearing's model and natural frequencies of the starts.
     let mut singles: Vec<(usize, ExtendedModel, Vec<f64>)> = Vec::new();
     for bearing in 0..ctx.model.bearings.len() {
-        let m = ctx.with_ext(vec![Extension::Pedestal { bearing }]);
+        let m = ctx.with_ext(vec![Extension::Pedestal {
+            bearing,
+            split: false,
+        }]);
         if !ctx.n_room(m.n_params()) {
             continue;
         }
@@ -66,20 +71,45 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
         if best.as_ref().is_some_and(|b| ctx.at_noise(&b.0)) {
             break;
         }
-        let m = ctx.with_ext(vec![Extension::Pedestal { bearing }]);
+        let m = ctx.with_ext(vec![Extension::Pedestal {
+            bearing,
+            split: false,
+        }]);
         if let Ok(f) = fit::fit(&m, data, &start.theta, 60) {
             if best.as_ref().is_none_or(|b| f.s < b.0.s) {
                 best = Some((f, m, bearing));
             }
         }
     }
-    let (f, m, bearing) = best?;
+    let (mut f, mut m, bearing) = best?;
+    // The variant with its masses in y and z apart (a sixth parameter),
+    // from the one-mass fit; kept when its BIC is lower.
+    let split = ctx.with_ext(vec![Extension::Pedestal {
+        bearing,
+        split: true,
+    }]);
+    let mut is_split = false;
+    if ctx.n_room(split.n_params()) {
+        let mut theta = f.theta.clone();
+        theta.push(0.0);
+        if let Ok(fs) = fit::fit(&split, data, &theta, 60) {
+            let n = ctx.setup.n_real;
+            if bic(&fs, n) < bic(&f, n) {
+                (f, m, is_split) = (fs, split, true);
+            }
+        }
+    }
     Some(Candidate::new(
         vec![Effect::FoundationFlexibility],
         format!(
-            "pedestal under bearing {} (node {})",
+            "pedestal under bearing {} (node {}){}",
             bearing + 1,
-            ctx.model.bearings[bearing].node + 1
+            ctx.model.bearings[bearing].node + 1,
+            if is_split {
+                ", masses in y and z apart"
+            } else {
+                ""
+            }
         ),
         m,
         f,
@@ -148,6 +178,7 @@ fn single_starts(
         };
         let ped = PedestalParams {
             mass: mass * scales.mass,
+            split: 0.0,
             omega: [ratio * scales.omega; 2],
             zeta: [0.05; 2],
         };
@@ -178,15 +209,21 @@ pub(crate) fn two_pedestals(
     judge: &Judge,
     pair_best: &mut Option<Candidate>,
 ) {
-    let [Extension::Pedestal { bearing }] = c.model.ext[..] else {
+    let [Extension::Pedestal { bearing, .. }] = c.model.ext[..] else {
         return;
     };
     let model = ctx.model;
     for other in (0..model.bearings.len()).filter(|&o| o != bearing) {
         let m2 = ExtendedModel {
             ext: vec![
-                Extension::Pedestal { bearing },
-                Extension::Pedestal { bearing: other },
+                Extension::Pedestal {
+                    bearing,
+                    split: false,
+                },
+                Extension::Pedestal {
+                    bearing: other,
+                    split: false,
+                },
             ],
             ..c.model.clone()
         };
@@ -242,6 +279,7 @@ fn pair_starts(ctx: &Context<'_>, m2: &ExtendedModel) -> Vec<Fit> {
         for r in [r1, r2] {
             let ped = PedestalParams {
                 mass: scales.mass,
+                split: 0.0,
                 omega: [r * scales.omega; 2],
                 zeta: [0.05; 2],
             };
@@ -271,7 +309,10 @@ fn singles_of_pair(
     // single one then wins.
     let p0 = m2.pr.n_params();
     for (k, b) in bearings.into_iter().enumerate() {
-        let m1 = ctx.with_ext(vec![Extension::Pedestal { bearing: b }]);
+        let m1 = ctx.with_ext(vec![Extension::Pedestal {
+            bearing: b,
+            split: false,
+        }]);
         let mut t = f.theta[..p0].to_vec();
         t.extend_from_slice(&f.theta[m2.offset(k)..m2.offset(k) + 5]);
         let Ok(f1) = fit::fit(&m1, ctx.data, &t, 60) else {
