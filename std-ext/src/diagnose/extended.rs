@@ -17,8 +17,8 @@
 //! | [`Extension::Runout`] | `r_c = q_s (x + j y)` per channel | `y_c += r_c` |
 //! | [`Extension::Plane`] | `u = s_a (x + j y)` (kg m) at node `n` | `b_n u` |
 //! | [`Extension::Bow`] | `beta = q_s (x + j y)` (m) at node `n` | `g_n beta` (or the bearing line's `g_n`) |
-//! | [`Extension::EScale`] | `de = 0.01 x` about the terms' own `e` | `dA de`, `dB a de` |
-//! | [`Extension::Pedestal`] | `m = m_0 e^x1`, `w_d = w_0 e^x_d`, `zeta_d = x_d / 10` | `Z_eff`, `P` |
+//! | [`Extension::EScale`] | `de = 0.01 x` about the terms' own factor, in the form of [`crate::diagnose::terms::StiffnessForm`] | `dA de`, `dB a de` |
+//! | [`Extension::Pedestal`] | `m = m_0 e^x1`, `w_d = w_0 e^x_d`, `zeta_d = x_d / 10`; with `split`, `m_y = m e^x6`, `m_z = m e^-x6` | `Z_eff`, `P` |
 //! | [`Extension::NodeRunout`] | `r = q_s (x + j y)` on output `c` (a probe at another node) | `y_c += r` |
 //! | [`Extension::Gain`] | `g = 0.01 x` on output `c` | `y_c <- (1 + g) y_c`, last |
 //!

@@ -15,6 +15,8 @@
 //! a diameter 4 % off (on the side of the global factor), and the best two
 //! are fitted.
 
+use num_complex::Complex64;
+
 use crate::diagnose::candidate::Candidate;
 use crate::diagnose::context::Context;
 use crate::diagnose::effect::Effect;
@@ -23,6 +25,7 @@ use crate::diagnose::fit::{self, Fit, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::nominal::oe_start;
 use crate::diagnose::terms::{self, SpeedTerms, StiffnessForm};
+use crate::io::measurement::Sample;
 use crate::model::RotorModel;
 
 /// Terms built at several factors: `(f, terms at f)`.
@@ -68,9 +71,10 @@ fn build(ctx: &Context<'_>, form: StiffnessForm, f: f64) -> Result<Vec<SpeedTerm
     )?)
 }
 
-/// The fit of the factor on the shaft's stiffness: for E and G, and for E
-/// alone, the best start of `f = 1` and `f = 1 -+ 5 %` (`starts`), then up
-/// to six rounds (`rounds`); for the sections, the two that `rank_sections`
+/// The fit of the factor on the shaft's stiffness: for E and G, the best
+/// start of `f = 1` and `f = 1 -+ 5 %` (`starts`), then up to six rounds
+/// (`rounds`); for E alone, rounds from where E and G ended; for the
+/// sections, the two that `rank_sections`
 /// puts first, from their screening start. The form of least misfit is the
 /// candidate; its alternatives are the two global forms and the sections.
 pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, DiagnoseError> {
@@ -91,12 +95,25 @@ pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, Dia
         StiffnessForm::EAndG,
         rounds(ctx, &m, StiffnessForm::EAndG, built, e, theta)?,
     ));
-    let (best, built) = starts(ctx, &m, StiffnessForm::EAlone)?;
-    let (e, _, theta) = best;
-    ends.push((
-        StiffnessForm::EAlone,
-        rounds(ctx, &m, StiffnessForm::EAlone, built, e, theta)?,
-    ));
+    // E alone from where E and G ended (the two differ by the shear
+    // deformation only): its terms at that factor, the parameters with the
+    // factor's offset folded in.
+    if let Some((f, e_fit)) = ends[0].1.last.as_ref() {
+        let o = m.offset(0);
+        let e = e_fit + E_STEP * f.theta[o];
+        if e.is_finite() && e > 0.0 {
+            let mut theta = f.theta.clone();
+            theta[o] = 0.0;
+            let built = vec![
+                (e, build(ctx, StiffnessForm::EAlone, e)?),
+                (1.0, ctx.terms.to_vec()),
+            ];
+            ends.push((
+                StiffnessForm::EAlone,
+                rounds(ctx, &m, StiffnessForm::EAlone, built, e, theta)?,
+            ));
+        }
+    }
     let sections = sections(ctx.model);
     // A section's diameter moves the critical speeds the way the whole
     // shaft's modulus does (its stiffness, `d^4`, outweighs its mass,
@@ -113,7 +130,7 @@ pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, Dia
         SECTION_STEPS[1]
     };
     let ranked = rank_sections(ctx, &sections, step)?;
-    for (form, f, theta, at) in ranked.into_iter().take(2) {
+    for (form, f, theta, at) in ranked {
         let built = vec![(f, at), (1.0, ctx.terms.to_vec())];
         ends.push((form, rounds(ctx, &m, form, built, f, theta)?));
     }
@@ -145,6 +162,9 @@ pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, Dia
     }
     Ok(out)
 }
+
+/// The screening of the sections uses every `SCREEN_EVERY`-th speed.
+const SCREEN_EVERY: usize = 3;
 
 /// The factors on a section's diameter its screening fits are made at,
 /// softer and stiffer (a diameter a few per cent off changes the
@@ -188,52 +208,70 @@ pub(crate) fn sections(model: &RotorModel) -> Vec<StiffnessForm> {
 /// on the terms there (with the factor's offset zero), and those terms.
 type SectionStart = (StiffnessForm, f64, Vec<f64>, Vec<SpeedTerms>);
 
-/// The sections ranked by the misfit of the nominal model refitted on the
-/// terms of the section's diameter times `step` (estimated afresh
-/// there by the filter and the output-error fit, as `starts` does: the
-/// bearings of the nominal estimate have absorbed part of the effect, so
-/// a step from it in the factor alone says little), each with that start. Sections whose terms cannot be built (a diameter at or below
-/// the bore) are left out.
+/// The two sections of least misfit of the nominal model estimated
+/// afresh on the terms of the section's diameter times `step` (by the
+/// filter and the output-error fit, as `starts` does: the bearings of the
+/// nominal estimate have absorbed part of the effect, so a step from it in
+/// the factor alone says little), on every [`SCREEN_EVERY`]-th speed; each
+/// with that start and its terms at every speed. Sections whose terms
+/// cannot be built (a diameter at or below the bore) are left out.
 fn rank_sections(
     ctx: &Context<'_>,
     sections: &[StiffnessForm],
     step: f64,
 ) -> Result<Vec<SectionStart>, DiagnoseError> {
     let setup = ctx.setup;
-    let mut scored: Vec<(f64, SectionStart)> = Vec::new();
+    // Every SCREEN_EVERY-th speed: the ranking needs the shape of the
+    // misfit, not its last digit.
+    let keep: Vec<usize> = (0..ctx.samples.len()).step_by(SCREEN_EVERY).collect();
+    let omegas: Vec<f64> = keep.iter().map(|&i| ctx.omegas[i]).collect();
+    let samples: Vec<Sample> = keep.iter().map(|&i| ctx.samples[i].clone()).collect();
+    let node_q: Vec<Vec<Complex64>> = if ctx.node_q.is_empty() {
+        Vec::new()
+    } else {
+        keep.iter().map(|&i| ctx.node_q[i].clone()).collect()
+    };
+    let mut scored: Vec<(f64, StiffnessForm, Vec<f64>)> = Vec::new();
     for &form in sections {
-        let mut best: Option<(f64, SectionStart)> = None;
-        for f in [step] {
-            let Ok(at) = build(ctx, form, f) else {
-                continue;
-            };
-            let d = FitData::with_probes(ctx.samples, ctx.node_q, &at)
-                .with_floors(&setup.phi)
-                .with_noise_level(setup.noise_level);
-            let Ok((_, mut theta, _)) = oe_start(
-                ctx.model,
-                ctx.samples,
-                &at,
-                setup.structure,
-                setup.scaling,
-                setup.held_noise(),
-            ) else {
-                continue;
-            };
-            let en = fit::entries(ctx.base, &d);
-            let Ok((r, _)) = fit::evaluate(ctx.base, &d, &en, &theta, false) else {
-                continue;
-            };
-            let s = r.norm_squared();
-            if best.as_ref().is_none_or(|b| s < b.0) {
-                theta.push(0.0);
-                best = Some((s, (form, f, theta, at)));
-            }
-        }
-        scored.extend(best);
+        let Ok(at) = terms::build_form(
+            ctx.builder,
+            ctx.model,
+            &omegas,
+            form,
+            step,
+            false,
+            ctx.probe_nodes,
+        ) else {
+            continue;
+        };
+        let Ok((_, mut theta, _)) = oe_start(
+            ctx.model,
+            &samples,
+            &at,
+            setup.structure,
+            setup.scaling,
+            setup.held_noise(),
+        ) else {
+            continue;
+        };
+        let d = FitData::with_probes(&samples, &node_q, &at)
+            .with_floors(&setup.phi)
+            .with_noise_level(setup.noise_level);
+        let en = fit::entries(ctx.base, &d);
+        let Ok((r, _)) = fit::evaluate(ctx.base, &d, &en, &theta, false) else {
+            continue;
+        };
+        theta.push(0.0);
+        scored.push((r.norm_squared(), form, theta));
     }
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    Ok(scored.into_iter().map(|(_, st)| st).collect())
+    // The best two's terms at every speed, for their rounds.
+    let mut out = Vec::new();
+    for (_, form, theta) in scored.into_iter().take(2) {
+        let at = build(ctx, form, step)?;
+        out.push((form, step, theta, at));
+    }
+    Ok(out)
 }
 
 /// The best start of `m` in `form` of `e = 1` (the nominal estimate) and
