@@ -24,6 +24,7 @@ use crate::diagnose::extended::{ExtendedModel, Extension, E_STEP};
 use crate::diagnose::fit::{self, Fit, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::nominal::oe_start;
+use crate::diagnose::parallel;
 use crate::diagnose::terms::{self, SpeedTerms, StiffnessForm};
 use crate::io::measurement::Sample;
 use crate::model::RotorModel;
@@ -130,9 +131,12 @@ pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, Dia
         SECTION_STEPS[1]
     };
     let ranked = rank_sections(ctx, &sections, step)?;
-    for (form, f, theta, at) in ranked {
-        let built = vec![(f, at), (1.0, ctx.terms.to_vec())];
-        ends.push((form, rounds(ctx, &m, form, built, f, theta)?));
+    let fitted = parallel::map(&ranked, ctx.threads(), |(form, f, theta, at)| {
+        let built = vec![(*f, at.clone()), (1.0, ctx.terms.to_vec())];
+        rounds(ctx, &m, *form, built, *f, theta.clone()).map(|end| (*form, end))
+    });
+    for end in fitted {
+        ends.push(end?);
     }
     let alternatives = 2 + sections.len();
     let best = ends
@@ -231,9 +235,9 @@ fn rank_sections(
     } else {
         keep.iter().map(|&i| ctx.node_q[i].clone()).collect()
     };
-    let mut scored: Vec<(f64, StiffnessForm, Vec<f64>)> = Vec::new();
-    for &form in sections {
-        let Ok(at) = terms::build_form(
+    // Side by side on the context's threads, in the sections' order.
+    let screened = parallel::map(sections, ctx.threads(), |&form| {
+        let at = terms::build_form(
             ctx.builder,
             ctx.model,
             &omegas,
@@ -241,29 +245,26 @@ fn rank_sections(
             step,
             false,
             ctx.probe_nodes,
-        ) else {
-            continue;
-        };
-        let Ok((_, mut theta, _)) = oe_start(
+        )
+        .ok()?;
+        let (_, mut theta, _) = oe_start(
             ctx.model,
             &samples,
             &at,
             setup.structure,
             setup.scaling,
             setup.held_noise(),
-        ) else {
-            continue;
-        };
+        )
+        .ok()?;
         let d = FitData::with_probes(&samples, &node_q, &at)
             .with_floors(&setup.phi)
             .with_noise_level(setup.noise_level);
         let en = fit::entries(ctx.base, &d);
-        let Ok((r, _)) = fit::evaluate(ctx.base, &d, &en, &theta, false) else {
-            continue;
-        };
+        let (r, _) = fit::evaluate(ctx.base, &d, &en, &theta, false).ok()?;
         theta.push(0.0);
-        scored.push((r.norm_squared(), form, theta));
-    }
+        Some((r.norm_squared(), form, theta))
+    });
+    let mut scored: Vec<(f64, StiffnessForm, Vec<f64>)> = screened.into_iter().flatten().collect();
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
     // The best two's terms at every speed, for their rounds.
     let mut out = Vec::new();
