@@ -150,17 +150,24 @@ icount() {
       split($0, a, "[][/]"); pc = a[3];
       if (pc in name) {
         if (cur == pc) { n[pc]++; s[pc] += c; if (c > mx[pc]) mx[pc] = c; if (!(pc in mn) || c < mn[pc]) mn[pc] = c
-          if (c > 1000) { nb[pc]++; sb[pc] += c }
+          if (c > 4000) { nb[pc]++; sb[pc] += c }
           cur = "" }
         else { cur = pc; c = 0 }
       } else if (cur != "") c++
     }
     END {
+      # One generated sample per sample-marker pair (and one pair for the
+      # call that finds the coast-down's end): the pushes (blocks of 16
+      # instants; a block with an average done is two calls) per
+      # channel-sample are their total over the samples, 4 probes.
+      for (m in name) if (name[m] == "rotorid_sample_marker") samples = n[m]
       for (m in n) {
         printf "%s: %d calls, mean %.1f, min %d, max %d instructions", name[m], n[m], s[m] / n[m], mn[m], mx[m]
-        if (name[m] != "rotorid_update_marker") printf " (%.2f per channel-sample, 4 probes)", s[m] / n[m] / 4
+        if (name[m] == "rotorid_sample_marker") printf " (%.2f per channel-sample, 4 probes)", s[m] / n[m] / 4
+        if (name[m] == "rotorid_push_marker" && samples > 0)
+          printf " (%d samples: %.2f per sample, %.2f per channel-sample, 4 probes)", samples, s[m] / samples, s[m] / samples / 4
         if (name[m] == "rotorid_push_marker" && nb[m] > 0 && n[m] > nb[m])
-          printf "; %d revolution ends, mean %.1f; the other pushes mean %.1f", nb[m], sb[m] / nb[m], (s[m] - sb[m]) / (n[m] - nb[m])
+          printf "; %d calls over 4000 (a revolution end), mean %.1f; the other calls mean %.1f", nb[m], sb[m] / nb[m], (s[m] - sb[m]) / (n[m] - nb[m])
         printf "\n"
       }
     }

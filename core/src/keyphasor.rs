@@ -69,12 +69,14 @@ impl<T: Real> EventTime<T> {
 }
 
 /// A sample count in the working precision: a 32-bit conversion (in `f32`
-/// a hardware one on the Cortex-M4F) below 2^32, through `f64` above.
+/// a hardware one on the Cortex-M4F) below 2^32, a 64-bit one above (one
+/// rounding either way; both conversions are total).
 #[inline(always)]
 fn samples<T: Real>(n: u64) -> T {
+    let wide = || T::from_u64(n).unwrap_or_else(T::zero);
     match u32::try_from(n) {
-        Ok(m) => T::from_u32(m).unwrap_or_else(|| T::lit(n as f64)),
-        Err(_) => T::lit(n as f64),
+        Ok(m) => T::from_u32(m).unwrap_or_else(wide),
+        Err(_) => wide(),
     }
 }
 
@@ -200,6 +202,26 @@ impl<T: Real> Keyphasor<T> {
         let out = self.change(k, n);
         self.quiet = Self::quiet_range(self.armed, self.level, self.rearm);
         out
+    }
+
+    /// Takes the leading samples of `ks` that change nothing (each in the
+    /// quiet range, as [`Keyphasor::push`] tests it) and returns how many:
+    /// the same state as that many calls of [`Keyphasor::push`], each of
+    /// which would have returned [`Crossing::None`]. The first sample it
+    /// stops at (if any) is left for [`Keyphasor::push`].
+    #[inline]
+    pub fn quiet_run(&mut self, ks: &[T]) -> usize {
+        let [lo, hi] = self.quiet;
+        let n = ks
+            .iter()
+            .position(|k| !(*k >= lo && *k < hi))
+            .unwrap_or(ks.len());
+        if let Some(last) = n.checked_sub(1).and_then(|i| ks.get(i)) {
+            self.prev = *last;
+            // `n` is at most a slice's length: no truncation.
+            self.next = self.next.wrapping_add(n as u64);
+        }
+        n
     }
 
     /// [`Keyphasor::push`] of a sample `k` (index `n`) outside the quiet

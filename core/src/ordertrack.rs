@@ -719,7 +719,7 @@ impl<T: Real> Moments<T> {
         let rss = match scatter {
             Scatter::Mean => self.m2,
             Scatter::Trend => {
-                let c = self.cross.re.hypot(self.cross.im) / m2r.sqrt();
+                let c = T::magnitude(self.cross.re, self.cross.im) / m2r.sqrt();
                 self.m2 - c * c
             }
         };

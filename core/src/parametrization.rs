@@ -467,7 +467,7 @@ impl<T: Real> UnbalanceEstimate<T> {
     pub fn from_phasor(a: Complex<T>) -> Self {
         UnbalanceEstimate {
             a,
-            me: a.re.hypot(a.im),
+            me: T::magnitude(a.re, a.im),
             phase: a.im.atan2(a.re),
         }
     }

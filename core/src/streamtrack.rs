@@ -84,7 +84,12 @@
 //! the work of about one sample a revolution (an event, a non-finite
 //! keyphasor sample, a revolution run too long): a caller may compile the
 //! two differently (the firmware: the first for speed, the second for
-//! size).
+//! size). [`StreamTracker::push_block`] takes [`BLOCK`] instants at a time
+//! (a DMA transfer's half) with the same result: a quiet stretch shares
+//! one keyphasor scan ([`Keyphasor::quiet_run`]) and one deadline test,
+//! and the block's sums are taken from the caller's buffer, of which the
+//! ring keeps only the last six instants (and, at an instant that is
+//! not quiet, the block so far, for [`StreamTracker::finish_sample`]).
 //!
 //! # Rejections, averages
 //!
@@ -111,13 +116,18 @@ use num_complex::Complex;
 /// The default [`StreamTracker::angle_tolerance`] (rad).
 pub const DEFAULT_ANGLE_TOLERANCE: f64 = 1e-3;
 
-/// Samples per block of the sums.
-const BLOCK: usize = 16;
+/// Samples per block of the sums, and of [`StreamTracker::push_block`].
+pub const BLOCK: usize = 16;
 
 /// Samples kept: the block being filled and the one before it (a
 /// revolution's tail needs the last six), in a ring of 32.
 const RING: usize = 2 * BLOCK;
 const MASK: usize = RING - 1;
+
+/// The rows before an event that a revolution's end reads (`c_b - 4 ..=
+/// c_b + 1`, the event found at `c_b + 1`): [`StreamTracker::push_block`]
+/// keeps a block's last six in the ring.
+const TAIL: usize = 6;
 
 /// One revolution closed: its timing and its 1X vectors or why it was
 /// rejected.
@@ -266,6 +276,9 @@ pub struct StreamTracker<T, const NC: usize> {
     /// pushed (wrapping), the block's `n` the last.
     ring: [[T; NC]; RING],
     pos: usize,
+    /// The first sample (`pos` then) of the block [`StreamTracker::push_block`]
+    /// last copied into the ring whole.
+    copied: Option<usize>,
     /// Samples of the current block already folded (or before the open
     /// revolution's start).
     done: usize,
@@ -305,6 +318,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             deadline: max_samples,
             ring: [[T::zero(); NC]; RING],
             pos: 0,
+            copied: None,
             done: 0,
             open: None,
             event: EventTime {
@@ -359,6 +373,7 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         self.kp.reset();
         self.ring = [[T::zero(); NC]; RING];
         self.pos = 0;
+        self.copied = None;
         self.deadline = self.max_samples;
         self.done = 0;
         self.open = None;
@@ -423,14 +438,125 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
             flags |= OVERRUN;
         }
         self.ring[pos & MASK] = *y;
+        self.copied = None;
         self.pos = pos.wrapping_add(1);
         if self.pos & (BLOCK - 1) == 0 {
             // A whole block: its samples from `done` on.
-            self.fold_block(pos & !(BLOCK - 1) & MASK);
+            self.fold_block(pos & !(BLOCK - 1) & MASK, None);
         }
         SampleOutcome {
             flags,
             scalar: PhantomData,
+        }
+    }
+
+    /// A block of [`BLOCK`] sampling instants (`kp` the keyphasor, `y` the
+    /// probes, as a DMA transfer gives them) from index `from` on: the same
+    /// as [`StreamTracker::push_sample`] on each instant in turn, up to and
+    /// including the first whose outcome is not quiet. Returns that
+    /// outcome and the index after its instant (the caller finishes the
+    /// outcome with [`StreamTracker::finish_sample`] and calls again from
+    /// there with the same block), or a quiet outcome and [`BLOCK`] when
+    /// the block is through.
+    ///
+    /// The work of a quiet stretch is shared by its instants: the block
+    /// goes into the history in one copy, the keyphasor's quiet test runs
+    /// over the stretch ([`Keyphasor::quiet_run`]) and the deadline is
+    /// tested once; the sums take the block when it is complete, as in
+    /// [`StreamTracker::push_sample`]. When the samples pushed so far are
+    /// not a whole number of blocks (single instants pushed before), or
+    /// `from` does not continue the last call's block, each instant goes
+    /// through [`StreamTracker::push_sample`]: the same result, at its
+    /// cost.
+    // index proven: `from < BLOCK` checked, ring slots of a block masked
+    // and block-aligned.
+    #[allow(clippy::indexing_slicing)]
+    pub fn push_block(
+        &mut self,
+        kp: &[T; BLOCK],
+        y: &[[T; NC]; BLOCK],
+        from: usize,
+    ) -> (SampleOutcome<T>, usize) {
+        let quiet = SampleOutcome {
+            flags: 0,
+            scalar: PhantomData,
+        };
+        if from >= BLOCK {
+            return (quiet, BLOCK);
+        }
+        let base = self.pos.wrapping_sub(from);
+        let fast = base & (BLOCK - 1) == 0 && (from == 0 || self.copied == Some(base));
+        if !fast {
+            for j in from..BLOCK {
+                let outcome = self.push_sample(kp[j], &y[j]);
+                if !outcome.is_quiet() {
+                    return (outcome, j + 1);
+                }
+            }
+            return (quiet, BLOCK);
+        }
+        let slot = base & MASK;
+        self.copied = Some(base);
+        // The instant that finds the open revolution run too long, if it
+        // is in this block at or after `from`.
+        let deadline = self.deadline.wrapping_sub(base);
+        let mut j = from;
+        loop {
+            let stop = if deadline >= j && deadline < BLOCK {
+                deadline
+            } else {
+                BLOCK
+            };
+            j += self.kp.quiet_run(&kp[j..stop]);
+            if j >= BLOCK {
+                self.pos = base.wrapping_add(BLOCK);
+                self.end_block(slot, y);
+                return (quiet, BLOCK);
+            }
+            // Instant `j`: a keyphasor sample outside the quiet range, or
+            // the deadline's.
+            let mut flags = match self.kp.push(kp[j]) {
+                Crossing::None => 0,
+                Crossing::Invalid => INVALID,
+                Crossing::Event(e) => {
+                    self.event = e;
+                    EVENT
+                }
+            };
+            if j == deadline {
+                flags |= OVERRUN;
+            }
+            j += 1;
+            self.pos = base.wrapping_add(j);
+            if j == BLOCK {
+                self.end_block(slot, y);
+            } else if flags != 0 {
+                // What `finish_sample` reads: the block's rows so far.
+                self.ring[slot..slot + j].copy_from_slice(&y[..j]);
+            }
+            if flags != 0 || j == BLOCK {
+                return (
+                    SampleOutcome {
+                        flags,
+                        scalar: PhantomData,
+                    },
+                    j,
+                );
+            }
+        }
+    }
+
+    /// The end of a block [`StreamTracker::push_block`] took: its rows not
+    /// yet folded into the sums, from the caller's block, and its last
+    /// [`TAIL`] rows into the ring (what a revolution ending or starting in
+    /// the next block's first instants reads).
+    fn end_block(&mut self, slot: usize, y: &[[T; NC]; BLOCK]) {
+        self.fold_block(slot, Some(y));
+        let keep = slot + BLOCK - TAIL..slot + BLOCK;
+        if let Some(ring) = self.ring.get_mut(keep) {
+            for (r, row) in ring.iter_mut().zip(&y[BLOCK - TAIL..]) {
+                *r = *row;
+            }
         }
     }
 
@@ -466,11 +592,26 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
         out
     }
 
-    /// [`StreamTracker::fold`] of a whole block, out of the per-sample
-    /// path's line (its registers are saved only once a block).
-    #[inline(never)]
-    fn fold_block(&mut self, slot: usize) {
-        self.fold_rows_of::<true>(slot, BLOCK);
+    /// [`StreamTracker::fold`] of the rest of a whole block, from the ring
+    /// (its slot `slot`) or from the caller's block `rows`; `done = 0`.
+    #[inline(always)]
+    fn fold_block(&mut self, slot: usize, rows: Option<&[[T; NC]; BLOCK]>) {
+        let from = self.done;
+        self.done = 0;
+        let limits = (self.config.adc_min, self.config.adc_max);
+        let range = (self.scale, self.mid_scaled);
+        let rows = match rows {
+            Some(rows) => rows,
+            None => match self
+                .ring
+                .get(slot..slot + BLOCK)
+                .map(<&[[T; NC]; BLOCK]>::try_from)
+            {
+                Some(Ok(rows)) => rows,
+                _ => return,
+            },
+        };
+        fold_whole(&mut self.open, from, rows, range, &self.series, limits);
     }
 
     /// Adds the samples `done .. to` of the block at ring slot `slot` (0 or
@@ -502,26 +643,13 @@ impl<T: Real, const NC: usize> StreamTracker<T, NC> {
     fn fold_rows_of<const WHOLE: bool>(&mut self, slot: usize, to: usize) {
         let from = self.done;
         self.done = to & (BLOCK - 1);
-        let Some(o) = &mut self.open else { return };
-        if o.angle.is_none() || from >= to {
+        if from >= to {
             return;
         }
         let rows = self.ring.get(slot + from..slot + to).unwrap_or(&[]);
+        let limits = (self.config.adc_min, self.config.adc_max);
         let range = (self.scale, self.mid_scaled);
-        let series = &self.series;
-        let whole = <&[[T; NC]; BLOCK]>::try_from(rows).ok().filter(|_| WHOLE);
-        let word = if let Some(rows) = whole {
-            fold_rows(o, rows, range, series)
-        } else {
-            fold_rows(o, rows, range, series)
-        };
-        o.renormalise();
-        if word & 0x4000_0000 != 0 {
-            let (lo, hi) = (self.config.adc_min, self.config.adc_max);
-            for y in rows.iter().flat_map(|r| r.iter()) {
-                o.outside |= ((lo - *y) * (*y - hi)).sign_word();
-            }
-        }
+        fold_open::<T, NC, WHOLE>(&mut self.open, rows, range, &self.series, limits);
     }
 
     /// The last `M` samples, oldest first.
@@ -768,6 +896,53 @@ impl<T: Real> Series<T> {
             s = T::one() - z * s * rs;
         }
         Complex::new(c, -e * s)
+    }
+}
+
+/// [`StreamTracker::fold`] of the rows `from..` of a whole block `rows`
+/// into the open revolution: out of the per-sample path's line (its
+/// registers are saved only once a block), one copy for the ring's blocks
+/// and the caller's.
+#[inline(never)]
+fn fold_whole<T: Real, const NC: usize>(
+    open: &mut Option<Open<T, NC>>,
+    from: usize,
+    rows: &[[T; NC]; BLOCK],
+    range: (T, T),
+    series: &Series<T>,
+    limits: (T, T),
+) {
+    fold_open::<T, NC, true>(open, rows.get(from..).unwrap_or(&[]), range, series, limits);
+}
+
+/// The rows into the open revolution's sums ([`fold_rows`]; the loop of a
+/// whole block, a fixed trip count, when `WHOLE` and the rows are one), its
+/// phasor renormalised, and the exact range test of the rows when the
+/// quick one finds a sample near or beyond a limit
+/// ([`StreamTracker::fold`]).
+#[inline(always)]
+fn fold_open<T: Real, const NC: usize, const WHOLE: bool>(
+    open: &mut Option<Open<T, NC>>,
+    rows: &[[T; NC]],
+    range: (T, T),
+    series: &Series<T>,
+    (lo, hi): (T, T),
+) {
+    let Some(o) = open else { return };
+    if o.angle.is_none() || rows.is_empty() {
+        return;
+    }
+    let whole = <&[[T; NC]; BLOCK]>::try_from(rows).ok().filter(|_| WHOLE);
+    let word = if let Some(rows) = whole {
+        fold_rows(o, rows, range, series)
+    } else {
+        fold_rows(o, rows, range, series)
+    };
+    o.renormalise();
+    if word & 0x4000_0000 != 0 {
+        for y in rows.iter().flat_map(|r| r.iter()) {
+            o.outside |= ((lo - *y) * (*y - hi)).sign_word();
+        }
     }
 }
 

@@ -365,3 +365,107 @@ fn random_input_never_panics() {
         let _ = t.flush();
     }
 }
+
+/// `push_block` (blocks of 16 instants, each outcome finished before the
+/// call goes on) gives what `push` gives instant by instant: the same
+/// revolutions, averages, counts and flush, bit for bit, on clean sweeps
+/// and on random input with glitches (events, re-arms, non-finite
+/// keyphasor samples and revolutions run too long inside blocks, on a
+/// block's first and last instants), also after single instants that
+/// leave the blocks unaligned.
+#[test]
+fn blocks_give_what_single_instants_give() {
+    use rotorid_core::streamtrack::BLOCK;
+    fn check<T: Real>(cfg: Config<T>, samples: &[(f64, [f64; 3])], lead: usize) -> u64 {
+        let conv = |(k, y): &(f64, [f64; 3])| (T::lit(*k), y.map(T::lit));
+        let mut one = StreamTracker::<T, 3>::new(cfg).unwrap();
+        let mut blk = StreamTracker::<T, 3>::new(cfg).unwrap();
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        for s in samples {
+            let (k, y) = conv(s);
+            a.extend(one.push(k, &y).map(|o| format!("{o:?}")));
+        }
+        let (head, rest) = samples.split_at(lead.min(samples.len()));
+        for s in head {
+            let (k, y) = conv(s);
+            b.extend(blk.push(k, &y).map(|o| format!("{o:?}")));
+        }
+        let mut chunks = rest.chunks_exact(BLOCK);
+        for chunk in &mut chunks {
+            let kp: [T; BLOCK] = core::array::from_fn(|j| conv(&chunk[j]).0);
+            let y: [[T; 3]; BLOCK] = core::array::from_fn(|j| conv(&chunk[j]).1);
+            let mut from = 0;
+            while from < BLOCK {
+                let (outcome, next) = blk.push_block(&kp, &y, from);
+                assert!(next > from);
+                if !outcome.is_quiet() {
+                    b.extend(blk.finish_sample(outcome).map(|o| format!("{o:?}")));
+                }
+                from = next;
+            }
+        }
+        for s in chunks.remainder() {
+            let (k, y) = conv(s);
+            b.extend(blk.push(k, &y).map(|o| format!("{o:?}")));
+        }
+        assert_eq!(a, b, "lead {lead}");
+        assert_eq!(one.counts(), blk.counts());
+        assert_eq!(one.samples(), blk.samples());
+        assert_eq!(format!("{:?}", one.flush()), format!("{:?}", blk.flush()));
+        one.counts().total()
+    }
+    // A clean ramp with noise.
+    let mut sig = Signal::<3>::steady(FS, w0(), 7);
+    sig.alpha = -0.1 * sig.w0;
+    let mut rng = SplitMix64::new(3);
+    let clean: Vec<(f64, [f64; 3])> = (0..FS as usize)
+        .map(|i| {
+            let (kp, y) = sig.sample(i);
+            (kp, y.map(|v| v + 3e-6 * gauss(&mut rng)))
+        })
+        .collect();
+    for lead in [0, 5, 16] {
+        assert!(check::<f64>(config(FS), &clean, lead) >= 40);
+        assert!(check::<f32>(config(FS), &clean, lead) >= 40);
+    }
+    // Random speed, glitches on every channel, pulse trains that stop.
+    for seed in 0..4u64 {
+        let mut rng = SplitMix64::new(100 + seed);
+        let cfg = Config::new(1000.0, 0.5, 100.0, 1000.0)
+            .with_min_samples(16)
+            .with_period_ratio(0.5)
+            .with_hysteresis(0.1)
+            .with_revolutions(3);
+        let (mut theta, mut w) = (0.0f64, 300.0f64);
+        let samples: Vec<(f64, [f64; 3])> = (0..30_000)
+            .map(|i| {
+                w = (w * (1.0 + 0.02 * rng.sym())).clamp(50.0, 1500.0);
+                theta += w / 1000.0;
+                let glitch = |rng: &mut SplitMix64, v: f64| match rng.next_u64() % 256 {
+                    0 => f64::NAN,
+                    1 => f64::INFINITY,
+                    2 => 1e30 * rng.sym(),
+                    _ => v,
+                };
+                // The pulse train stops for a while now and then.
+                let kp = if (i / 3000) % 4 == 3 {
+                    0.0
+                } else {
+                    let k = pulse(theta) + 0.05 * rng.sym();
+                    glitch(&mut rng, k)
+                };
+                let y = core::array::from_fn(|c| glitch(&mut rng, (theta + 0.3 * c as f64).cos()));
+                (kp, y)
+            })
+            .collect();
+        for lead in [0, 3] {
+            assert!(check::<f64>(cfg, &samples, lead) > 50);
+            let cfg32 = Config::new(1000.0f32, 0.5, 100.0, 1000.0)
+                .with_min_samples(16)
+                .with_period_ratio(0.5)
+                .with_hysteresis(0.1)
+                .with_revolutions(3);
+            assert!(check::<f32>(cfg32, &samples, lead) > 50);
+        }
+    }
+}

@@ -52,6 +52,9 @@ pub use crate::tracking::NC;
 /// history, no revolution buffer).
 pub use crate::tracking::Tracker;
 
+/// Sampling instants per block of the tracker.
+pub use crate::tracking::BLOCK_LEN;
+
 /// `n` rpm in rad/s.
 fn rpm(n: f32) -> f32 {
     n * (core::f32::consts::PI / 30.0)
@@ -234,6 +237,31 @@ fn track<P: Probe>(
     a
 }
 
+/// A block of samples (from index `from` on) through the tracker, up to
+/// the average a revolution's end completed, if one did: that average and
+/// the index to go on from ([`BLOCK_LEN`] when the block is through). In a
+/// frame of its own, as [`track`].
+#[inline(never)]
+fn track_block<P: Probe>(
+    probe: &mut P,
+    tracker: &mut Tracker,
+    kp: &[f32; BLOCK_LEN],
+    y: &[[f32; NC]; BLOCK_LEN],
+    mut from: usize,
+) -> (Option<StreamAverage<f32, NC>>, usize) {
+    probe.before_push();
+    let mut average = None;
+    while from < BLOCK_LEN && average.is_none() {
+        let (outcome, next) = crate::tracking::push_block(tracker, kp, y, from);
+        if !outcome.is_quiet() {
+            average = finish(tracker, outcome);
+        }
+        from = next;
+    }
+    probe.after_push();
+    (average, from)
+}
+
 /// The once-a-revolution half of [`track`], out of its line (its frame
 /// and saved registers only when there is something to finish).
 #[inline(never)]
@@ -254,30 +282,51 @@ fn run_samples<W: Write, P: Probe>(
     id.reset()?;
     let mut gen = Coastdown::new(&SWEEP, coastdown_setup());
     let (mut samples, mut averages, mut used, mut last) = (0u32, 0usize, 0usize, 0.0f32);
+    let mut feed = |a: StreamAverage<f32, NC>, probe: &mut P| {
+        averages += 1;
+        probe.before_update();
+        let step = update(id, a.speed, &a.x1);
+        probe.after_update();
+        if step.is_ok() {
+            used += 1;
+            last = a.speed;
+        }
+    };
+    // Blocks of samples, as a DMA transfer gives them; the last, partial
+    // block instant by instant.
+    let mut kp = [0.0f32; BLOCK_LEN];
+    let mut y = [[0.0f32; NC]; BLOCK_LEN];
     loop {
-        probe.before_sample();
-        let next = gen.next_sample();
-        probe.after_sample();
-        let average = match next {
-            Some((kp, y)) => {
-                samples += 1;
-                track(probe, tracker, kp, &y)
+        let mut n = 0;
+        while n < BLOCK_LEN {
+            probe.before_sample();
+            let next = gen.next_sample();
+            probe.after_sample();
+            let Some((k, v)) = next else { break };
+            (kp[n], y[n]) = (k, v);
+            n += 1;
+        }
+        samples += n as u32;
+        if n == BLOCK_LEN {
+            let mut from = 0;
+            while from < BLOCK_LEN {
+                let (average, next) = track_block(probe, tracker, &kp, &y, from);
+                if let Some(a) = average {
+                    feed(a, probe);
+                }
+                from = next;
             }
-            None => tracker.flush(),
-        };
-        if let Some(a) = average {
-            averages += 1;
-            probe.before_update();
-            let step = update(id, a.speed, &a.x1);
-            probe.after_update();
-            if step.is_ok() {
-                used += 1;
-                last = a.speed;
+            continue;
+        }
+        for (k, v) in kp.iter().zip(y.iter()).take(n) {
+            if let Some(a) = track(probe, tracker, *k, v) {
+                feed(a, probe);
             }
         }
-        if next.is_none() {
-            break;
+        if let Some(a) = tracker.flush() {
+            feed(a, probe);
         }
+        break;
     }
     let c = tracker.counts();
     let _ = writeln!(
