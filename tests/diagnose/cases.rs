@@ -323,7 +323,7 @@ fn second_rotor_every_effect() {
 #[test]
 #[ignore]
 fn confusion_matrix() {
-    confusion(&RotorModel::paper(), None, 0.0);
+    confusion(&RotorModel::paper(), &speeds(), None, 0.0);
 }
 
 /// The confusion matrix on data as machines give them: the paper rotor at
@@ -334,7 +334,39 @@ fn confusion_matrix() {
 fn realistic_confusion_matrix() {
     let m = rotorid::simulate::at_balance_grade(&RotorModel::paper(), 6.3, rpm_to_rad_s(15000.0))
         .unwrap();
-    confusion(&m, Some(0.005), 5e-7);
+    confusion(&m, &speeds(), Some(0.005), 5e-7);
+}
+
+/// A rotor of the repository's data at G6.3 at its top speed `rpm_max`,
+/// with 300 speeds up to it (the grids of the ROSS-made set).
+fn data_rotor(rel: &str, rpm_max: f64) -> (RotorModel, Vec<f64>) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(rel);
+    let m = rotorid::io::model_file::model_file_by_name_or_path(path.to_str().unwrap())
+        .unwrap()
+        .model;
+    let m = rotorid::simulate::at_balance_grade(&m, 6.3, rpm_to_rad_s(rpm_max)).unwrap();
+    let sp = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
+    (m, sp)
+}
+
+/// [`realistic_confusion_matrix`] on the second rotor: ROSS's stepped
+/// hollow shaft with its overhung disks (two bearings, critical speeds
+/// 2878 and 9224 rpm), 40..12000 rpm.
+#[test]
+#[ignore = "350 diagnoses: cargo test --release --test lib diagnose::cases::realistic_confusion_matrix_stepped_hollow -- --ignored --nocapture"]
+fn realistic_confusion_matrix_stepped_hollow() {
+    let (m, sp) = data_rotor("tests/data/ross/stepped_hollow.toml", 12000.0);
+    confusion(&m, &sp, Some(0.005), 5e-7);
+}
+
+/// [`realistic_confusion_matrix`] on the third rotor: a long stepped shaft
+/// on three bearings with an overhung disk (`tests/data/rotors/three_bearing.toml`),
+/// 55..16500 rpm.
+#[test]
+#[ignore = "350 diagnoses: cargo test --release --test lib diagnose::cases::realistic_confusion_matrix_three_bearing -- --ignored --nocapture"]
+fn realistic_confusion_matrix_three_bearing() {
+    let (m, sp) = data_rotor("tests/data/rotors/three_bearing.toml", 16500.0);
+    confusion(&m, &sp, Some(0.005), 5e-7);
 }
 
 /// Prints the confusion table `table` ((hidden, named) -> count) as a
@@ -359,11 +391,12 @@ pub(super) fn print_confusion(
     }
 }
 
-/// `ROTORID_CASES` (default 50) cases per effect of `m` with relative
+/// `ROTORID_CASES` (default 50) cases per effect of `m` at the speeds `sp`
+/// (rpm) with relative
 /// noise `noise` (`None`: drawn) and probe floor `floor` (m); the table
 /// printed, at least 95 % named right where observable and `none` named as
 /// an effect at most 5 % asserted.
-fn confusion(m: &RotorModel, noise: Option<f64>, floor: f64) {
+fn confusion(m: &RotorModel, sp: &[f64], noise: Option<f64>, floor: f64) {
     let n: u64 = std::env::var("ROTORID_CASES")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -375,7 +408,7 @@ fn confusion(m: &RotorModel, noise: Option<f64>, floor: f64) {
         for seed in 0..n {
             let (_, _, o) = run_case_with_floor(
                 m,
-                &speeds(),
+                sp,
                 effect,
                 1_000_003 * (effect as u64 + 1) + seed,
                 noise,
