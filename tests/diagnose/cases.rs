@@ -338,12 +338,26 @@ fn realistic_confusion_matrix() {
 }
 
 /// A rotor of the repository's data at G6.3 at its top speed `rpm_max`,
-/// with 300 speeds up to it (the grids of the ROSS-made set).
+/// with 300 speeds up to it (the grids of the ROSS-made set). A model
+/// without unbalance (a ROSS file) gets one at each plane, `1e-4` and
+/// `0.6e-4` kg m in turn at 0.4 and 2.1 rad, before the scaling.
 fn data_rotor(rel: &str, rpm_max: f64) -> (RotorModel, Vec<f64>) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(rel);
-    let m = rotorid::io::model_file::model_file_by_name_or_path(path.to_str().unwrap())
+    let mut m = rotorid::io::model_file::model_file_by_name_or_path(path.to_str().unwrap())
         .unwrap()
         .model;
+    if m.unbalance.is_empty() {
+        m.unbalance = m
+            .planes
+            .iter()
+            .enumerate()
+            .map(|(k, &node)| rotorid::model::Unbalance {
+                node,
+                me: if k % 2 == 0 { 1e-4 } else { 0.6e-4 },
+                phase: if k % 2 == 0 { 0.4 } else { 2.1 },
+            })
+            .collect();
+    }
     let m = rotorid::simulate::at_balance_grade(&m, 6.3, rpm_to_rad_s(rpm_max)).unwrap();
     let sp = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
     (m, sp)
