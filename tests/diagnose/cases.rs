@@ -373,6 +373,26 @@ fn realistic_confusion_matrix_stepped_hollow() {
     confusion(&m, &sp, Some(0.005), 5e-7);
 }
 
+/// On the stepped hollow shaft (outer diameters three times the inner),
+/// the shaft stiffness hypothesis's rounds on a section of runout data ran
+/// its factor down to 0.26, an outer diameter below the inner one, and the
+/// diagnosis failed as a whole: the rounds now end at their last fit
+/// there (the case of the matrix that found it, named right).
+#[test]
+fn a_section_too_thin_for_a_round_ends_the_rounds() {
+    let (m, sp) = data_rotor("tests/data/ross/stepped_hollow.toml", 12000.0);
+    let effect = Effect::ProbeRunout;
+    let (_, d, o) = run_case_with_floor(
+        &m,
+        &sp,
+        effect,
+        1_000_003 * (effect as u64 + 1) + 23,
+        Some(0.005),
+        5e-7,
+    );
+    assert_eq!(o.named, effect, "{}", d.extended().label);
+}
+
 /// [`realistic_confusion_matrix`] on the third rotor: a long stepped shaft
 /// on three bearings with an overhung disk (`tests/data/rotors/three_bearing.toml`),
 /// 55..16500 rpm.

@@ -292,7 +292,9 @@ fn starts(
     let mut built: Built = vec![(1.0, ctx.terms.to_vec())];
     let mut best = (1.0, ctx.nominal.fit.s, ctx.start_with(m, &[0.0]));
     for e_try in [0.95, 1.05] {
-        let te = build(ctx, form, e_try)?;
+        let Ok(te) = build(ctx, form, e_try) else {
+            continue;
+        };
         if let Ok((_, mut th, _)) = oe_start(
             ctx.model,
             ctx.samples,
@@ -386,7 +388,12 @@ fn rounds(
             break;
         }
         theta[m.offset(0)] = 0.0;
-        let mut next = build(ctx, form, e_new)?;
+        // A factor the form cannot take (a section's outer diameter at or
+        // below its inner one on a hollow shaft): the rounds end at the
+        // last fit.
+        let Ok(mut next) = build(ctx, form, e_new) else {
+            break;
+        };
         if (e_new - e).abs() < 1e-5 * e {
             // Too close for a secant without cancellation: the
             // derivative of the current factor is as good.
