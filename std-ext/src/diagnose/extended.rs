@@ -21,9 +21,10 @@
 //! | [`Extension::Pedestal`] | `m = m_0 e^x1`, `w_d = w_0 e^x_d`, `zeta_d = x_d / 10`; with `split`, `m_y = m e^x6`, `m_z = m e^-x6` | `Z_eff`, `P` |
 //! | [`Extension::NodeRunout`] | `r = q_s (x + j y)` on output `c` (a probe at another node) | `y_c += r` |
 //! | [`Extension::Gain`] | `g = 0.01 x` on output `c` | `y_c <- (1 + g) y_c`, last |
+//! | [`Extension::FilmLaw`] | per bearing `x_d, x_x, x_c`: `dK_yy = dK_zz = s_K r x_d`, `dK_yz = -dK_zy = s_K r x_x`, `dC_yy = dC_zz = (s_K / Omega_r) r x_c`, `r = Omega / Omega_r` | `Z_B += dK + j Omega dC` ([`film_entries`]) |
 //!
-//! (`q_s`: RMS measured response, `s_a`: the unbalance scale of the
-//! parametrization.) A pedestal under bearing `m` with
+//! (`q_s`: RMS measured response, `s_a`, `s_K`, `Omega_r`: the unbalance,
+//! stiffness and speed scales of the parametrization.) A pedestal under bearing `m` with
 //! `Z_P = diag(m_p (w_d^2 - Omega^2 + 2 j zeta_d w_d Omega))` puts the
 //! bearing `Z_B` and the pedestal in series:
 //!
@@ -107,6 +108,47 @@ pub enum Extension {
         /// Output index (0-based).
         channel: usize,
     },
+    /// A fluid-film law on every bearing, beside the nominal constants:
+    /// the direct stiffness, the cross-coupled stiffness (`k_yz = -k_zy`,
+    /// a film's signs for `x_x > 0`) and the direct damping each change in
+    /// proportion to the speed, three parameters per bearing
+    /// ([`film_entries`]). Leaner than a polynomial law one order higher
+    /// (eight per bearing), in the shape fluid films have.
+    FilmLaw,
+}
+
+/// The entries of [`Extension::FilmLaw`] at `omega` (rad/s) with `nq`
+/// channels and the parametrization's `scaling`: `(row, col, dz, k)`, the
+/// law adds `dz x_k` to `Z_B[row][col]` for its parameter `k` (`3 b`,
+/// `3 b + 1`, `3 b + 2` for bearing `b`: direct stiffness, cross-coupled
+/// stiffness, direct damping). With `r = Omega / Omega_r`:
+///
+/// ```text
+///     dK_yy = dK_zz = s_K r x_3b           (N/m)
+///     dK_yz = -dK_zy = s_K r x_3b+1        (N/m)
+///     dC_yy = dC_zz = (s_K / Omega_r) r x_3b+2,  Z_B += j Omega dC = j s_K r^2 x_3b+2
+/// ```
+pub fn film_entries(
+    nq: usize,
+    scaling: &rotorid_core::scaling::ColumnScaling<f64>,
+    omega: f64,
+) -> Vec<(usize, usize, Complex64, usize)> {
+    let r = omega / scaling.omega_ref;
+    let k = Complex64::new(scaling.stiffness * r, 0.0);
+    let c = Complex64::new(0.0, scaling.stiffness * r * r);
+    (0..nq / 2)
+        .flat_map(|b| {
+            let (i, p) = (2 * b, 3 * b);
+            [
+                (i, i, k, p),
+                (i + 1, i + 1, k, p),
+                (i, i + 1, k, p + 1),
+                (i + 1, i, -k, p + 1),
+                (i, i, c, p + 2),
+                (i + 1, i + 1, c, p + 2),
+            ]
+        })
+        .collect()
 }
 
 impl Extension {
@@ -117,6 +159,7 @@ impl Extension {
             Extension::Plane { .. } | Extension::Bow { .. } | Extension::NodeRunout { .. } => 2,
             Extension::Pedestal { split, .. } => 5 + usize::from(*split),
             Extension::EScale | Extension::Gain { .. } => 1,
+            Extension::FilmLaw => 3 * (nq / 2),
         }
     }
 }
@@ -339,6 +382,21 @@ impl ExtendedModel {
                 Entry::Unbalance { plane, da } => a[plane] += da * t,
             }
         }
+        // The film law's entries, with their parameters' values.
+        let film: Vec<(usize, usize, Complex64)> =
+            match self.ext.iter().position(|e| *e == Extension::FilmLaw) {
+                Some(k) => {
+                    let o = self.offset(k);
+                    film_entries(nq, &self.pr.param.scaling, st.omega)
+                        .into_iter()
+                        .map(|(row, col, dz, i)| (row, col, dz * theta[o + i]))
+                        .collect()
+                }
+                None => Vec::new(),
+            };
+        for &(row, col, v) in &film {
+            h[(row, col)] += v;
+        }
         let mut f = &st.b * &a;
         let mut b_eff: Option<DMatrix<Complex64>> = None;
         let mut runout: Option<&[f64]> = None;
@@ -383,11 +441,19 @@ impl ExtendedModel {
                     }
                     // Z_B block of this bearing from the nominal entries.
                     let mut zb = Matrix2::<Complex64>::zeros();
+                    let in_block = |row: usize, col: usize| {
+                        (i0..i0 + 2).contains(&row) && (i0..i0 + 2).contains(&col)
+                    };
                     for (en, &t) in entries.iter().zip(&theta[..nom]) {
                         if let Entry::Bearing { row, col, dz } = *en {
-                            if (i0..i0 + 2).contains(&row) && (i0..i0 + 2).contains(&col) {
+                            if in_block(row, col) {
                                 zb[(row - i0, col - i0)] += dz * t;
                             }
+                        }
+                    }
+                    for &(row, col, v) in &film {
+                        if in_block(row, col) {
+                            zb[(row - i0, col - i0)] += v;
                         }
                     }
                     let params = PedestalParams::from_scaled(p, &self.scales);
@@ -420,7 +486,7 @@ impl ExtendedModel {
                         t_q: nalgebra::Vector2::zeros(),
                     });
                 }
-                Extension::Gain { .. } | Extension::NodeRunout { .. } => {}
+                Extension::Gain { .. } | Extension::NodeRunout { .. } | Extension::FilmLaw => {}
             }
         }
         let h_inv = invert(h).ok_or(PredictError::Singular { omega: st.omega })?;
@@ -467,7 +533,8 @@ impl ExtendedModel {
                     Extension::Runout
                     | Extension::Pedestal { .. }
                     | Extension::Gain { .. }
-                    | Extension::NodeRunout { .. } => {}
+                    | Extension::NodeRunout { .. }
+                    | Extension::FilmLaw => {}
                 }
             }
             y = DVector::from_iterator(nq + x.len(), y.iter().chain(x.iter()).copied());
@@ -703,6 +770,39 @@ impl ExtendedModel {
                             }
                         }
                     }
+                    Extension::FilmLaw => {
+                        // As a nominal bearing entry, each of its entries
+                        // added into its parameter's column.
+                        for c in 0..ext.n_params(nq) {
+                            jac.column_mut(o + c).fill(zero);
+                        }
+                        for (row, col, dz, k) in film_entries(nq, &self.pr.param.scaling, st.omega)
+                        {
+                            let i = o + k;
+                            let in_block = ev.ped.iter().position(|pe| {
+                                (pe.i0..pe.i0 + 2).contains(&row)
+                                    && (pe.i0..pe.i0 + 2).contains(&col)
+                            });
+                            if let Some(ip) = in_block {
+                                let pe = &ev.ped[ip];
+                                let (r, c) = (row - pe.i0, col - pe.i0);
+                                let u = pe.zp_s.column(r) * (dz * pe.s_zp_q[c]);
+                                for rr in 0..nq {
+                                    jac[(rr, i)] -= ev.h_inv[(rr, pe.i0)] * u[0]
+                                        + ev.h_inv[(rr, pe.i0 + 1)] * u[1];
+                                }
+                                if self.relative_probes {
+                                    let d = pe.s.column(r) * (-dz * pe.t_q[c]);
+                                    extra.push((ip, i, [d[0], d[1]]));
+                                }
+                            } else {
+                                let s = dz * ev.q[col];
+                                for rr in 0..nq {
+                                    jac[(rr, i)] -= ev.h_inv[(rr, row)] * s;
+                                }
+                            }
+                        }
+                    }
                     // Their columns are set once every row is (below).
                     Extension::Gain { .. } | Extension::NodeRunout { .. } => {}
                 }
@@ -765,7 +865,8 @@ impl ExtendedModel {
                             Extension::Runout
                             | Extension::Pedestal { .. }
                             | Extension::Gain { .. }
-                            | Extension::NodeRunout { .. } => {}
+                            | Extension::NodeRunout { .. }
+                            | Extension::FilmLaw => {}
                         }
                     }
                     Some(jn)
@@ -1040,6 +1141,88 @@ mod tests {
         }
     }
 
+    /// The film law through the extended model equals the FE response of
+    /// the rotor whose bearings follow the same law written as polynomials
+    /// in `Omega` ([`crate::model::BearingLaw::Polynomial`]: `K_1 = (s_K /
+    /// Omega_r) [x_d, x_x, -x_x, x_d]`, `C_1 = (s_K / Omega_r^2) [x_c, 0,
+    /// 0, x_c]`), also with a pedestal under one bearing.
+    #[test]
+    fn film_law_matches_the_fe_response() {
+        let m = RotorModel::paper();
+        for pedestal in [false, true] {
+            let mut ext = vec![Extension::FilmLaw];
+            if pedestal {
+                ext.push(Extension::Pedestal {
+                    bearing: 1,
+                    split: false,
+                });
+            }
+            let x = model_for(&m, ext);
+            let sc = x.pr.param.scaling;
+            let film = [[0.3, -0.2, 0.5], [-0.4, 0.25, -0.3]];
+            let mut theta = nominal_theta(&m, &x);
+            let mut mp = m.clone();
+            for (b, p) in film.iter().enumerate() {
+                theta.extend_from_slice(p);
+                let co = m.bearings[b].law.at(0.0);
+                let (kk, cc) = (
+                    sc.stiffness / sc.omega_ref,
+                    sc.stiffness / sc.omega_ref.powi(2),
+                );
+                mp.bearings[b].law = crate::model::BearingLaw::Polynomial {
+                    k: vec![co.k, [kk * p[0], kk * p[1], -kk * p[1], kk * p[0]]],
+                    c: vec![co.c, [cc * p[2], 0.0, 0.0, cc * p[2]]],
+                };
+            }
+            if pedestal {
+                let ped = PedestalParams {
+                    mass: 60.0,
+                    split: 0.0,
+                    omega: [900.0, 1300.0],
+                    zeta: [0.05, 0.04],
+                };
+                let (k, c) = ped.k_c();
+                mp.bearings[1].pedestal = Some(crate::model::Pedestal {
+                    mass: ped.masses(),
+                    k,
+                    c,
+                });
+                theta.extend(ped.to_scaled(&x.scales));
+            }
+            let omegas = [300.0, 950.0, 1400.0];
+            let terms = build(&m, &omegas, 1.0, false).unwrap();
+            let fe = FeModel::new(&mp).unwrap();
+            let resp =
+                crate::fe::response::unbalance_response(&fe, &Forcing::from_model(&mp), &omegas)
+                    .unwrap();
+            for (n, st) in terms.iter().enumerate() {
+                let y = x
+                    .predict(st, &x.pr.entries(st.omega), &theta, None)
+                    .unwrap();
+                let r = &resp[n];
+                let w = DVector::from_iterator(
+                    4,
+                    (0..4).map(|i| {
+                        if pedestal {
+                            r.bearings[i] - r.pedestals[i]
+                        } else {
+                            r.bearings[i]
+                        }
+                    }),
+                );
+                // The law changes the response: not the nominal one.
+                let y0 = model_for(&m, Vec::new())
+                    .predict(st, &x.pr.entries(st.omega), &theta[..x.pr.n_params()], None)
+                    .unwrap();
+                assert!((&y0 - &w).norm() > 1e-3 * w.norm() || pedestal);
+                assert!(
+                    (&y - &w).norm() <= 1e-8 * w.norm(),
+                    "pedestal {pedestal} speed {n}: {y} vs {w}"
+                );
+            }
+        }
+    }
+
     /// A pedestal through the extended model equals the FE response of the
     /// rotor with that pedestal, read absolutely and relatively.
     #[test]
@@ -1117,7 +1300,8 @@ mod tests {
 
     /// The analytic Jacobian equals central differences, with and without
     /// a pedestal, relative and absolute probes, probe gains on a bearing
-    /// channel (one under a pedestal, one with runout) and on a node probe.
+    /// channel (one under a pedestal, one with runout) and on a node probe,
+    /// the film law on bearings with and without a pedestal.
     #[test]
     fn jacobian_matches_central_differences() {
         let m = RotorModel::paper();
@@ -1133,6 +1317,7 @@ mod tests {
             Extension::NodeRunout { output: 5 },
             Extension::Gain { channel: 5 },
             Extension::NodeRunout { output: 6 },
+            Extension::FilmLaw,
         ];
         let ped = vec![
             Extension::Pedestal {
@@ -1143,6 +1328,7 @@ mod tests {
             Extension::Runout,
             Extension::Plane { node: 16 },
             Extension::EScale,
+            Extension::FilmLaw,
         ];
         let two = vec![
             Extension::Pedestal {

@@ -27,8 +27,13 @@ pub enum Finding {
     /// Speed-dependent bearings: the law's order and each bearing's
     /// stiffness at the lowest and highest speed (N/m).
     SpeedDependentBearing {
-        /// Polynomial order identified.
+        /// Polynomial order identified (the nominal one for the film law).
         order: usize,
+        /// The law's form: `"polynomial"` (of `order`), or `"film"`
+        /// ([`Extension::FilmLaw`]: the direct and cross-coupled
+        /// stiffness and the direct damping in proportion to the speed,
+        /// beside the nominal law).
+        form: &'static str,
         /// Per bearing: `(node, K at the lowest speed, K at the highest)`.
         stiffness: Vec<(usize, Coefficients, Coefficients)>,
     },
@@ -303,19 +308,30 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
     let param = &m.pr.param;
     let nom = m.pr.n_params();
     let mut out = Vec::new();
-    if param.structure.order > 1 && c.effects.contains(&Effect::SpeedDependentBearing) {
+    let film = m.ext.contains(&Extension::FilmLaw);
+    if (param.structure.order > 1 || film) && c.effects.contains(&Effect::SpeedDependentBearing) {
         let w = m.pr.weights(&f.theta[..nom]);
         let lo = terms.iter().map(|t| t.omega).fold(f64::INFINITY, f64::min);
         let hi = terms.iter().map(|t| t.omega).fold(0.0, f64::max);
+        let k_at = |b: usize, omega: f64| -> Option<[f64; 4]> {
+            let mut k = param.bearing(&w, b, omega)?.k;
+            if let Some((dk, _)) = film_coefficients(c, b, omega) {
+                for (k, d) in k.iter_mut().zip(dk) {
+                    *k += d;
+                }
+            }
+            Some(k)
+        };
         let stiffness = (0..param.n_bearings())
             .filter_map(|b| {
-                let kl = param.bearing(&w, b, lo)?.k;
-                let kh = param.bearing(&w, b, hi)?.k;
+                let kl = k_at(b, lo)?;
+                let kh = k_at(b, hi)?;
                 Some((param.bearing_nodes[b] + 1, kl.into(), kh.into()))
             })
             .collect();
         out.push(Finding::SpeedDependentBearing {
             order: param.structure.order,
+            form: if film { "film" } else { "polynomial" },
             stiffness,
         });
     }
@@ -391,6 +407,8 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                     form: c.stiffness.describe(),
                 });
             }
+            // With the polynomial law's finding (above).
+            Extension::FilmLaw => {}
             Extension::Pedestal { bearing, split } => {
                 let p =
                     PedestalParams::from_scaled(&f.theta[o..o + 5 + usize::from(split)], &m.scales);
@@ -417,6 +435,53 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
     out
 }
 
+/// What a candidate's [`Extension::FilmLaw`] adds to bearing `b` at
+/// `omega` (rad/s): `(dK, dC)` in the order `yy, yz, zy, zz` (N/m, N s/m);
+/// `None` without the law.
+pub(crate) fn film_coefficients(
+    c: &Candidate,
+    b: usize,
+    omega: f64,
+) -> Option<([f64; 4], [f64; 4])> {
+    let k = film_functionals(c, b, omega)?;
+    let value = |func: &[(usize, f64)]| -> f64 {
+        func.iter()
+            .map(|&(i, g)| g * c.fit.theta.get(i).copied().unwrap_or(f64::NAN))
+            .sum()
+    };
+    Some((
+        std::array::from_fn(|e| value(&k[e])),
+        std::array::from_fn(|e| value(&k[4 + e])),
+    ))
+}
+
+/// The film law's coefficients at `omega` as functionals of the
+/// parameters, `(index, weight)` pairs ([`crate::diagnose::extended::film_entries`]):
+/// `K_yy, K_yz, K_zy, K_zz`, then `C_yy .. C_zz` of bearing `b`. `None`
+/// without the law.
+fn film_functionals(c: &Candidate, b: usize, omega: f64) -> Option<[Vec<(usize, f64)>; 8]> {
+    let m = &c.model;
+    let k = m.ext.iter().position(|e| *e == Extension::FilmLaw)?;
+    if b >= m.n_channels() / 2 {
+        return None;
+    }
+    let o = m.offset(k);
+    let sc = &m.pr.param.scaling;
+    let r = omega / sc.omega_ref;
+    let (sk, sc_) = (sc.stiffness * r, sc.stiffness / sc.omega_ref * r);
+    let p = o + 3 * b;
+    Some([
+        vec![(p, sk)],
+        vec![(p + 1, sk)],
+        vec![(p + 1, -sk)],
+        vec![(p, sk)],
+        vec![(p + 2, sc_)],
+        Vec::new(),
+        Vec::new(),
+        vec![(p + 2, sc_)],
+    ])
+}
+
 /// Bearings (at `omega`) and plane unbalances of a candidate, with
 /// standard deviations, in the identification's result types.
 pub fn estimates(c: &Candidate, omega: f64) -> (Vec<BearingResult>, Vec<UnbalanceResult>) {
@@ -439,11 +504,26 @@ pub fn estimates(c: &Candidate, omega: f64) -> (Vec<BearingResult>, Vec<Unbalanc
     };
     let bearings = (0..param.n_bearings())
         .filter_map(|b| {
-            let est = param.bearing(&w, b, omega)?;
-            let ks: [f64; 4] =
-                std::array::from_fn(|e| fstd(&param.stiffness_functional(b, e, omega)));
-            let cs: [f64; 4] =
-                std::array::from_fn(|e| fstd(&param.damping_functional(b, e, omega)));
+            let mut est = param.bearing(&w, b, omega)?;
+            let film = film_functionals(c, b, omega);
+            let with_film = |mut func: Vec<(usize, f64)>, e: usize| {
+                if let Some(f) = &film {
+                    func.extend(f[e].iter().copied());
+                }
+                func
+            };
+            if let Some((dk, dc)) = film_coefficients(c, b, omega) {
+                for e in 0..4 {
+                    est.k[e] += dk[e];
+                    est.c[e] += dc[e];
+                }
+            }
+            let ks: [f64; 4] = std::array::from_fn(|e| {
+                fstd(&with_film(param.stiffness_functional(b, e, omega), e))
+            });
+            let cs: [f64; 4] = std::array::from_fn(|e| {
+                fstd(&with_film(param.damping_functional(b, e, omega), 4 + e))
+            });
             Some(BearingResult {
                 node: param.bearing_nodes[b] + 1,
                 k: est.k.into(),

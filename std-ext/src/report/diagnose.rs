@@ -317,7 +317,11 @@ pub fn text(
 
 fn finding_line(f: &Finding) -> String {
     match f {
-        Finding::SpeedDependentBearing { order, stiffness } => {
+        Finding::SpeedDependentBearing {
+            order,
+            form,
+            stiffness,
+        } => {
             let parts: Vec<String> = stiffness
                 .iter()
                 .map(|(n, lo, hi)| {
@@ -327,10 +331,12 @@ fn finding_line(f: &Finding) -> String {
                     )
                 })
                 .collect();
-            format!(
-                "bearing law of order {order} (lowest -> highest speed) {}",
-                parts.join("; ")
-            )
+            let law = if *form == "film" {
+                "film law (direct and cross-coupled stiffness, direct damping in proportion to the speed)".to_string()
+            } else {
+                format!("bearing law of order {order}")
+            };
+            format!("{law} (lowest -> highest speed) {}", parts.join("; "))
         }
         Finding::FoundationFlexibility {
             node,
