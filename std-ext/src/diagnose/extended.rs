@@ -658,31 +658,43 @@ impl ExtendedModel {
                 }
             };
             let qm = |pe: &PedEval| nalgebra::Vector2::new(ev.q[pe.i0], ev.q[pe.i0 + 1]);
+            // A bearing entry `dZ_B[row][col] = dz` added into column `i`
+            // (zeroed before its first entry).
+            let bearing_entry =
+                |jac: &mut nalgebra::DMatrixViewMut<'_, Complex64>,
+                 extra: &mut Vec<(usize, usize, [Complex64; 2])>,
+                 i: usize,
+                 (row, col, dz): (usize, usize, Complex64)| {
+                    let in_block = ev.ped.iter().position(|pe| {
+                        (pe.i0..pe.i0 + 2).contains(&row) && (pe.i0..pe.i0 + 2).contains(&col)
+                    });
+                    if let Some(ip) = in_block {
+                        // `dZ_B = dz e_r e_c^T`: `dZ_eff q_m = (Z_P S) e_r dz (S
+                        // Z_P q_m)_c` and `dT q_m = -S e_r dz (T q_m)_c`, outer
+                        // products instead of the matrix chain.
+                        let pe = &ev.ped[ip];
+                        let (r, c) = (row - pe.i0, col - pe.i0);
+                        let u = pe.zp_s.column(r) * (dz * pe.s_zp_q[c]);
+                        for rr in 0..nq {
+                            jac[(rr, i)] -=
+                                ev.h_inv[(rr, pe.i0)] * u[0] + ev.h_inv[(rr, pe.i0 + 1)] * u[1];
+                        }
+                        if self.relative_probes {
+                            let d = pe.s.column(r) * (-dz * pe.t_q[c]);
+                            extra.push((ip, i, [d[0], d[1]]));
+                        }
+                    } else {
+                        let s = dz * ev.q[col];
+                        for rr in 0..nq {
+                            jac[(rr, i)] -= ev.h_inv[(rr, row)] * s;
+                        }
+                    }
+                };
             for (i, en) in entries.iter().enumerate() {
                 match *en {
                     Entry::Bearing { row, col, dz } => {
-                        let in_block = ev.ped.iter().position(|pe| {
-                            (pe.i0..pe.i0 + 2).contains(&row) && (pe.i0..pe.i0 + 2).contains(&col)
-                        });
-                        if let Some(ip) = in_block {
-                            // `dZ_B = dz e_r e_c^T`: `dZ_eff q_m = (Z_P S) e_r
-                            // dz (S Z_P q_m)_c` and `dT q_m = -S e_r dz
-                            // (T q_m)_c`, outer products instead of the
-                            // matrix chain.
-                            let pe = &ev.ped[ip];
-                            let (r, c) = (row - pe.i0, col - pe.i0);
-                            let u = pe.zp_s.column(r) * (dz * pe.s_zp_q[c]);
-                            block_dq(&mut jac, i, &u, pe);
-                            if self.relative_probes {
-                                let d = pe.s.column(r) * (-dz * pe.t_q[c]);
-                                extra.push((ip, i, [d[0], d[1]]));
-                            }
-                        } else {
-                            let s = dz * ev.q[col];
-                            for r in 0..nq {
-                                jac[(r, i)] = -(ev.h_inv[(r, row)] * s);
-                            }
-                        }
+                        jac.column_mut(i).fill(zero);
+                        bearing_entry(&mut jac, &mut extra, i, (row, col, dz));
                     }
                     Entry::Unbalance { plane, da } => {
                         // H^-1 (B + dB de) e_plane da, without temporaries.
@@ -778,29 +790,7 @@ impl ExtendedModel {
                         }
                         for (row, col, dz, k) in film_entries(nq, &self.pr.param.scaling, st.omega)
                         {
-                            let i = o + k;
-                            let in_block = ev.ped.iter().position(|pe| {
-                                (pe.i0..pe.i0 + 2).contains(&row)
-                                    && (pe.i0..pe.i0 + 2).contains(&col)
-                            });
-                            if let Some(ip) = in_block {
-                                let pe = &ev.ped[ip];
-                                let (r, c) = (row - pe.i0, col - pe.i0);
-                                let u = pe.zp_s.column(r) * (dz * pe.s_zp_q[c]);
-                                for rr in 0..nq {
-                                    jac[(rr, i)] -= ev.h_inv[(rr, pe.i0)] * u[0]
-                                        + ev.h_inv[(rr, pe.i0 + 1)] * u[1];
-                                }
-                                if self.relative_probes {
-                                    let d = pe.s.column(r) * (-dz * pe.t_q[c]);
-                                    extra.push((ip, i, [d[0], d[1]]));
-                                }
-                            } else {
-                                let s = dz * ev.q[col];
-                                for rr in 0..nq {
-                                    jac[(rr, i)] -= ev.h_inv[(rr, row)] * s;
-                                }
-                            }
+                            bearing_entry(&mut jac, &mut extra, o + k, (row, col, dz));
                         }
                     }
                     // Their columns are set once every row is (below).
