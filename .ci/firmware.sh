@@ -157,7 +157,7 @@ icount() {
     }
     END {
       # One generated sample per sample-marker pair (and one pair for the
-      # call that finds the coast-down's end): the pushes (blocks of 16
+      # call that finds the end of the coast-down): the pushes (blocks of 16
       # instants; a block with an average done is two calls) per
       # channel-sample are their total over the samples, 4 probes.
       for (m in name) if (name[m] == "rotorid_sample_marker") samples = n[m]
