@@ -5,7 +5,10 @@
 //! fitted with the terms linearised in the factor about its current value
 //! (`dA/df`, `dB/df` by a secant), the factor moved by `E_STEP` times its
 //! offset, the terms rebuilt exactly there ([`crate::diagnose::terms`]),
-//! until the factor stops moving. The forms have one parameter each, so
+//! until the factor stops moving. E and G's rounds start from the least
+//! point of a profile of the nominal model's misfit over the factor (the
+//! linearisation reaches a few per cent only where the reduced terms have
+//! a pole in the range). The forms have one parameter each, so
 //! the one of least misfit is the candidate, named in its label.
 //!
 //! The sections tried are the runs of one to three consecutive pieces of
@@ -73,7 +76,7 @@ fn build(ctx: &Context<'_>, form: StiffnessForm, f: f64) -> Result<Vec<SpeedTerm
 }
 
 /// The fit of the factor on the shaft's stiffness: for E and G, the best
-/// start of `f = 1` and `f = 1 -+ 5 %` (`starts`), then up to six rounds
+/// point of the misfit's profile over `f` (`starts`), then up to six rounds
 /// (`rounds`); for E alone, rounds from where E and G ended; for the
 /// sections, the two that `rank_sections`
 /// puts first, from their screening start. The form of least misfit is the
@@ -275,10 +278,19 @@ fn rank_sections(
     Ok(out)
 }
 
-/// The best start of `m` in `form` of `e = 1` (the nominal estimate) and
-/// `e = 0.95`, `1.05` (the nominal parameters estimated again on the
-/// terms there), by the misfit `S` of the nominal model; with the terms
-/// built at the three factors, `e = 1` first.
+/// The best start of `m` in `form`: the profile of the nominal model's
+/// misfit `S(e)` over the factor (the nominal parameters estimated afresh
+/// on the terms at each `e`), at `e = 1` (the nominal estimate) and
+/// `e = 0.95`, `1.05`, then up to [`PROFILE_STEPS`] more factors placed by
+/// [`next_profile_point`]; with the terms built at each factor, `e = 1`
+/// first and `0.95`, `1.05` next.
+///
+/// The rounds alone linearise the terms in `e`; on a rotor whose bearing
+/// nodes pinned have a mode in the speed range (three bearings), the
+/// reduced terms have a pole there and the linearisation only reaches a
+/// few per cent, so the rounds stop at the first factor they are given.
+/// The profile needs no derivative and brings them to the minimum's
+/// neighbourhood.
 fn starts(
     ctx: &Context<'_>,
     m: &ExtendedModel,
@@ -286,36 +298,95 @@ fn starts(
 ) -> Result<(Start, Built), DiagnoseError> {
     let setup = ctx.setup;
     let base = ctx.base;
-    // Start: the best of e = 1 and e = 1 -+ 5 % with the nominal
-    // parameters refitted at each (the nominal estimate adapts the
-    // bearings to the wrong shaft: a local minimum in between).
     let mut built: Built = vec![(1.0, ctx.terms.to_vec())];
     let mut best = (1.0, ctx.nominal.fit.s, ctx.start_with(m, &[0.0]));
-    for e_try in [0.95, 1.05] {
-        let Ok(te) = build(ctx, form, e_try) else {
-            continue;
-        };
-        if let Ok((_, mut th, _)) = oe_start(
-            ctx.model,
-            ctx.samples,
-            &te,
-            setup.structure,
-            setup.scaling,
-            setup.held_noise(),
-        ) {
-            let d = FitData::with_probes(ctx.samples, ctx.node_q, &te).with_floors(&setup.phi);
-            let en = fit::entries(base, &d);
-            if let Ok((r, _)) = fit::evaluate(base, &d, &en, &th, false) {
-                let s_try = r.norm_squared();
-                if s_try < best.1 {
-                    th.push(0.0);
-                    best = (e_try, s_try, th);
+    let mut profile: Vec<(f64, f64)> = vec![(1.0, ctx.nominal.fit.s)];
+    let mut evaluations = 0;
+    let mut next = Some(0.95);
+    while let Some(e_try) = next {
+        evaluations += 1;
+        if let Ok(te) = build(ctx, form, e_try) {
+            let mut s_try = f64::INFINITY;
+            if let Ok((_, mut th, _)) = oe_start(
+                ctx.model,
+                ctx.samples,
+                &te,
+                setup.structure,
+                setup.scaling,
+                setup.held_noise(),
+            ) {
+                let d = FitData::with_probes(ctx.samples, ctx.node_q, &te).with_floors(&setup.phi);
+                let en = fit::entries(base, &d);
+                if let Ok((r, _)) = fit::evaluate(base, &d, &en, &th, false) {
+                    s_try = r.norm_squared();
+                    if s_try < best.1 {
+                        th.push(0.0);
+                        best = (e_try, s_try, th);
+                    }
                 }
             }
+            profile.push((e_try, s_try));
+            built.push((e_try, te));
+        } else {
+            profile.push((e_try, f64::INFINITY));
         }
-        built.push((e_try, te));
+        next = match evaluations {
+            1 => Some(1.05),
+            k if k < 2 + PROFILE_STEPS => next_profile_point(&profile),
+            _ => None,
+        };
     }
     Ok((best, built))
+}
+
+/// The most factors the profile of [`starts`] evaluates beyond its three
+/// starts.
+const PROFILE_STEPS: usize = 4;
+
+/// The profile stops once its next factor would be within this of one it
+/// has (the rounds take it from there).
+const PROFILE_TOL: f64 = 3e-3;
+
+/// The factors the profile keeps within (a shaft's modulus or a section's
+/// diameter this far off is a wrong model, not an error to be found).
+const PROFILE_RANGE: (f64, f64) = (0.6, 1.6);
+
+/// The next factor of a profile `(e, S(e))`: past the end where the least
+/// `S` is at an end (a step as wide as the last), else the vertex of the
+/// parabola through the least and its two neighbours, kept inside them;
+/// `None` when that is within [`PROFILE_TOL`] of a factor evaluated or
+/// outside [`PROFILE_RANGE`].
+fn next_profile_point(profile: &[(f64, f64)]) -> Option<f64> {
+    let mut p: Vec<(f64, f64)> = profile
+        .iter()
+        .copied()
+        .filter(|x| x.1.is_finite())
+        .collect();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if p.len() < 2 {
+        return None;
+    }
+    let i = (0..p.len()).min_by(|&a, &b| p[a].1.total_cmp(&p[b].1))?;
+    let e = if i == 0 {
+        p[0].0 - (p[1].0 - p[0].0)
+    } else if i == p.len() - 1 {
+        p[i].0 + (p[i].0 - p[i - 1].0)
+    } else {
+        let (a, b, c) = (p[i - 1], p[i], p[i + 1]);
+        let (da, dc) = (b.0 - a.0, b.0 - c.0);
+        let (fa, fc) = (b.1 - a.1, b.1 - c.1);
+        let den = da * fc - dc * fa;
+        let v = if den != 0.0 {
+            b.0 - 0.5 * (da * da * fc - dc * dc * fa) / den
+        } else {
+            b.0
+        };
+        // Inside the bracket, not on its ends.
+        let margin = 0.1 * (c.0 - a.0);
+        v.clamp(a.0 + margin, c.0 - margin)
+    };
+    let near = profile.iter().any(|x| (x.0 - e).abs() < PROFILE_TOL);
+    (e.is_finite() && !near && e > PROFILE_RANGE.0 && e < PROFILE_RANGE.1).then_some(e)
 }
 
 /// The model's own terms with `dA/de`, `dB/de` (and the node probes'
@@ -326,7 +397,8 @@ fn derivative_at_one(
     built: &Built,
 ) -> Result<Option<Vec<SpeedTerms>>, DiagnoseError> {
     let mut terms_de = None;
-    if let [_, (em, minus), (ep, plus)] = &built[..] {
+    let at = |f: f64| built.iter().find(|(x, _)| *x == f);
+    if let (Some((em, minus)), Some((ep, plus))) = (at(0.95), at(1.05)) {
         let mut central = plus.clone();
         terms::set_secant_derivative(&mut central, *ep, minus, *em)?;
         let mut t1 = ctx.terms.to_vec();
