@@ -437,6 +437,10 @@ fn confusion(m: &RotorModel, sp: &[f64], noise: Option<f64>, floor: f64) {
         .unwrap_or(50);
     let mut table: BTreeMap<(Effect, Effect), usize> = BTreeMap::new();
     let (mut right, mut total, mut none_named) = (0, 0, 0);
+    // Cases named right whose size is comparable, and those of them sized
+    // within 5 % and 3.5 reported standard deviations.
+    let (mut sized, mut sized_right) = (0, 0);
+    let mut by_effect: BTreeMap<Effect, (usize, usize)> = BTreeMap::new();
     let all: Vec<Effect> = std::iter::once(Effect::None).chain(Effect::BANK).collect();
     for &effect in &all {
         for seed in 0..n {
@@ -449,15 +453,26 @@ fn confusion(m: &RotorModel, sp: &[f64], noise: Option<f64>, floor: f64) {
                 floor,
             );
             println!(
-                "{} seed {seed}: named {}{}",
+                "{} seed {seed}: named {}{}{}",
                 effect.name(),
                 o.named.name(),
                 if o.observable {
                     ""
                 } else {
                     " (not observable)"
-                }
+                },
+                o.size.map_or(String::new(), |(got, want, std)| format!(
+                    ", size {got:.4e} (hidden {want:.4e}, std {std:.1e})"
+                ))
             );
+            if let (true, Some((got, want, std))) = (o.named == effect, o.size) {
+                sized += 1;
+                let within = (got - want).abs() <= 0.05 * want.abs();
+                let sigmas = (got - want).abs() <= 3.5 * std;
+                sized_right += usize::from(within && sigmas);
+                by_effect.entry(effect).or_insert((0, 0)).0 += usize::from(within && sigmas);
+                by_effect.entry(effect).or_insert((0, 0)).1 += 1;
+            }
             *table.entry((effect, o.named)).or_default() += 1;
             if o.observable {
                 total += 1;
@@ -472,6 +487,10 @@ fn confusion(m: &RotorModel, sp: &[f64], noise: Option<f64>, floor: f64) {
     print_confusion(&all, &named, &table);
     let acc = right as f64 / total.max(1) as f64;
     println!("accuracy on observable cases: {right}/{total} = {acc:.3}; none named as an effect: {none_named}/{n}");
+    println!("sized within 5 % and 3.5 std where named right: {sized_right}/{sized}");
+    for (e, (ok, of)) in &by_effect {
+        println!("  {}: {ok}/{of}", e.name());
+    }
     assert!(acc >= 0.95);
     assert!(none_named as f64 <= 0.05 * n as f64);
 }
