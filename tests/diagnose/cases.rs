@@ -426,7 +426,9 @@ pub(super) fn print_confusion(
 }
 
 /// `ROTORID_CASES` (default 50) cases per effect of `m` at the speeds `sp`
-/// (rpm) with relative
+/// (rpm), the effect's forms drawn in turn (the bank's, then those of
+/// [`Form::MACHINE`]: E alone and a section's diameter, a film table,
+/// pedestal masses apart, a two-knot bow, a distributed unbalance), with relative
 /// noise `noise` (`None`: drawn) and probe floor `floor` (m); the table
 /// printed, at least 95 % named right where observable and `none` named as
 /// an effect at most 5 % asserted.
@@ -441,19 +443,40 @@ fn confusion(m: &RotorModel, sp: &[f64], noise: Option<f64>, floor: f64) {
     // within 5 % and 3.5 reported standard deviations.
     let (mut sized, mut sized_right) = (0, 0);
     let mut by_effect: BTreeMap<Effect, (usize, usize)> = BTreeMap::new();
+    // Named right of the observable cases, by effect and form.
+    let mut by_form: BTreeMap<(Effect, String), (usize, usize)> = BTreeMap::new();
     let all: Vec<Effect> = std::iter::once(Effect::None).chain(Effect::BANK).collect();
     for &effect in &all {
         for seed in 0..n {
-            let (_, _, o) = run_case_with_floor(
+            // Every form of the effect in turn: the bank's own, then the
+            // forms machines have it in.
+            let forms: Vec<Form> = std::iter::once(Form::Bank)
+                .chain(
+                    Form::MACHINE
+                        .iter()
+                        .filter(|(e, _)| *e == effect)
+                        .map(|(_, f)| *f),
+                )
+                .collect();
+            let form = forms[seed as usize % forms.len()];
+            let (_, _, o) = run_case_form(
                 m,
                 sp,
                 effect,
+                form,
                 1_000_003 * (effect as u64 + 1) + seed,
                 noise,
                 floor,
             );
+            if o.observable {
+                let t = by_form
+                    .entry((effect, format!("{form:?}")))
+                    .or_insert((0, 0));
+                t.0 += usize::from(o.named == effect || o.equivalent);
+                t.1 += 1;
+            }
             println!(
-                "{} seed {seed}: named {}{}{}",
+                "{} ({form:?}) seed {seed}: named {}{}{}",
                 effect.name(),
                 o.named.name(),
                 if o.observable {
@@ -487,6 +510,10 @@ fn confusion(m: &RotorModel, sp: &[f64], noise: Option<f64>, floor: f64) {
     print_confusion(&all, &named, &table);
     let acc = right as f64 / total.max(1) as f64;
     println!("accuracy on observable cases: {right}/{total} = {acc:.3}; none named as an effect: {none_named}/{n}");
+    println!("named right where observable, by form:");
+    for ((e, f), (ok, of)) in &by_form {
+        println!("  {} {f}: {ok}/{of}", e.name());
+    }
     println!("sized within 5 % and 3.5 std where named right: {sized_right}/{sized}");
     for (e, (ok, of)) in &by_effect {
         println!("  {}: {ok}/{of}", e.name());
