@@ -488,6 +488,36 @@ fn rounds(
 mod tests {
     use super::*;
 
+    /// The profile's next factor on `S(e) = (e - 1.07)^2 + 0.2`, from
+    /// the three starts: past the end where the least is at an end, then
+    /// the parabola's vertex (exact on a parabola), then nothing once the
+    /// vertex has been evaluated; a vertex outside the range is not
+    /// proposed, nor one by a factor already evaluated.
+    #[test]
+    fn the_profile_walks_to_the_vertex() {
+        let s = |e: f64| (e - 1.07) * (e - 1.07) + 0.2;
+        let mut p: Vec<(f64, f64)> = [1.0, 0.95, 1.05].iter().map(|&e| (e, s(e))).collect();
+        let e = next_profile_point(&p).unwrap();
+        assert!((e - 1.10).abs() < 1e-12, "{e}");
+        p.push((e, s(e)));
+        let e = next_profile_point(&p).unwrap();
+        assert!((e - 1.07).abs() < 1e-9, "{e}");
+        p.push((e, s(e)));
+        assert_eq!(next_profile_point(&p), None);
+        // A least at the end of the range is not stepped past.
+        let q: Vec<(f64, f64)> = [1.5, 1.55, 1.58].iter().map(|&e: &f64| (e, -e)).collect();
+        assert_eq!(next_profile_point(&q), None);
+        // A vertex near an evaluated factor (within PROFILE_TOL) stops it.
+        let r: Vec<(f64, f64)> = [0.95, 1.0, 1.05]
+            .iter()
+            .map(|&e: &f64| (e, (e - 1.001).powi(2)))
+            .collect();
+        assert_eq!(next_profile_point(&r), None);
+        // Non-finite misfits (terms that could not be built) are left out.
+        let t = vec![(1.0, 1.0), (0.95, f64::INFINITY), (1.05, 0.5)];
+        assert!((next_profile_point(&t).unwrap() - 1.10).abs() < 1e-12);
+    }
+
     /// The paper rotor's features (shaft ends, bearings at its ends, disks
     /// and planes at nodes 4, 10 and 20, one diameter) cut it into four
     /// pieces; the sections are the runs of one to three of them.
