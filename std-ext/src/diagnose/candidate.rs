@@ -26,6 +26,14 @@ pub struct Candidate {
     pub stiffness: StiffnessForm,
     /// Alternatives tried for this hypothesis (nodes, bearings, orders).
     pub alternatives: usize,
+    /// For a bow of two knots (two [`Extension::Bow`] extensions, knots
+    /// `a < b`): `[s_b(a), s_a(b)]`, the offset the unit shape of each
+    /// knot has at the other one, so that the bow's offsets at its knots
+    /// are `beta_a = c_a + s_b(a) c_b` and `beta_b = s_a(b) c_a + c_b`
+    /// (`c` the fitted amplitudes of the two shapes).
+    ///
+    /// [`Extension::Bow`]: super::extended::Extension::Bow
+    pub bow_coupling: Option<[f64; 2]>,
     /// `(S_nominal - S) / sigma^2`.
     pub statistic: f64,
     /// The chi-square threshold it had to exceed.
@@ -57,6 +65,7 @@ impl Candidate {
             e_terms,
             stiffness: StiffnessForm::EAndG,
             alternatives,
+            bow_coupling: None,
             statistic: 0.0,
             threshold: 0.0,
             significant: false,

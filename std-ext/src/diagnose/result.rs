@@ -262,6 +262,39 @@ fn polar_with_std(x: f64, y: f64, s: f64, cov: Option<[[f64; 2]; 2]>) -> (f64, f
     (r, z.arg().to_degrees(), sa, sp)
 }
 
+/// For the bow extension `k` of `c` when `c` is a bow of two knots: the
+/// offset of the other knot's parameters and the other knot's unit shape
+/// at this knot (`Candidate::bow_coupling`).
+fn bow_partner(c: &Candidate, k: usize) -> Option<(usize, f64)> {
+    let [s_ba, s_ab] = c.bow_coupling?;
+    match (k, c.model.ext.len()) {
+        (0, 2) => Some((c.model.offset(1), s_ba)),
+        (1, 2) => Some((c.model.offset(0), s_ab)),
+        _ => None,
+    }
+}
+
+/// The 2x2 covariance of `sum_i w_i (theta_{o_i}, theta_{o_i + 1})` for
+/// `terms` `(o_i, w_i)` of `f`, when it has one.
+fn cov_combo(f: &Fit, terms: &[(usize, f64)]) -> Option<[[f64; 2]; 2]> {
+    f.covariance.as_ref().map(|c| {
+        let mut out = [[0.0; 2]; 2];
+        for (r, row) in out.iter_mut().enumerate() {
+            for (q, v) in row.iter_mut().enumerate() {
+                *v = terms
+                    .iter()
+                    .flat_map(|&(i, wi)| {
+                        terms
+                            .iter()
+                            .map(move |&(j, wj)| wi * wj * c[(i + r, j + q)])
+                    })
+                    .sum();
+            }
+        }
+        out
+    })
+}
+
 /// The 2x2 covariance of parameters `o` and `o + 1` of `f`, when it has one.
 fn cov2(f: &Fit, o: usize) -> Option<[[f64; 2]; 2]> {
     f.covariance.as_ref().map(|c| {
@@ -382,8 +415,17 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                 });
             }
             Extension::Bow { node, line } => {
-                let (a, p, sa, sp) =
-                    polar_with_std(f.theta[o], f.theta[o + 1], m.scales.q, cov2(f, o));
+                // A bow of two knots: this knot's offset is its own
+                // amplitude plus the other knot's shape there times the
+                // other's amplitude (`Candidate::bow_coupling`).
+                let other = bow_partner(c, k);
+                let terms: Vec<(usize, f64)> = match other {
+                    Some((o2, s)) => vec![(o, 1.0), (o2, s)],
+                    None => vec![(o, 1.0)],
+                };
+                let x: f64 = terms.iter().map(|&(i, w)| w * f.theta[i]).sum();
+                let y: f64 = terms.iter().map(|&(i, w)| w * f.theta[i + 1]).sum();
+                let (a, p, sa, sp) = polar_with_std(x, y, m.scales.q, cov_combo(f, &terms));
                 out.push(Finding::ShaftBow {
                     node: node + 1,
                     amplitude: a,

@@ -162,6 +162,21 @@ pub(crate) fn screen(
     theta0: &[f64],
     exts: &[Extension],
 ) -> Result<Vec<usize>, DiagnoseError> {
+    let singles: Vec<Vec<usize>> = (0..exts.len()).map(|k| vec![k]).collect();
+    screen_groups(base, data, theta0, exts, &singles)
+}
+
+/// [`screen`] for groups of alternatives added together (indices into
+/// `exts`; a group's columns are those of all its members): the groups
+/// ranked (indices into `groups`) by the drop one Gauss-Newton step
+/// predicts, from the same single Jacobian.
+pub(crate) fn screen_groups(
+    base: &ExtendedModel,
+    data: &FitData<'_>,
+    theta0: &[f64],
+    exts: &[Extension],
+    groups: &[Vec<usize>],
+) -> Result<Vec<usize>, DiagnoseError> {
     let all = ExtendedModel {
         ext: base.ext.iter().chain(exts).copied().collect(),
         ..base.clone()
@@ -178,9 +193,12 @@ pub(crate) fn screen(
     let p0 = base.n_params();
     let nq = base.n_channels();
     let mut scored: Vec<(f64, usize)> = Vec::new();
-    for (k, e) in exts.iter().enumerate() {
-        let o = all.offset(base.ext.len() + k);
-        let idx: Vec<usize> = (0..p0).chain(o..o + e.n_params(nq)).collect();
+    for (k, group) in groups.iter().enumerate() {
+        let mut idx: Vec<usize> = (0..p0).collect();
+        for &m in group {
+            let o = all.offset(base.ext.len() + m);
+            idx.extend(o..o + exts[m].n_params(nq));
+        }
         let gs = DVector::from_iterator(idx.len(), idx.iter().map(|&i| g[i]));
         let gss = DMatrix::from_fn(idx.len(), idx.len(), |a, b| gram[(idx[a], idx[b])]);
         let drop = gss.cholesky().map(|c| gs.dot(&c.solve(&gs))).unwrap_or(0.0);

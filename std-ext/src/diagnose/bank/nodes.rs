@@ -4,14 +4,16 @@
 //! ([`screen`]), the best two fitted; and the same search again on top of
 //! another effect's fit for the pairs (`rescreen`).
 
-use crate::diagnose::bank::screen;
+use crate::diagnose::bank::{screen, screen_groups};
 use crate::diagnose::candidate::Candidate;
 use crate::diagnose::context::Context;
 use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::{ExtendedModel, Extension};
 use crate::diagnose::fit::{self, Fit, FitData};
 use crate::diagnose::input::DiagnoseError;
-use crate::model::RotorModel;
+use crate::diagnose::stats::bic;
+use crate::fe::assembly::{Dir, FeModel};
+use crate::model::{BowPoint, RotorModel, ShaftBow};
 
 /// The best fit of `effect` (`ShaftBow` or `ExtraUnbalancePlane`) at one
 /// node: the two nodes `screen` ranks first, each fitted from the nominal
@@ -49,7 +51,10 @@ pub(crate) fn node_effect(
             .collect()],
     };
     let mut best: Option<(Fit, ExtendedModel, Extension)> = None;
-    for exts in &families {
+    // The best one-knot fit of each family, where the second knot of a
+    // bow is screened from.
+    let mut family_best: Vec<Option<(Fit, Extension)>> = vec![None; families.len()];
+    for (exts, fb) in families.iter().zip(family_best.iter_mut()) {
         let ranked = screen(ctx.base, ctx.data, &ctx.theta0, exts)?;
         for &i in ranked.iter().take(2) {
             let m = ctx.with_ext(vec![exts[i]]);
@@ -58,6 +63,9 @@ pub(crate) fn node_effect(
             }
             let t = ctx.start_with(&m, &[]);
             if let Ok(f) = fit::fit(&m, ctx.data, &t, 50) {
+                if fb.as_ref().is_none_or(|b| f.s < b.0.s) {
+                    *fb = Some((f.clone(), exts[i]));
+                }
                 if best.as_ref().is_none_or(|b| f.s < b.0.s) {
                     best = Some((f, m, exts[i]));
                 }
@@ -67,14 +75,221 @@ pub(crate) fn node_effect(
     let Some((f, m, ext)) = best else {
         return Ok(None);
     };
-    Ok(Some(Candidate::new(
-        vec![effect],
-        node_label(ext),
-        m,
-        f,
-        1.0,
-        families.iter().map(Vec::len).sum(),
-    )))
+    let mut alternatives: usize = families.iter().map(Vec::len).sum();
+    let mut chosen = (f, m, node_label(ext));
+    if effect == Effect::ShaftBow {
+        let (pair, tried) = two_knot_bow(ctx, &families, &family_best)?;
+        alternatives += tried;
+        if let Some(p) = pair {
+            let n = ctx.setup.n_real;
+            if bic(&p.0, n) < bic(&chosen.0, n) {
+                chosen = p;
+            }
+        }
+    }
+    let (f, m, label) = chosen;
+    let coupling = match m.ext.as_slice() {
+        [a, b] => knot_coupling(model, *a, *b),
+        _ => None,
+    };
+    let mut c = Candidate::new(vec![effect], label, m, f, 1.0, alternatives);
+    c.bow_coupling = coupling;
+    Ok(Some(c))
+}
+
+/// `[s_b(a), s_a(b)]` of [`Candidate::bow_coupling`] for the one-knot bow
+/// shapes `a` and `b` (of one family): the `y` offset of each unit shape
+/// ([`FeModel::bow_shape`], [`FeModel::line_bow_shape`]) at the other's
+/// knot. `None` for other extensions.
+fn knot_coupling(model: &RotorModel, a: Extension, b: Extension) -> Option<[f64; 2]> {
+    let fe = FeModel::new(model).ok()?;
+    let bearings = model.bearing_nodes();
+    let shape = |e: Extension| match e {
+        Extension::Bow { node, line: false } => fe
+            .bow_shape(&ShaftBow {
+                points: vec![BowPoint {
+                    node,
+                    amplitude: 1.0,
+                    phase: 0.0,
+                }],
+            })
+            .ok(),
+        Extension::Bow { node, line: true } => fe.line_bow_shape(node, &bearings).ok(),
+        _ => None,
+    };
+    let (Extension::Bow { node: na, .. }, Extension::Bow { node: nb, .. }) = (a, b) else {
+        return None;
+    };
+    let (sa, sb) = (shape(a)?, shape(b)?);
+    Some([sb[fe.dof(na, Dir::Y)].re, sa[fe.dof(nb, Dir::Y)].re])
+}
+
+/// Knots of a bow of two knots at least this many nodes apart: the
+/// shapes of adjacent knots are nearly collinear, and a fit on them
+/// trades large offsets of opposite sign.
+const MIN_KNOT_GAP: usize = 2;
+
+/// Rounds of [`two_knot_bow`]'s exchange of one knot.
+const KNOT_ROUNDS: usize = 2;
+
+/// The bow of two knots: for each family of one-knot bow shapes, pairs
+/// of its nodes ([`MIN_KNOT_GAP`] apart or more) added together (the sum
+/// of the two one-knot splines spans the natural spline through both
+/// knots exactly, so the pair is the bow offset at two nodes).
+///
+/// Per family, three pairs are fitted: the pair [`screen_groups`] ranks
+/// first from the nominal estimate, and the family's best one-knot fit
+/// `a` (`family_best`) with each of the two second knots [`screen`] ranks
+/// first on top of that fit (started from it). The best of them then has
+/// each knot in turn exchanged for the one `screen` ranks first with the
+/// other knot's fit held ([`KNOT_ROUNDS`] rounds, while the fit improves).
+/// The best fit with its model and label, and the number of pairs there
+/// are (the alternatives of the test).
+fn two_knot_bow(
+    ctx: &Context<'_>,
+    families: &[Vec<Extension>],
+    family_best: &[Option<(Fit, Extension)>],
+) -> Result<(Option<(Fit, ExtendedModel, String)>, usize), DiagnoseError> {
+    let mut best: Option<(Fit, [Extension; 2])> = None;
+    let mut tried = 0;
+    let nom = ctx.base.n_params();
+    let apart = |a: Extension, b: Extension| node_of(a).abs_diff(node_of(b)) >= MIN_KNOT_GAP;
+    for (exts, fb) in families.iter().zip(family_best) {
+        let pairs: Vec<Vec<usize>> = (0..exts.len())
+            .flat_map(|a| (a + 1..exts.len()).map(move |b| vec![a, b]))
+            .filter(|p| apart(exts[p[0]], exts[p[1]]))
+            .collect();
+        tried += pairs.len();
+        // (one knot, its parameters' start, the other knot; the start of
+        // the nominal parameters).
+        let mut starts: Vec<(Extension, [f64; 2], Extension, Vec<f64>)> = Vec::new();
+        let ranked = screen_groups(ctx.base, ctx.data, &ctx.theta0, exts, &pairs)?;
+        if let Some(&i) = ranked.first() {
+            let (a, b) = (exts[pairs[i][0]], exts[pairs[i][1]]);
+            starts.push((a, [0.0; 2], b, ctx.theta0.clone()));
+        }
+        if let Some((fa, a)) = fb {
+            for b in second_knots(ctx, exts, *a, &fa.theta, 2)? {
+                starts.push((
+                    *a,
+                    [fa.theta[nom], fa.theta[nom + 1]],
+                    b,
+                    fa.theta[..nom].to_vec(),
+                ));
+            }
+        }
+        let mut family: Option<(Fit, [Extension; 2])> = None;
+        for (a, pa, b, theta_nom) in starts {
+            if let Some(f) = fit_pair(ctx, a, pa, b, &theta_nom) {
+                if family.as_ref().is_none_or(|x| f.0.s < x.0.s) {
+                    family = Some(f);
+                }
+            }
+        }
+        // Exchange one knot at a time, the other's fit held.
+        for _ in 0..KNOT_ROUNDS {
+            let Some((f0, pair)) = family.clone() else {
+                break;
+            };
+            let mut improved = false;
+            for keep in 0..2 {
+                let Some((f, pair)) = family.clone() else {
+                    break;
+                };
+                let held = pair[keep];
+                let o = nom + 2 * keep;
+                let mut t_held = f.theta[..nom].to_vec();
+                t_held.extend_from_slice(&f.theta[o..o + 2]);
+                let Some(b) = second_knots(ctx, exts, held, &t_held, 1)?
+                    .into_iter()
+                    .find(|b| *b != pair[1 - keep])
+                else {
+                    continue;
+                };
+                if let Some(g) =
+                    fit_pair(ctx, held, [f.theta[o], f.theta[o + 1]], b, &f.theta[..nom])
+                {
+                    if g.0.s < f.s {
+                        family = Some(g);
+                        improved = true;
+                    }
+                }
+            }
+            if !improved
+                || family
+                    .as_ref()
+                    .is_some_and(|x| x.1 == pair && x.0.s >= f0.s)
+            {
+                break;
+            }
+        }
+        if let Some(f) = family {
+            if best.as_ref().is_none_or(|b| f.0.s < b.0.s) {
+                best = Some(f);
+            }
+        }
+    }
+    Ok((
+        best.map(|(f, pair)| {
+            (
+                f,
+                ctx.with_ext(pair.to_vec()),
+                two_knot_label(pair[0], pair[1]),
+            )
+        }),
+        tried,
+    ))
+}
+
+/// The `n` second knots of `exts` (at least [`MIN_KNOT_GAP`] from `a`)
+/// that [`screen`] ranks first on top of the one-knot bow `a` at the
+/// estimate `theta` (nominal parameters, then `a`'s two).
+fn second_knots(
+    ctx: &Context<'_>,
+    exts: &[Extension],
+    a: Extension,
+    theta: &[f64],
+    n: usize,
+) -> Result<Vec<Extension>, DiagnoseError> {
+    let others: Vec<Extension> = exts
+        .iter()
+        .copied()
+        .filter(|&e| node_of(e).abs_diff(node_of(a)) >= MIN_KNOT_GAP)
+        .collect();
+    let on_a = ctx.with_ext(vec![a]);
+    let ranked = screen(&on_a, ctx.data, theta, &others)?;
+    Ok(ranked.into_iter().take(n).map(|i| others[i]).collect())
+}
+
+/// The fit of the bow with knots `a` and `b` from the nominal parameters
+/// `theta_nom`, `a`'s at `pa` and `b`'s at zero; the knots in node order.
+fn fit_pair(
+    ctx: &Context<'_>,
+    a: Extension,
+    pa: [f64; 2],
+    b: Extension,
+    theta_nom: &[f64],
+) -> Option<(Fit, [Extension; 2])> {
+    let (pair, t_ext) = if node_of(a) < node_of(b) {
+        ([a, b], [pa[0], pa[1], 0.0, 0.0])
+    } else {
+        ([b, a], [0.0, 0.0, pa[0], pa[1]])
+    };
+    let m = ctx.with_ext(pair.to_vec());
+    if !ctx.n_room(m.n_params()) {
+        return None;
+    }
+    let mut t = theta_nom.get(..ctx.base.n_params())?.to_vec();
+    t.extend_from_slice(&t_ext);
+    fit::fit(&m, ctx.data, &t, 50).ok().map(|f| (f, pair))
+}
+
+/// The node of a node extension (0 for others).
+fn node_of(e: Extension) -> usize {
+    match e {
+        Extension::Bow { node, .. } | Extension::Plane { node } => node,
+        _ => 0,
+    }
 }
 
 /// The label of a node effect.
@@ -88,6 +303,19 @@ fn node_label(ext: Extension) -> String {
         }
         Extension::Plane { node } => format!("extra unbalance plane at node {}", node + 1),
         other => format!("{other:?}"),
+    }
+}
+
+/// The label of a bow of two knots.
+fn two_knot_label(a: Extension, b: Extension) -> String {
+    match (a, b) {
+        (Extension::Bow { node: na, line }, Extension::Bow { node: nb, .. }) => format!(
+            "bow {}with offsets at nodes {} and {}",
+            if line { "from the bearing line " } else { "" },
+            na + 1,
+            nb + 1
+        ),
+        _ => format!("{a:?}, {b:?}"),
     }
 }
 
