@@ -124,6 +124,9 @@ fn knot_coupling(model: &RotorModel, a: Extension, b: Extension) -> Option<[f64;
     Some([sb[fe.dof(na, Dir::Y)].re, sa[fe.dof(nb, Dir::Y)].re])
 }
 
+/// A fit with its model and label.
+type LabelledFit = (Fit, ExtendedModel, String);
+
 /// Knots of a bow of two knots at least this many nodes apart: the
 /// shapes of adjacent knots are nearly collinear, and a fit on them
 /// trades large offsets of opposite sign.
@@ -149,7 +152,7 @@ fn two_knot_bow(
     ctx: &Context<'_>,
     families: &[Vec<Extension>],
     family_best: &[Option<(Fit, Extension)>],
-) -> Result<(Option<(Fit, ExtendedModel, String)>, usize), DiagnoseError> {
+) -> Result<(Option<LabelledFit>, usize), DiagnoseError> {
     let mut best: Option<(Fit, [Extension; 2])> = None;
     let mut tried = 0;
     let nom = ctx.base.n_params();
@@ -188,10 +191,7 @@ fn two_knot_bow(
         }
         // Exchange one knot at a time, the other's fit held.
         for _ in 0..KNOT_ROUNDS {
-            let Some((f0, pair)) = family.clone() else {
-                break;
-            };
-            let mut improved = false;
+            let before = family.as_ref().map(|x| x.0.s);
             for keep in 0..2 {
                 let Some((f, pair)) = family.clone() else {
                     break;
@@ -206,20 +206,14 @@ fn two_knot_bow(
                 else {
                     continue;
                 };
-                if let Some(g) =
-                    fit_pair(ctx, held, [f.theta[o], f.theta[o + 1]], b, &f.theta[..nom])
-                {
+                let held_start = [f.theta[o], f.theta[o + 1]];
+                if let Some(g) = fit_pair(ctx, held, held_start, b, &f.theta[..nom]) {
                     if g.0.s < f.s {
                         family = Some(g);
-                        improved = true;
                     }
                 }
             }
-            if !improved
-                || family
-                    .as_ref()
-                    .is_some_and(|x| x.1 == pair && x.0.s >= f0.s)
-            {
+            if family.as_ref().map(|x| x.0.s) == before {
                 break;
             }
         }
