@@ -22,7 +22,8 @@ use crate::model::{BowPoint, RotorModel, ShaftBow};
 /// through the shaft's ends, and from the bearing line (zero at every
 /// bearing, [`crate::fe::assembly::FeModel::line_bow_shape`]); the two
 /// best nodes of each are fitted and the better fit (same parameter count)
-/// kept. `None` when none fits.
+/// kept. Then the effect at two nodes ([`two_nodes`]: a bow of two knots,
+/// two extra planes), kept when its BIC is lower. `None` when none fits.
 pub(crate) fn node_effect(
     ctx: &Context<'_>,
     effect: Effect,
@@ -77,14 +78,12 @@ pub(crate) fn node_effect(
     };
     let mut alternatives: usize = families.iter().map(Vec::len).sum();
     let mut chosen = (f, m, node_label(ext));
-    if effect == Effect::ShaftBow {
-        let (pair, tried) = two_knot_bow(ctx, &families, &family_best)?;
-        alternatives += tried;
-        if let Some(p) = pair {
-            let n = ctx.setup.n_real;
-            if bic(&p.0, n) < bic(&chosen.0, n) {
-                chosen = p;
-            }
+    let (pair, tried) = two_nodes(ctx, &families, &family_best)?;
+    alternatives += tried;
+    if let Some(p) = pair {
+        let n = ctx.setup.n_real;
+        if bic(&p.0, n) < bic(&chosen.0, n) {
+            chosen = p;
         }
     }
     let (f, m, label) = chosen;
@@ -127,28 +126,30 @@ fn knot_coupling(model: &RotorModel, a: Extension, b: Extension) -> Option<[f64;
 /// A fit with its model and label.
 type LabelledFit = (Fit, ExtendedModel, String);
 
-/// Knots of a bow of two knots at least this many nodes apart: the
-/// shapes of adjacent knots are nearly collinear, and a fit on them
-/// trades large offsets of opposite sign.
+/// The two nodes of a bow of two knots or of two extra planes at least
+/// this many nodes apart: the responses to adjacent nodes are nearly
+/// collinear, and a fit on them trades large sizes of opposite sign.
 const MIN_KNOT_GAP: usize = 2;
 
-/// Rounds of [`two_knot_bow`]'s exchange of one knot.
+/// Rounds of [`two_nodes`]'s exchange of one node.
 const KNOT_ROUNDS: usize = 2;
 
-/// The bow of two knots: for each family of one-knot bow shapes, pairs
-/// of its nodes ([`MIN_KNOT_GAP`] apart or more) added together (the sum
-/// of the two one-knot splines spans the natural spline through both
-/// knots exactly, so the pair is the bow offset at two nodes).
+/// The effect at two nodes: the bow of two knots, or two extra planes
+/// (an unbalance spread along a section). For each family of one-node
+/// extensions, pairs of its nodes ([`MIN_KNOT_GAP`] apart or more) added
+/// together: two planes are two unbalances; for the bow, the sum of the
+/// two one-knot splines spans the natural spline through both knots
+/// exactly, so the pair is the bow offset at two nodes.
 ///
 /// Per family, three pairs are fitted: the pair [`screen_groups`] ranks
-/// first from the nominal estimate, and the family's best one-knot fit
-/// `a` (`family_best`) with each of the two second knots [`screen`] ranks
+/// first from the nominal estimate, and the family's best one-node fit
+/// `a` (`family_best`) with each of the two second nodes [`screen`] ranks
 /// first on top of that fit (started from it). The best of them then has
-/// each knot in turn exchanged for the one `screen` ranks first with the
-/// other knot's fit held ([`KNOT_ROUNDS`] rounds, while the fit improves).
+/// each node in turn exchanged for the one `screen` ranks first with the
+/// other node's fit held ([`KNOT_ROUNDS`] rounds, while the fit improves).
 /// The best fit with its model and label, and the number of pairs there
 /// are (the alternatives of the test).
-fn two_knot_bow(
+fn two_nodes(
     ctx: &Context<'_>,
     families: &[Vec<Extension>],
     family_best: &[Option<(Fit, Extension)>],
@@ -300,7 +301,7 @@ fn node_label(ext: Extension) -> String {
     }
 }
 
-/// The label of a bow of two knots.
+/// The label of a bow of two knots or of two extra planes.
 fn two_knot_label(a: Extension, b: Extension) -> String {
     match (a, b) {
         (Extension::Bow { node: na, line }, Extension::Bow { node: nb, .. }) => format!(
@@ -309,6 +310,9 @@ fn two_knot_label(a: Extension, b: Extension) -> String {
             na + 1,
             nb + 1
         ),
+        (Extension::Plane { node: na }, Extension::Plane { node: nb }) => {
+            format!("extra unbalance planes at nodes {} and {}", na + 1, nb + 1)
+        }
         _ => format!("{a:?}, {b:?}"),
     }
 }
