@@ -394,14 +394,15 @@ fn a_section_too_thin_for_a_round_ends_the_rounds() {
 }
 
 /// A bow of two knots (realistic data: G6.3, 0.5 % + 0.5 um probe floor)
-/// is named `shaft_bow` with its two-knot variant, and on the stepped
-/// hollow shaft both knots are found with their offsets within 5 % and
-/// 3.5 reported standard deviations (the offsets at the knots, converted
-/// from the two one-knot amplitudes through `Candidate::bow_coupling`).
-/// With bearing probes only and the bow zero at the bearings, one extra
-/// plane explains such a bow nearly as well (a bow is then a
-/// mass-weighted unbalance distribution at the probes): before the
-/// variant this case was named `extra_unbalance_plane`.
+/// is explained by the two-knot variant of `shaft_bow`: named, or (on two
+/// bearings at the shaft ends, where at the bearing probes a bow that is
+/// zero at the bearings acts as an unbalance distribution) tied with two
+/// extra planes and reported indistinguishable from them. On the stepped
+/// hollow shaft the bow hypothesis finds both knots with their offsets
+/// within 5 % and 3.5 reported standard deviations (the offsets at the
+/// knots, converted from the two one-knot amplitudes through
+/// `Candidate::bow_coupling`). Before the variant the stepped case was
+/// named `extra_unbalance_plane`, one knot's bow fitting worse.
 #[test]
 fn a_two_knot_bow_is_found_at_both_knots() {
     let effect = Effect::ShaftBow;
@@ -424,25 +425,34 @@ fn a_two_knot_bow_is_found_at_both_knots() {
         let (case, d, o) =
             run_case_form(&m, &sp, effect, Form::TwoKnotBow, seed, Some(0.005), 5e-7);
         assert_eq!(case.effects.bow.len(), 2);
-        assert_eq!(o.named, effect, "{rel}: {}", d.extended().label);
-        assert_eq!(d.extended().model.ext.len(), 2, "{}", d.extended().label);
+        assert!(
+            o.named == effect || o.equivalent,
+            "{rel}: {}",
+            d.extended().label
+        );
+        let bow = d
+            .hypotheses
+            .iter()
+            .find(|c| c.effects == [effect])
+            .expect("a bow hypothesis");
+        assert_eq!(bow.model.ext.len(), 2, "{}", bow.label);
         if !knots_checked {
             continue;
         }
-        let found: Vec<(usize, f64, f64, f64)> = d
-            .findings()
-            .iter()
-            .filter_map(|f| match f {
-                Finding::ShaftBow {
-                    node,
-                    amplitude,
-                    amplitude_std,
-                    phase_deg,
-                    ..
-                } => Some((*node - 1, *amplitude, *amplitude_std, *phase_deg)),
-                _ => None,
-            })
-            .collect();
+        let found: Vec<(usize, f64, f64, f64)> =
+            rotorid::diagnose::findings(bow, &d.terms, &d.probe_nodes)
+                .iter()
+                .filter_map(|f| match f {
+                    Finding::ShaftBow {
+                        node,
+                        amplitude,
+                        amplitude_std,
+                        phase_deg,
+                        ..
+                    } => Some((*node - 1, *amplitude, *amplitude_std, *phase_deg)),
+                    _ => None,
+                })
+                .collect();
         assert_eq!(found.len(), 2);
         for p in &case.effects.bow {
             let &(_, a, sa, ph) = found
