@@ -37,23 +37,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(s) => Some(s.parse()?),
         None => Some(0.001),
     };
-    let mut model =
-        rotorid::io::model_file::model_file_by_name_or_path(arg(3).unwrap_or("paper"))?.model;
     // A model without unbalance (a ROSS file) gets one at each plane, as
-    // the realistic confusion matrices give it: 1e-4 and 0.6e-4 kg m in
-    // turn at 0.4 and 2.1 rad, before the scaling to GRADE.
-    if model.unbalance.is_empty() {
-        model.unbalance = model
-            .planes
-            .iter()
-            .enumerate()
-            .map(|(k, &node)| rotorid::model::Unbalance {
-                node,
-                me: if k % 2 == 0 { 1e-4 } else { 0.6e-4 },
-                phase: if k % 2 == 0 { 0.4 } else { 2.1 },
-            })
-            .collect();
-    }
+    // the realistic confusion matrices give it, before the scaling to GRADE.
+    let model = rotorid::diagnose::generator::with_plane_unbalance(
+        rotorid::io::model_file::model_file_by_name_or_path(arg(3).unwrap_or("paper"))?.model,
+    );
     let rpm_max: f64 = arg(4).map_or(Ok(15000.0), str::parse)?;
     let floor: f64 = arg(5).map_or(Ok(0.0), str::parse)? * 1e-6;
     let model = match arg(6) {

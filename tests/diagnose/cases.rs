@@ -343,21 +343,11 @@ fn realistic_confusion_matrix() {
 /// `0.6e-4` kg m in turn at 0.4 and 2.1 rad, before the scaling.
 fn data_rotor(rel: &str, rpm_max: f64) -> (RotorModel, Vec<f64>) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(rel);
-    let mut m = rotorid::io::model_file::model_file_by_name_or_path(path.to_str().unwrap())
-        .unwrap()
-        .model;
-    if m.unbalance.is_empty() {
-        m.unbalance = m
-            .planes
-            .iter()
-            .enumerate()
-            .map(|(k, &node)| rotorid::model::Unbalance {
-                node,
-                me: if k % 2 == 0 { 1e-4 } else { 0.6e-4 },
-                phase: if k % 2 == 0 { 0.4 } else { 2.1 },
-            })
-            .collect();
-    }
+    let m = rotorid::diagnose::generator::with_plane_unbalance(
+        rotorid::io::model_file::model_file_by_name_or_path(path.to_str().unwrap())
+            .unwrap()
+            .model,
+    );
     let m = rotorid::simulate::at_balance_grade(&m, 6.3, rpm_to_rad_s(rpm_max)).unwrap();
     let sp = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
     (m, sp)

@@ -19,7 +19,7 @@ mod identify;
 mod rate;
 mod warning;
 
-use rotorid::model::{RotorModel, Unbalance};
+use rotorid::model::RotorModel;
 use rotorid::simulate::at_balance_grade;
 use rotorid::units::rpm_to_rad_s;
 
@@ -35,19 +35,10 @@ pub(crate) fn paper_g25() -> RotorModel {
 pub(crate) fn stepped_hollow_g63() -> RotorModel {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data/ross/stepped_hollow.toml");
-    let mut m = rotorid::io::model_file::model_file_by_name_or_path(path.to_str().unwrap())
+    let m = rotorid::io::model_file::model_file_by_name_or_path(path.to_str().unwrap())
         .unwrap()
         .model;
-    assert!(!m.planes.is_empty());
-    m.unbalance = m
-        .planes
-        .iter()
-        .enumerate()
-        .map(|(k, &node)| Unbalance {
-            node,
-            me: if k % 2 == 0 { 1e-4 } else { 0.6e-4 },
-            phase: if k % 2 == 0 { 0.4 } else { 2.1 },
-        })
-        .collect();
+    assert!(!m.planes.is_empty() && m.unbalance.is_empty());
+    let m = rotorid::diagnose::generator::with_plane_unbalance(m);
     at_balance_grade(&m, 6.3, rpm_to_rad_s(9000.0)).unwrap()
 }

@@ -126,6 +126,27 @@ pub fn generate(
     generate_form(model, effect, Form::Bank, seed, speeds_rpm, noise)
 }
 
+/// `model` with an unbalance at each of its planes when it has none (a
+/// ROSS rotor file carries none): `1e-4` and `0.6e-4` kg m in turn, at
+/// 0.4 and 2.1 rad, to be scaled to a balance grade
+/// ([`crate::simulate::at_balance_grade`]), as the confusion matrices of
+/// the tests do.
+pub fn with_plane_unbalance(mut model: RotorModel) -> RotorModel {
+    if model.unbalance.is_empty() {
+        model.unbalance = model
+            .planes
+            .iter()
+            .enumerate()
+            .map(|(k, &node)| Unbalance {
+                node,
+                me: if k % 2 == 0 { 1e-4 } else { 0.6e-4 },
+                phase: if k % 2 == 0 { 0.4 } else { 2.1 },
+            })
+            .collect();
+    }
+    model
+}
+
 /// [`generate`] with the effect in the form `form` ([`Form`]; a form of
 /// another effect is the bank's form).
 // Long (~250 lines): a short `match` arm per effect, the draws in the order the seeds fix.
