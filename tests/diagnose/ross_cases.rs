@@ -113,6 +113,7 @@ fn hidden(case: &Value) -> Hidden {
         channel: case["channel_index"].as_u64().map(|c| c as usize),
         runout,
         pedestal: None,
+        stiffness: None,
     }
 }
 

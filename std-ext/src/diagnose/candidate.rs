@@ -24,6 +24,13 @@ pub struct Candidate {
     /// What that factor changes (E and G unless the modulus hypothesis
     /// found another form).
     pub stiffness: StiffnessForm,
+    /// For the stiffness hypothesis: every form fitted (the one of
+    /// `stiffness` among them), with its factor and misfit, so that the
+    /// forms the data cannot tell apart can be named
+    /// ([`Diagnosis::stiffness_forms`]).
+    ///
+    /// [`Diagnosis::stiffness_forms`]: super::Diagnosis::stiffness_forms
+    pub stiffness_forms: Vec<FormFit>,
     /// Alternatives tried for this hypothesis (nodes, bearings, orders).
     pub alternatives: usize,
     /// For a bow of two knots (two [`Extension::Bow`] extensions, knots
@@ -40,6 +47,19 @@ pub struct Candidate {
     pub threshold: f64,
     /// Whether it is significant.
     pub significant: bool,
+}
+
+/// One form of the shaft's stiffness error as fitted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FormFit {
+    /// The form.
+    pub form: StiffnessForm,
+    /// The factor on what the form changes (1: as the model).
+    pub factor: f64,
+    /// Its standard deviation.
+    pub factor_std: f64,
+    /// The weighted misfit `S` of its fit.
+    pub s: f64,
 }
 
 impl Candidate {
@@ -64,6 +84,7 @@ impl Candidate {
             fit,
             e_terms,
             stiffness: StiffnessForm::EAndG,
+            stiffness_forms: Vec::new(),
             alternatives,
             bow_coupling: None,
             statistic: 0.0,

@@ -20,6 +20,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use crate::diagnose::terms::StiffnessForm;
 use crate::diagnose::{rotor_mass, Effect};
 use crate::io::measurement::Measurements;
 use crate::model::extension::{Channel, Effects, ProbeGain, Runout};
@@ -52,6 +53,8 @@ pub struct Hidden {
     pub runout: Vec<(usize, num_complex::Complex64)>,
     /// The pedestal.
     pub pedestal: Option<Pedestal>,
+    /// The form of a stiffness error.
+    pub stiffness: Option<StiffnessForm>,
 }
 
 /// A generated case.
@@ -200,6 +203,7 @@ pub fn generate_form(
         channel: None,
         runout: Vec::new(),
         pedestal: None,
+        stiffness: None,
     };
     let n_nodes = model.n_nodes();
     let bearing_nodes = model.bearing_nodes();
@@ -408,6 +412,7 @@ pub fn generate_form(
                 el.material.e *= 1.0 + d;
             }
             hidden.size = 1.0 + d;
+            hidden.stiffness = Some(StiffnessForm::EAlone);
             hidden.description = format!("shaft E alone x {:.4}", 1.0 + d);
         }
         Effect::ShaftStiffnessError if form == Form::Diameter => {
@@ -419,6 +424,10 @@ pub fn generate_form(
                 el.outer_diameter *= 1.0 + d;
             }
             hidden.size = 1.0 + d;
+            hidden.stiffness = Some(StiffnessForm::Section {
+                first,
+                last: first + len - 1,
+            });
             hidden.description = format!(
                 "outer diameter of elements {}..{} x {:.4}",
                 first + 1,
@@ -430,6 +439,7 @@ pub fn generate_form(
             let d = rng.random_range(0.03..0.10) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
             effects.e_scale = 1.0 + d;
             hidden.size = 1.0 + d;
+            hidden.stiffness = Some(StiffnessForm::EAndG);
             hidden.description = format!("shaft E and G x {:.4}", 1.0 + d);
         }
         Effect::ProbeSensitivity => {

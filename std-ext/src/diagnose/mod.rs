@@ -90,14 +90,16 @@ mod stats;
 pub mod terms;
 
 pub use bank::PEDESTAL_RATIOS;
-pub use candidate::Candidate;
+pub use candidate::{Candidate, FormFit};
 pub use choice::MISFIT_CHI2;
 pub use context::NOISE_CHI2;
 pub use effect::Effect;
 pub use input::{DiagnoseError, DiagnoseOptions};
 pub(crate) use nominal::theta_from_model;
 pub use nominal::{map_theta, rotor_mass, MIN_RELATIVE_NOISE};
-pub use result::{estimates, findings, predictions, Diagnosis, Finding, RunoutFinding};
+pub use result::{
+    estimates, findings, predictions, Diagnosis, Finding, RunoutFinding, StiffnessAlike,
+};
 pub use stats::{chi2_quantile_upper, gamma_q, normal_quantile_upper};
 
 use crate::io::measurement::Measurements;

@@ -8,12 +8,13 @@
 use num_complex::Complex64;
 use serde::Serialize;
 
-use crate::diagnose::candidate::Candidate;
+use crate::diagnose::candidate::{Candidate, FormFit};
 use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::{Extension, PedestalParams, E_STEP, GAIN_STEP};
 use crate::diagnose::fit::{Fit, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::observe;
+use crate::diagnose::stats::chi2_quantile_upper;
 use crate::diagnose::terms::{self, SpeedTerms};
 use crate::estimate::noise::NoiseModel;
 use crate::estimate::results::{BearingResult, BearingStd, Coefficients, UnbalanceResult};
@@ -104,6 +105,10 @@ pub enum Finding {
         /// shaft's E (G kept)" or "the outer diameter of shaft elements
         /// a..b" (1-based).
         form: String,
+        /// The other forms that fit within the noise as well
+        /// ([`Diagnosis::stiffness_alike`]), best first: the data cannot
+        /// tell them from `form`.
+        alike: Vec<StiffnessAlike>,
     },
     /// A probe whose scale factor is off: it reads `gain` times the
     /// signal (`gain - 1` the sensitivity error).
@@ -115,6 +120,18 @@ pub enum Finding {
         /// Its standard deviation.
         gain_std: f64,
     },
+}
+
+/// A form of a stiffness error that fits as well as the one found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StiffnessAlike {
+    /// What the factor multiplies (as [`Finding::ShaftStiffnessError`]'s
+    /// `form`).
+    pub form: String,
+    /// The factor.
+    pub factor: f64,
+    /// Its standard deviation.
+    pub factor_std: f64,
 }
 
 /// The runout of one channel.
@@ -203,10 +220,52 @@ impl Diagnosis {
         observe::min_detectable_single(self, &data, ext)
     }
 
-    /// The identified size of every effect of the chosen model.
+    /// The identified size of every effect of the chosen model, with the
+    /// forms of a stiffness error the data cannot tell from the one found
+    /// ([`Diagnosis::stiffness_alike`]).
     pub fn findings(&self) -> Vec<Finding> {
         let c = self.extended();
-        findings(c, &self.terms, &self.probe_nodes)
+        let mut out = findings(c, &self.terms, &self.probe_nodes);
+        for f in &mut out {
+            if let Finding::ShaftStiffnessError { alike, .. } = f {
+                *alike = self
+                    .stiffness_alike()
+                    .into_iter()
+                    .map(|a| StiffnessAlike {
+                        form: a.form.describe(),
+                        factor: a.factor,
+                        factor_std: a.factor_std,
+                    })
+                    .collect();
+            }
+        }
+        out
+    }
+
+    /// The other forms of the chosen model's stiffness error
+    /// ([`StiffnessForm`](crate::diagnose::terms::StiffnessForm): E and G,
+    /// E alone, a section's diameter) whose misfit `S` lies within
+    /// `chi2_{2, 0.01} sigma^2` of the form found, the rule by which
+    /// effects are told apart ([`observe::Observability`]), best first.
+    /// The forms have one parameter each, so a difference within it is no
+    /// evidence for either: a slender shaft's shear deformation is a small
+    /// part of its flexibility, and E alone moves the critical speeds the
+    /// way E and G do. Empty when the chosen model has no stiffness error
+    /// or has it beside another effect (the pairs fit one form).
+    pub fn stiffness_alike(&self) -> Vec<FormFit> {
+        let c = self.extended();
+        let tie = chi2_quantile_upper(2.0, 0.01) * self.sigma2;
+        let Some(own) = c.stiffness_forms.iter().find(|f| f.form == c.stiffness) else {
+            return Vec::new();
+        };
+        let mut out: Vec<FormFit> = c
+            .stiffness_forms
+            .iter()
+            .filter(|f| f.form != c.stiffness && (f.s - own.s).abs() < tie)
+            .copied()
+            .collect();
+        out.sort_by(|a, b| a.s.total_cmp(&b.s));
+        out
     }
 }
 
@@ -447,6 +506,7 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                     factor: c.e_terms + E_STEP * f.theta[o],
                     factor_std: E_STEP * f.std(o).unwrap_or(f64::NAN),
                     form: c.stiffness.describe(),
+                    alike: Vec::new(),
                 });
             }
             // With the polynomial law's finding (above).

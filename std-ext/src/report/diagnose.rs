@@ -405,8 +405,20 @@ fn finding_line(f: &Finding) -> String {
             factor,
             factor_std,
             form,
+            alike,
         } => {
-            format!("{form} x {factor:.4} +- {factor_std:.4}")
+            let mut line = format!("{form} x {factor:.4} +- {factor_std:.4}");
+            if !alike.is_empty() {
+                let others: Vec<String> = alike
+                    .iter()
+                    .map(|a| format!("{} x {:.4} +- {:.4}", a.form, a.factor, a.factor_std))
+                    .collect();
+                line.push_str(&format!(
+                    "; fitting as well within the noise (the data cannot tell them apart): {}",
+                    others.join("; ")
+                ));
+            }
+            line
         }
         Finding::ProbeSensitivity {
             channel,

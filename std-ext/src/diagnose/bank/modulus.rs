@@ -20,7 +20,7 @@
 
 use num_complex::Complex64;
 
-use crate::diagnose::candidate::Candidate;
+use crate::diagnose::candidate::{Candidate, FormFit};
 use crate::diagnose::context::Context;
 use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::{ExtendedModel, Extension, E_STEP};
@@ -142,6 +142,18 @@ pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, Dia
         ends.push(end?);
     }
     let alternatives = 2 + sections.len();
+    let o = m.offset(0);
+    let forms: Vec<FormFit> = ends
+        .iter()
+        .filter_map(|(form, end)| {
+            end.last.as_ref().map(|(f, e_fit)| FormFit {
+                form: *form,
+                factor: e_fit + E_STEP * f.theta[o],
+                factor_std: E_STEP * f.std(o).unwrap_or(f64::NAN),
+                s: f.s,
+            })
+        })
+        .collect();
     let best = ends
         .into_iter()
         .filter(|(_, end)| end.last.is_some())
@@ -165,6 +177,7 @@ pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, Dia
             alternatives,
         );
         c.stiffness = form;
+        c.stiffness_forms = forms;
         out.candidate = Some(c);
     }
     Ok(out)
@@ -172,6 +185,9 @@ pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, Dia
 
 /// The screening of the sections uses every `SCREEN_EVERY`-th speed.
 const SCREEN_EVERY: usize = 3;
+
+/// How many sections, the best of the screening, are fitted.
+const SECTIONS_FITTED: usize = 2;
 
 /// The factors on a section's diameter its screening fits are made at,
 /// softer and stiffer (a diameter a few per cent off changes the
@@ -271,7 +287,7 @@ fn rank_sections(
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
     // The best two's terms at every speed, for their rounds.
     let mut out = Vec::new();
-    for (_, form, theta) in scored.into_iter().take(2) {
+    for (_, form, theta) in scored.into_iter().take(SECTIONS_FITTED) {
         let at = build(ctx, form, step)?;
         out.push((form, step, theta, at));
     }
