@@ -72,5 +72,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{}",
         rotorid::report::diagnose::text(&d, &case.meas.samples, &nominal)
     );
+    // Every form of the stiffness hypothesis fitted, with its misfit
+    // above the best in noise variances.
+    if let Some(c) = d
+        .hypotheses
+        .iter()
+        .find(|c| c.effects == [rotorid::diagnose::Effect::ShaftStiffnessError])
+    {
+        let best = c
+            .stiffness_forms
+            .iter()
+            .map(|f| f.s)
+            .fold(f64::INFINITY, f64::min);
+        println!("stiffness forms fitted (S above the best, in noise variances):");
+        for f in &c.stiffness_forms {
+            println!(
+                "  {} x {:.4} +- {:.4}: {:.1}",
+                f.form.describe(),
+                f.factor,
+                f.factor_std,
+                (f.s - best) / d.sigma2
+            );
+        }
+    }
     Ok(())
 }

@@ -227,9 +227,10 @@ pub(super) fn judge(meas: &Measurements, h: &Hidden, d: &Diagnosis) -> Outcome {
 }
 
 /// Whether the stiffness form `found` is the hidden `want`: the same form,
-/// or a section at least half of which lies in the hidden one (the
-/// sections of the bank run between the drawing's features, a hidden one
-/// anywhere).
+/// or a section that shares at least half of the shorter of the two with
+/// the hidden one (the bank's sections run between the drawing's
+/// features, a hidden one anywhere; with probes at the bearings the data
+/// place a change of diameter only roughly along the shaft).
 fn same_form(found: StiffnessForm, want: StiffnessForm) -> bool {
     match (found, want) {
         (
@@ -237,7 +238,7 @@ fn same_form(found: StiffnessForm, want: StiffnessForm) -> bool {
             StiffnessForm::Section { first: c, last: e },
         ) => {
             let overlap = (b.min(e) + 1).saturating_sub(a.max(c));
-            2 * overlap > b - a
+            2 * overlap > (b - a).min(e - c)
         }
         (x, y) => x == y,
     }

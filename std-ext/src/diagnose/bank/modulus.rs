@@ -15,8 +15,9 @@
 //! the shaft between its features (ends, bearings, disks, planes, steps of
 //! diameter or material), as a drawing divides it; they are ranked by the
 //! misfit of the nominal model estimated afresh on each section's terms at
-//! a diameter 4 % off (on the side of the global factor), and the best two
-//! are fitted.
+//! two diameter changes, the one that changes the shaft's bending
+//! flexibility as the global factor does ([`section_step`]) and twice it,
+//! the better of the two counting, and the best two are fitted.
 
 use num_complex::Complex64;
 
@@ -128,12 +129,7 @@ pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, Dia
         .filter_map(|(_, end)| end.last.as_ref())
         .min_by(|a, b| a.0.s.total_cmp(&b.0.s))
         .map_or(1.0, |(f, e)| e + E_STEP * f.theta[m.offset(0)]);
-    let step = if global < 1.0 {
-        SECTION_STEPS[0]
-    } else {
-        SECTION_STEPS[1]
-    };
-    let ranked = rank_sections(ctx, &sections, step)?;
+    let ranked = rank_sections(ctx, &sections, global)?;
     let fitted = parallel::map(&ranked, ctx.threads(), |(form, f, theta, at)| {
         let built = vec![(*f, at.clone()), (1.0, ctx.terms.to_vec())];
         rounds(ctx, &m, *form, built, *f, theta.clone()).map(|end| (*form, end))
@@ -189,10 +185,28 @@ const SCREEN_EVERY: usize = 3;
 /// How many sections, the best of the screening, are fitted.
 const SECTIONS_FITTED: usize = 2;
 
-/// The factors on a section's diameter its screening fits are made at,
-/// softer and stiffer (a diameter a few per cent off changes the
-/// section's stiffness by four times as much).
-const SECTION_STEPS: [f64; 2] = [0.96, 1.04];
+/// The two factors on a section's diameter its screening tries:
+/// [`section_step`]'s and the change twice as large (half as large when
+/// that one is at the greatest change of [`SECTION_STEPS`]). The
+/// flexibility under a uniform moment weighs a section near a bearing as
+/// much as one at mid-span, where the bending moment of the modes is
+/// larger: the second point covers the part of the shaft the weighting
+/// misjudges.
+fn section_steps(model: &RotorModel, form: StiffnessForm, global: f64) -> [f64; 2] {
+    let f = section_step(model, form, global);
+    let eps = f - 1.0;
+    let other = if eps.abs() >= SECTION_STEPS[1] {
+        0.5 * eps
+    } else {
+        (2.0 * eps).clamp(-SECTION_STEPS[1], SECTION_STEPS[1])
+    };
+    [f, 1.0 + other]
+}
+
+/// The least and greatest change of a section's diameter its screening
+/// fit is made at ([`section_step`]; a diameter a few per cent off changes
+/// the section's stiffness by four times as much).
+const SECTION_STEPS: [f64; 2] = [0.005, 0.08];
 
 /// The sections of the shaft a diameter error is sought in: the runs of one
 /// to three consecutive pieces between the shaft's features (its ends, the
@@ -232,7 +246,8 @@ pub(crate) fn sections(model: &RotorModel) -> Vec<StiffnessForm> {
 type SectionStart = (StiffnessForm, f64, Vec<f64>, Vec<SpeedTerms>);
 
 /// The two sections of least misfit of the nominal model estimated
-/// afresh on the terms of the section's diameter times `step` (by the
+/// afresh on the terms of the section's diameter at the better of
+/// [`section_steps`]' two factors for the global factor `global` (by the
 /// filter and the output-error fit, as `starts` does: the bearings of the
 /// nominal estimate have absorbed part of the effect, so a step from it in
 /// the factor alone says little), on every [`SCREEN_EVERY`]-th speed; each
@@ -241,7 +256,7 @@ type SectionStart = (StiffnessForm, f64, Vec<f64>, Vec<SpeedTerms>);
 fn rank_sections(
     ctx: &Context<'_>,
     sections: &[StiffnessForm],
-    step: f64,
+    global: f64,
 ) -> Result<Vec<SectionStart>, DiagnoseError> {
     let setup = ctx.setup;
     // Every SCREEN_EVERY-th speed: the ranking needs the shape of the
@@ -255,7 +270,13 @@ fn rank_sections(
         keep.iter().map(|&i| ctx.node_q[i].clone()).collect()
     };
     // Side by side on the context's threads, in the sections' order.
-    let screened = parallel::map(sections, ctx.threads(), |&form| {
+    // Each section at two diameter changes (`section_steps`), the better
+    // kept: two points of its misfit's profile.
+    let tries: Vec<(StiffnessForm, f64)> = sections
+        .iter()
+        .flat_map(|&form| section_steps(ctx.model, form, global).map(|f| (form, f)))
+        .collect();
+    let screened = parallel::map(&tries, ctx.threads(), |&(form, step)| {
         let at = terms::build_form(
             ctx.builder,
             ctx.model,
@@ -281,17 +302,70 @@ fn rank_sections(
         let en = fit::entries(ctx.base, &d);
         let (r, _) = fit::evaluate(ctx.base, &d, &en, &theta, false).ok()?;
         theta.push(0.0);
-        Some((r.norm_squared(), form, theta))
+        Some((r.norm_squared(), form, step, theta))
     });
-    let mut scored: Vec<(f64, StiffnessForm, Vec<f64>)> = screened.into_iter().flatten().collect();
+    // Each section's better point, the sections in order of it.
+    let mut scored: Vec<(f64, StiffnessForm, f64, Vec<f64>)> = Vec::new();
+    for x in screened.into_iter().flatten() {
+        match scored.iter_mut().find(|b| b.1 == x.1) {
+            Some(b) if x.0 < b.0 => *b = x,
+            Some(_) => {}
+            None => scored.push(x),
+        }
+    }
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // The best two's terms at every speed, for their rounds.
+    // The best ones' terms at every speed, for their rounds.
     let mut out = Vec::new();
-    for (_, form, theta) in scored.into_iter().take(SECTIONS_FITTED) {
+    for (_, form, step, theta) in scored.into_iter().take(SECTIONS_FITTED) {
         let at = build(ctx, form, step)?;
         out.push((form, step, theta, at));
     }
     Ok(out)
+}
+
+/// The factor on the outer diameter of `form`'s section that changes the
+/// shaft's bending flexibility as the global factor `global` on E does:
+/// with the flexibility taken as `sum L / (E I)` over the elements (a
+/// uniform bending moment), `I = pi (d_o^4 - d_i^4) / 64`, a factor
+/// `1 + eps` on `d_o` changes an element's `1 / I` by
+/// `-4 eps d_o^4 / (d_o^4 - d_i^4)`, so
+/// `eps = (global - 1) sum_all L / (E I) / sum_section 4 L d_o^4 / (E I (d_o^4 - d_i^4))`,
+/// its size held within [`SECTION_STEPS`] (`0.5 %` to `8 %`, on the side
+/// of `global`). A section ranked at the diameter change its own share of
+/// the flexibility asks for is compared by its shape, not by how near a
+/// fixed step happens to be.
+fn section_step(model: &RotorModel, form: StiffnessForm, global: f64) -> f64 {
+    let StiffnessForm::Section { first, last } = form else {
+        return 1.0;
+    };
+    let flex = |el: &crate::model::ShaftElement| {
+        let (o4, i4) = (el.outer_diameter.powi(4), el.inner_diameter.powi(4));
+        let i = std::f64::consts::PI * (o4 - i4) / 64.0;
+        (el.length / (el.material.e * i), 4.0 * o4 / (o4 - i4))
+    };
+    let all: f64 = model.shaft.iter().map(|el| flex(el).0).sum();
+    let sec: f64 = model
+        .shaft
+        .get(first..=last)
+        .unwrap_or(&[])
+        .iter()
+        .map(|el| {
+            let (f, k) = flex(el);
+            f * k
+        })
+        .sum();
+    let eps = if sec > 0.0 && all.is_finite() {
+        (global - 1.0) * all / sec
+    } else {
+        0.0
+    };
+    let [lo, hi] = SECTION_STEPS;
+    let size = eps.abs().clamp(lo, hi);
+    if eps < 0.0 || (eps == 0.0 && global < 1.0) {
+        1.0 - size
+    } else {
+        1.0 + size
+    }
 }
 
 /// The best start of `m` in `form`: the profile of the nominal model's
@@ -532,6 +606,48 @@ mod tests {
         // Non-finite misfits (terms that could not be built) are left out.
         let t = vec![(1.0, 1.0), (0.95, f64::INFINITY), (1.05, 0.5)];
         assert!((next_profile_point(&t).unwrap() - 1.10).abs() < 1e-12);
+    }
+
+    /// On a shaft of one solid section, a section's diameter change that
+    /// matches a global factor `g` is `(g - 1) L / (4 L_section)` (the
+    /// closed form of [`section_step`]'s sum), `4 d_o^4 / (d_o^4 - d_i^4)`
+    /// times smaller on a hollow one; held within 0.5 % and 8 %, on the
+    /// side of `g`; the second point twice as far, or half when held at
+    /// 8 %.
+    #[test]
+    fn a_sections_step_matches_the_global_factor() {
+        let m = RotorModel::paper();
+        let total: f64 = m.shaft.iter().map(|e| e.length).sum();
+        let len = |a: usize, b: usize| -> f64 { m.shaft[a..=b].iter().map(|e| e.length).sum() };
+        let sec = |first, last| StiffnessForm::Section { first, last };
+        let want = 0.026 * total / (4.0 * len(10, 19));
+        let [a, b] = section_steps(&m, sec(10, 19), 1.026);
+        assert!((a - 1.0 - want).abs() < 1e-12 * want, "{a} {want}");
+        assert!((b - 1.0 - 2.0 * want).abs() < 1e-12 * want, "{b}");
+        let want = -0.01 * total / (4.0 * len(0, 3));
+        let [a, b] = section_steps(&m, sec(0, 3), 0.99);
+        assert!((a - 1.0 - want).abs() < 1e-12, "{a} {want}");
+        assert!((b - 1.0 - 2.0 * want).abs() < 1e-12, "{b}");
+        let near = |got: [f64; 2], want: [f64; 2]| {
+            assert!(
+                (got[0] - want[0]).abs() < 1e-12 && (got[1] - want[1]).abs() < 1e-12,
+                "{got:?} against {want:?}"
+            );
+        };
+        near(section_steps(&m, sec(0, 3), 1.2), [1.08, 1.04]);
+        near(section_steps(&m, sec(0, 25), 1.0001), [1.005, 1.01]);
+        near(section_steps(&m, sec(0, 25), 0.9999), [0.995, 0.99]);
+        // A bore of half the outer diameter.
+        let mut hollow = m.clone();
+        for el in &mut hollow.shaft {
+            el.inner_diameter = 0.5 * el.outer_diameter;
+        }
+        let k = 4.0 * 16.0 / 15.0;
+        let want = 0.026 * total / (k * len(10, 19));
+        let a = section_step(&hollow, sec(10, 19), 1.026);
+        assert!((a - 1.0 - want).abs() < 1e-12 * want, "{a} {want}");
+        // The global forms have no diameter.
+        assert_eq!(section_step(&m, StiffnessForm::EAlone, 1.05), 1.0);
     }
 
     /// The paper rotor's features (shaft ends, bearings at its ends, disks
