@@ -27,9 +27,9 @@ pub struct Candidate {
     /// For the stiffness hypothesis: every form fitted (the one of
     /// `stiffness` among them), with its factor and misfit, so that the
     /// forms the data cannot tell apart can be named
-    /// ([`Diagnosis::stiffness_forms`]).
+    /// ([`Diagnosis::stiffness_alike`]).
     ///
-    /// [`Diagnosis::stiffness_forms`]: super::Diagnosis::stiffness_forms
+    /// [`Diagnosis::stiffness_alike`]: super::Diagnosis::stiffness_alike
     pub stiffness_forms: Vec<FormFit>,
     /// Alternatives tried for this hypothesis (nodes, bearings, orders).
     pub alternatives: usize,
