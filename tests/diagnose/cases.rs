@@ -498,15 +498,7 @@ fn a_modulus_error_names_the_forms_the_data_cannot_tell_apart() {
         .map(|f| f.form)
         .collect();
     let mut got: Vec<StiffnessForm> = d.stiffness_alike().iter().map(|f| f.form).collect();
-    for f in &c.stiffness_forms {
-        println!(
-            "  {} x {:.5} +- {:.5}: {:.2} noise variances above the found form",
-            f.form.describe(),
-            f.factor,
-            f.factor_std,
-            (f.s - own.s) / d.sigma2
-        );
-    }
+    // (`examples/diagnose_case` prints every form's factor and misfit.)
     let key = |f: &StiffnessForm| f.describe();
     want.sort_by_key(key);
     got.sort_by_key(key);
