@@ -114,6 +114,7 @@ fn hidden(case: &Value) -> Hidden {
         runout,
         pedestal: None,
         stiffness: None,
+        bow: Vec::new(),
     }
 }
 

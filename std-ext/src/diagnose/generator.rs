@@ -55,6 +55,8 @@ pub struct Hidden {
     pub pedestal: Option<Pedestal>,
     /// The form of a stiffness error.
     pub stiffness: Option<StiffnessForm>,
+    /// The knots of a bow (one, or two for [`Form::TwoKnotBow`]).
+    pub bow: Vec<BowPoint>,
 }
 
 /// A generated case.
@@ -204,6 +206,7 @@ pub fn generate_form(
         runout: Vec::new(),
         pedestal: None,
         stiffness: None,
+        bow: Vec::new(),
     };
     let n_nodes = model.n_nodes();
     let bearing_nodes = model.bearing_nodes();
@@ -315,6 +318,7 @@ pub fn generate_form(
             hidden.node = Some(node);
             hidden.size = amplitude;
             hidden.phase = phase;
+            hidden.bow.clone_from(&effects.bow);
             hidden.description = format!(
                 "bow {:.1} um at node {}, {:.0} deg",
                 amplitude * 1e6,

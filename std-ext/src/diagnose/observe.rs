@@ -56,8 +56,10 @@ use crate::diagnose::extended::{ExtendedModel, Extension, GAIN_STEP};
 use crate::diagnose::fit::{self, FitData};
 use crate::diagnose::result::output_name;
 use crate::diagnose::{chi2_quantile_upper, Candidate, Diagnosis, Effect};
+use crate::fe::assembly::{Dir, FeModel};
+use crate::model::{BowPoint, RotorModel, ShaftBow};
 use crate::units::rad_s_to_rpm;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 
 /// What the data can show of one effect.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -468,6 +470,99 @@ pub fn min_detectable_single(d: &Diagnosis, data: &FitData<'_>, ext: Extension) 
     let t = detection_threshold(d, k);
     let v = min_detectable(base, data, &nominal.fit.theta, d.sigma2, t, &[ext], scale)?;
     v.into_iter().reduce(f64::min)
+}
+
+/// The smallest detectable multiple of the bow through the knots `points`
+/// (offsets in m and phases in rad, the shape relative to the shaft's ends,
+/// [`FeModel::bow_shape`] of `model`) at the reference estimate of `d`: the
+/// factor `c` such that `c` times the bow, in its worst common phase, is
+/// just detected by the hypothesis of its own knots (threshold of `2 n`
+/// parameters for `n` knots).
+///
+/// The bow of `n` knots is the sum of the one-knot shapes `p_k s_k(x)`
+/// ([`Extension::Bow`]); its offsets at the knots are `o = C p`,
+/// `C_jk = s_k(x_j)`, so its parameters are `p = C^-1 o` (scaled by
+/// `1 / q`). With `S` the Schur complement of the knots' joint block (see
+/// the module documentation), a common phase `alpha` turns `phi` into
+/// `R(alpha) phi` and the non-centrality
+/// `lambda(alpha) = a cos^2 + 2 b sin cos + c sin^2`
+/// (`a = phi^T S phi`, `b = phi^T S J phi`, `c = (J phi)^T S J phi`, `J`
+/// the quarter turn of every knot's `(re, im)`) is least at
+/// `(a + c) / 2 - sqrt(((a - c) / 2)^2 + b^2)`; `c = sqrt(t sigma^2 / lambda_min)`.
+/// For one knot this is `min_detectable_single / amplitude`. Two knots
+/// close together with offsets of one sign excite the modes much as
+/// one knot does, but their shapes' difference can leave part of the
+/// offsets unseen: the one-knot size at the larger knot says little of them.
+pub fn min_detectable_bow(
+    d: &Diagnosis,
+    data: &FitData<'_>,
+    model: &RotorModel,
+    points: &[BowPoint],
+) -> Option<f64> {
+    let n = points.len();
+    if n == 0 {
+        return None;
+    }
+    let fe = FeModel::new(model).ok()?;
+    let shapes: Vec<Vec<num_complex::Complex64>> = points
+        .iter()
+        .map(|p| {
+            fe.bow_shape(&ShaftBow {
+                points: vec![BowPoint {
+                    node: p.node,
+                    amplitude: 1.0,
+                    phase: 0.0,
+                }],
+            })
+            .ok()
+        })
+        .collect::<Option<_>>()?;
+    let c = DMatrix::from_fn(n, n, |j, k| {
+        shapes[k]
+            .get(fe.dof(points[j].node, Dir::Y))
+            .map_or(f64::NAN, |z| z.re)
+    });
+    let lu = c.lu();
+    let re = DVector::from_iterator(n, points.iter().map(|p| p.amplitude * p.phase.cos()));
+    let im = DVector::from_iterator(n, points.iter().map(|p| p.amplitude * p.phase.sin()));
+    let (pr, pi) = (lu.solve(&re)?, lu.solve(&im)?);
+    let nominal = reference(d);
+    let base = &nominal.model;
+    let scale = base.scales.q;
+    let exts: Vec<Extension> = points
+        .iter()
+        .map(|p| Extension::Bow {
+            node: p.node,
+            line: false,
+        })
+        .collect();
+    let all = ExtendedModel {
+        ext: exts,
+        ..base.clone()
+    };
+    let mut theta = nominal.fit.theta.clone();
+    theta.resize(all.n_params(), 0.0);
+    let en = fit::entries(&all, data);
+    let (_, jac) = fit::evaluate(&all, data, &en, &theta, true).ok()?;
+    let g = fit::gram(&jac?);
+    let p0 = base.n_params();
+    let w = 2 * n;
+    let gnn = g.view((0, 0), (p0, p0)).into_owned();
+    let gne = g.view((0, p0), (p0, w)).into_owned();
+    let gee = g.view((p0, p0), (w, w)).into_owned();
+    let s = gee - gne.transpose() * gnn.cholesky()?.solve(&gne);
+    let phi = DVector::from_fn(w, |i, _| {
+        let v = if i % 2 == 0 { pr[i / 2] } else { pi[i / 2] };
+        v / scale
+    });
+    // The quarter turn of every knot's phasor: (x, y) -> (-y, x).
+    let jphi = DVector::from_fn(w, |i, _| if i % 2 == 0 { -phi[i + 1] } else { phi[i - 1] });
+    let a = phi.dot(&(&s * &phi));
+    let b = phi.dot(&(&s * &jphi));
+    let cc = jphi.dot(&(&s * &jphi));
+    let lambda = (0.5 * (a + cc) - (0.25 * (a - cc) * (a - cc) + b * b).sqrt()) / d.sigma2;
+    let t = detection_threshold(d, w as f64);
+    (lambda > 0.0 && lambda.is_finite()).then(|| (t / lambda).sqrt())
 }
 
 /// The speed law's sizes for [`analyse`]: per new coefficient, its change

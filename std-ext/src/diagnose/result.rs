@@ -19,7 +19,7 @@ use crate::diagnose::terms::{self, SpeedTerms};
 use crate::estimate::noise::NoiseModel;
 use crate::estimate::results::{BearingResult, BearingStd, Coefficients, UnbalanceResult};
 use crate::io::measurement::Measurements;
-use crate::model::RotorModel;
+use crate::model::{BowPoint, RotorModel};
 
 /// The size of an identified effect, with standard deviations.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -218,6 +218,26 @@ impl Diagnosis {
             .unwrap_or_default();
         let data = FitData::with_probes(&meas.samples, &meas.node_q, &self.terms).with_floors(&phi);
         observe::min_detectable_single(self, &data, ext)
+    }
+
+    /// The smallest detectable multiple of the bow through the knots
+    /// `points` of the nominal `model` ([`observe::min_detectable_bow`]):
+    /// the bow is seen by its own hypothesis once it is at least this many
+    /// times `points`, in its worst common phase.
+    pub fn min_detectable_bow(
+        &self,
+        model: &RotorModel,
+        meas: &Measurements,
+        points: &[BowPoint],
+    ) -> Option<f64> {
+        let phi = self
+            .noise
+            .as_ref()
+            .filter(|m| m.has_floor())
+            .map(|m| m.relative_floor())
+            .unwrap_or_default();
+        let data = FitData::with_probes(&meas.samples, &meas.node_q, &self.terms).with_floors(&phi);
+        observe::min_detectable_bow(self, &data, model, points)
     }
 
     /// The identified size of every effect of the chosen model, with the

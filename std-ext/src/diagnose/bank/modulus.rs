@@ -505,6 +505,15 @@ fn derivative_at_one(
     Ok(terms_de)
 }
 
+/// The farthest neighbour (relative to the factor) whose terms give the
+/// first round of [`rounds`] its secant.
+const SECANT_FAR: f64 = 0.01;
+
+/// Where [`rounds`] builds the terms of its first secant when the
+/// neighbour it is given is beyond [`SECANT_FAR`] (relative, on the side
+/// of that neighbour).
+const SECANT_NEAR: f64 = 1e-3;
+
 /// Up to six rounds of `form` from the factor `e` and the parameters
 /// `theta`, the terms at `e` and at the factor nearest it taken from
 /// `built`.
@@ -530,6 +539,18 @@ fn rounds(
         .unwrap_or(0);
     let (mut e_prev, mut prev) = pick(k_prev, &mut built);
     drop(built);
+    // A neighbour farther than `SECANT_FAR` gives a secant, not a
+    // derivative: where the reduced terms have a pole between the two
+    // factors (a rotor on three bearings), its column is off by orders of
+    // magnitude, the factor barely moves and its standard deviation is
+    // that much too small. The first round then takes its derivative from
+    // terms built `SECANT_NEAR` away.
+    if (e_prev - e).abs() > SECANT_FAR * e {
+        let near = e * (1.0 - SECANT_NEAR * (e - e_prev).signum());
+        if let Ok(t) = build(ctx, form, near) {
+            (e_prev, prev) = (near, t);
+        }
+    }
     let mut last: Option<(Fit, f64)> = None;
     for _round in 0..6 {
         if cur.first().is_none_or(|t| t.da_de.is_none()) {
