@@ -46,9 +46,9 @@
 //! # Effects the data cannot tell apart
 //!
 //! Two significant hypotheses whose misfits differ by less than the
-//! chi-square quantile of 2 degrees of freedom at 1 % explain the data
-//! equally well: the data do not tell them apart, and the report says which
-//! measurement would.
+//! chi-square quantile of 2 degrees of freedom at 1 % ([`tied`]) explain
+//! the data equally well: the data do not tell them apart, and the report
+//! says which measurement would.
 
 use serde::Serialize;
 
@@ -335,9 +335,17 @@ fn extensions(
     }
 }
 
+/// Two misfits `a`, `b` the data do not tell apart: within the chi-square
+/// quantile of 2 degrees of freedom at 1 % times the noise variance
+/// `sigma2`. The one rule for effects (here), a stiffness error's forms
+/// ([`Diagnosis::stiffness_alike`]) and a probe gain's pair of channels.
+pub(crate) fn tied(a: f64, b: f64, sigma2: f64) -> bool {
+    (a - b).abs() < chi2_quantile_upper(2.0, 0.01) * sigma2
+}
+
 /// The other significant single effects whose misfit lies within the
 /// chi-square quantile of 2 degrees of freedom at 1 % (times `sigma^2`) of
-/// `effect`'s, when `effect` is significant.
+/// `effect`'s ([`tied`]), when `effect` is significant.
 fn indistinguishable(d: &Diagnosis, effect: Effect) -> Vec<Effect> {
     // Equally good significant alternatives.
     let me = d
@@ -346,7 +354,6 @@ fn indistinguishable(d: &Diagnosis, effect: Effect) -> Vec<Effect> {
         .filter(|c| c.effects == [effect])
         .map(|c| c.fit.s)
         .next();
-    let tie = chi2_quantile_upper(2.0, 0.01) * d.sigma2;
     match me {
         Some(s)
             if d.hypotheses
@@ -356,7 +363,7 @@ fn indistinguishable(d: &Diagnosis, effect: Effect) -> Vec<Effect> {
             d.hypotheses
                 .iter()
                 .filter(|c| c.effects.len() == 1 && c.effects[0] != effect && c.significant)
-                .filter(|c| (c.fit.s - s).abs() < tie)
+                .filter(|c| tied(c.fit.s, s, d.sigma2))
                 .map(|c| c.effects[0])
                 .collect()
         }

@@ -14,7 +14,6 @@ use crate::diagnose::extended::{Extension, PedestalParams, E_STEP, GAIN_STEP};
 use crate::diagnose::fit::{Fit, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::observe;
-use crate::diagnose::stats::chi2_quantile_upper;
 use crate::diagnose::terms::{self, SpeedTerms};
 use crate::estimate::noise::NoiseModel;
 use crate::estimate::results::{BearingResult, BearingStd, Coefficients, UnbalanceResult};
@@ -266,7 +265,8 @@ impl Diagnosis {
     /// ([`StiffnessForm`](crate::diagnose::terms::StiffnessForm): E and G,
     /// E alone, a section's diameter) whose misfit `S` lies within
     /// `chi2_{2, 0.01} sigma^2` of the form found, the rule by which
-    /// effects are told apart ([`observe::Observability`]), best first.
+    /// effects are told apart ([`observe::Observability`]; the forms have
+    /// as many parameters), best first.
     /// The forms have one parameter each, so a difference within it is no
     /// evidence for either: a slender shaft's shear deformation is a small
     /// part of its flexibility, and E alone moves the critical speeds the
@@ -274,14 +274,13 @@ impl Diagnosis {
     /// or has it beside another effect (the pairs fit one form).
     pub fn stiffness_alike(&self) -> Vec<FormFit> {
         let c = self.extended();
-        let tie = chi2_quantile_upper(2.0, 0.01) * self.sigma2;
         let Some(own) = c.stiffness_forms.iter().find(|f| f.form == c.stiffness) else {
             return Vec::new();
         };
         let mut out: Vec<FormFit> = c
             .stiffness_forms
             .iter()
-            .filter(|f| f.form != c.stiffness && (f.s - own.s).abs() < tie)
+            .filter(|f| f.form != c.stiffness && observe::tied(f.s, own.s, self.sigma2))
             .copied()
             .collect();
         out.sort_by(|a, b| a.s.total_cmp(&b.s));

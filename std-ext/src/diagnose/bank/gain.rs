@@ -15,8 +15,8 @@ use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::{ExtendedModel, Extension, GAIN_STEP};
 use crate::diagnose::fit::{self, Fit};
 use crate::diagnose::input::DiagnoseError;
+use crate::diagnose::observe::tied;
 use crate::diagnose::result::output_name;
-use crate::diagnose::stats::chi2_quantile_upper;
 
 /// The best fit of a gain on one output channel (bearing channels and
 /// probes at other nodes): the channel `screen` ranks first, the other
@@ -66,11 +66,10 @@ pub(crate) fn probe_sensitivity(ctx: &Context<'_>) -> Result<Option<Candidate>, 
         return Ok(None);
     };
     let name = |c: usize| output_name(c, m.n_channels(), ctx.probe_nodes);
-    let tie = chi2_quantile_upper(2.0, 0.01) * f.sigma2();
     let gain = |f: &Fit| 1.0 + GAIN_STEP * f.theta[f.theta.len() - 1];
     let mut label = format!("gain on probe {}", name(channel));
     if let Some((f2, _, c2)) = fits.find(|x| x.2 == channel ^ 1) {
-        if f2.s - f.s < tie {
+        if tied(f2.s, f.s, f.sigma2()) {
             label.push_str(&format!(
                 " (or x {:.4} on {}: the data do not tell the pair apart)",
                 gain(&f2),
