@@ -412,7 +412,10 @@ fn runout_finding(f: &Fit, o: usize, q_s: f64, channel: String) -> RunoutFinding
 }
 
 /// The findings of a candidate's extensions; `probe_nodes` (0-based) the
-/// nodes of the probes beyond the bearings, to name their channels.
+/// nodes of the probes beyond the bearings, to name their channels. A
+/// stiffness error's `alike` is left empty here: the forms the data cannot
+/// tell apart need the noise variance of a diagnosis, and
+/// [`Diagnosis::findings`] fills them in.
 pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> Vec<Finding> {
     let m = &c.model;
     let f = &c.fit;
