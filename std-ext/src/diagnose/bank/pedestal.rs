@@ -1,9 +1,10 @@
 //! `foundation_flexibility`: a pedestal (mass, two springs, two dampers)
 //! under each bearing in turn, its fits started from a grid of natural
 //! frequencies across the speed range ([`PEDESTAL_RATIOS`], and two about
-//! the speed where the nominal model misfits the bearing most), then the
-//! best one's variant with different masses in y and z, kept on BIC; and
-//! the pedestals under two bearings the pairs try.
+//! the speed where the nominal model misfits the bearing most), each
+//! bearing's best fit restarted with its y and z frequencies apart, then
+//! the best one's variant with different masses in y and z, kept on BIC;
+//! and the pedestals under two bearings the pairs try.
 
 use nalgebra::DVector;
 
@@ -18,7 +19,9 @@ use crate::diagnose::stats::bic;
 
 /// Natural frequencies of the starts of the pedestal search, as fractions
 /// of the top measured speed (besides two at the largest nominal misfit).
-pub const PEDESTAL_RATIOS: [f64; 7] = [0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4];
+/// The lowest, 0.15, reaches half the first critical speed of a rotor
+/// measured to four times it (ROSS's stepped hollow shaft to 12000 rpm).
+pub const PEDESTAL_RATIOS: [f64; 8] = [0.15, 0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4];
 
 /// The best fit of a pedestal under one bearing: under each bearing the
 /// two best of each list of screened starts (`single_starts`), then the full fits
@@ -67,6 +70,7 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
     // bearings are comparable), until one fits to the noise: another
     // start could then only move `S` by noise.
     queue.sort_by(|a, b| a.0.s.total_cmp(&b.0.s));
+    let mut per_bearing: Vec<Option<Fit>> = vec![None; ctx.model.bearings.len()];
     for (start, bearing) in queue {
         if best.as_ref().is_some_and(|b| ctx.at_noise(&b.0)) {
             break;
@@ -76,8 +80,29 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
             split: false,
         }]);
         if let Ok(f) = fit::fit(&m, data, &start.theta, 60) {
+            if per_bearing[bearing].as_ref().is_none_or(|b| f.s < b.s) {
+                per_bearing[bearing] = Some(f.clone());
+            }
             if best.as_ref().is_none_or(|b| f.s < b.0.s) {
                 best = Some((f, m, bearing));
+            }
+        }
+    }
+    // Each bearing's best fit with its y and z frequencies moved apart
+    // (`frequencies_apart`), unless the best fits to the noise: a
+    // pedestal's local minimum under its own bearing can misfit more than
+    // one under another bearing.
+    if best.as_ref().is_some_and(|b| !ctx.at_noise(&b.0)) {
+        for (bearing, f) in per_bearing.iter().enumerate() {
+            let Some(f) = f else { continue };
+            let m = ctx.with_ext(vec![Extension::Pedestal {
+                bearing,
+                split: false,
+            }]);
+            if let Some(g) = frequencies_apart(ctx, &m, f) {
+                if best.as_ref().is_none_or(|b| g.s < b.0.s) {
+                    best = Some((g, m, bearing));
+                }
             }
         }
     }
@@ -118,6 +143,50 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
     ))
 }
 
+/// The iterations of a screening fit of the pedestal search's starts
+/// (three ranked the starts of a pedestal resonating among the paper
+/// rotor's critical speeds wrongly in 4 of 20 cases of the grid test,
+/// five in 2).
+const SCREEN_ITERATIONS: usize = 5;
+
+/// The factors [`frequencies_apart`] moves one of a pedestal's natural
+/// frequencies by.
+const APART: [f64; 4] = [0.8, 0.9, 1.12, 1.25];
+
+/// The pedestal fit `f` of `m` restarted with its natural frequency in y,
+/// then in z, times each of [`APART`] (the other kept), from both
+/// nominal starts of the search (the nominal estimate and the model's
+/// values): the restarts screened by three iterations side by side, the
+/// two best fitted in full, the better returned.
+/// A pedestal's y and z frequencies differ on a machine (its stiffness is
+/// seldom the same both ways); the starts of the search have them equal,
+/// and its fits can stop where one frequency sits on a resonance that
+/// belongs to the other. `None` when no restart could be fitted.
+fn frequencies_apart(ctx: &Context<'_>, m: &ExtendedModel, f: &Fit) -> Option<Fit> {
+    let o = ctx.base.n_params();
+    let jobs: Vec<(usize, usize, f64)> = (0..2)
+        .flat_map(|list| (0..2).flat_map(move |axis| APART.iter().map(move |&k| (list, axis, k))))
+        .collect();
+    let screened = parallel::map(&jobs, ctx.threads(), |&(list, axis, k)| {
+        let mut t = if list == 0 {
+            ctx.theta0.clone()
+        } else {
+            ctx.theta_model.clone()
+        };
+        t.extend_from_slice(&f.theta[o..]);
+        // The scaled parameters `o + 1`, `o + 2` are `ln(w / w_0)`.
+        t[o + 1 + axis] += k.ln();
+        fit::fit_with(m, ctx.data, &t, 3, false).ok()
+    });
+    let mut screened: Vec<Fit> = screened.into_iter().flatten().collect();
+    screened.sort_by(|a, b| a.s.total_cmp(&b.s));
+    screened
+        .iter()
+        .take(2)
+        .filter_map(|s| fit::fit(m, ctx.data, &s.theta, 60).ok())
+        .min_by(|a, b| a.s.total_cmp(&b.s))
+}
+
 /// The speed where the nominal weighted residuals `r` of `bearing`'s four
 /// real channels (`n_out` complex outputs per sample) are largest, as a
 /// fraction of the top speed.
@@ -153,10 +222,10 @@ fn single_starts(
     singles: &[(usize, ExtendedModel, Vec<f64>)],
 ) -> Vec<[Vec<Fit>; 2]> {
     let scales = ctx.setup.scales;
-    // Screen a grid of natural frequencies and masses by three
-    // iterations each (fewer rank the starts wrongly: the basin of
-    // a resonance is narrow), then fit from the two best starts of each
-    // list.
+    // Screen a grid of natural frequencies and masses by
+    // SCREEN_ITERATIONS iterations each (fewer rank the starts wrongly:
+    // the basin of a resonance is narrow), then fit from the two best
+    // starts of each list.
     // (Ranking on every second speed only halves this and loses
     // pedestals whose y and z frequencies lie apart.)
     // Jobs: (single, list, ratio, mass).
@@ -184,7 +253,7 @@ fn single_starts(
         };
         let mut t = nominal_start.clone();
         t.extend_from_slice(&ped.to_scaled(&scales));
-        fit::fit_with(&singles[i].1, ctx.data, &t, 3, false).ok()
+        fit::fit_with(&singles[i].1, ctx.data, &t, SCREEN_ITERATIONS, false).ok()
     });
     let mut out: Vec<[Vec<Fit>; 2]> = singles.iter().map(|_| [Vec::new(), Vec::new()]).collect();
     for ((i, list, ..), f) in jobs.into_iter().zip(fits) {
