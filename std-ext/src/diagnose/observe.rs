@@ -46,7 +46,7 @@
 //! # Effects the data cannot tell apart
 //!
 //! Two significant hypotheses whose misfits differ by less than the
-//! chi-square quantile of 2 degrees of freedom at 1 % ([`tied`]) explain
+//! chi-square quantile of 2 degrees of freedom at 1 % (`tied`) explain
 //! the data equally well: the data do not tell them apart, and the report
 //! says which measurement would.
 
