@@ -209,14 +209,19 @@ impl Diagnosis {
     /// (m for a bow or runout, kg m for a plane; see [`observe`]); `None`
     /// for effects without a zero (pedestal, modulus, speed law).
     pub fn min_detectable(&self, meas: &Measurements, ext: Extension) -> Option<f64> {
+        observe::min_detectable_single(self, &self.weighted(meas), ext)
+    }
+
+    /// `meas` against this diagnosis's terms, weighted as its fits were
+    /// (the noise model's probe floor, when it has one).
+    fn weighted<'a>(&'a self, meas: &'a Measurements) -> FitData<'a> {
         let phi = self
             .noise
             .as_ref()
             .filter(|m| m.has_floor())
             .map(|m| m.relative_floor())
             .unwrap_or_default();
-        let data = FitData::with_probes(&meas.samples, &meas.node_q, &self.terms).with_floors(&phi);
-        observe::min_detectable_single(self, &data, ext)
+        FitData::with_probes(&meas.samples, &meas.node_q, &self.terms).with_floors(&phi)
     }
 
     /// The smallest detectable multiple of the bow through the knots
@@ -229,14 +234,7 @@ impl Diagnosis {
         meas: &Measurements,
         points: &[BowPoint],
     ) -> Option<f64> {
-        let phi = self
-            .noise
-            .as_ref()
-            .filter(|m| m.has_floor())
-            .map(|m| m.relative_floor())
-            .unwrap_or_default();
-        let data = FitData::with_probes(&meas.samples, &meas.node_q, &self.terms).with_floors(&phi);
-        observe::min_detectable_bow(self, &data, model, points)
+        observe::min_detectable_bow(self, &self.weighted(meas), model, points)
     }
 
     /// The identified size of every effect of the chosen model, with the
