@@ -492,14 +492,15 @@ pub fn min_detectable_single(d: &Diagnosis, data: &FitData<'_>, ext: Extension) 
 /// `1 / q`). With `S` the Schur complement of the knots' joint block (see
 /// the module documentation), a common phase `alpha` turns `phi` into
 /// `R(alpha) phi` and the non-centrality
-/// `lambda(alpha) = a cos^2 + 2 b sin cos + c sin^2`
-/// (`a = phi^T S phi`, `b = phi^T S J phi`, `c = (J phi)^T S J phi`, `J`
+/// `lambda(alpha) = a cos^2 + 2 b sin cos + g sin^2`
+/// (`a = phi^T S phi`, `b = phi^T S J phi`, `g = (J phi)^T S J phi`, `J`
 /// the quarter turn of every knot's `(re, im)`) is least at
-/// `(a + c) / 2 - sqrt(((a - c) / 2)^2 + b^2)`; `c = sqrt(t sigma^2 / lambda_min)`.
-/// For one knot this is `min_detectable_single / amplitude`. Two knots
-/// close together with offsets of one sign excite the modes much as
-/// one knot does, but their shapes' difference can leave part of the
-/// offsets unseen: the one-knot size at the larger knot says little of them.
+/// `(a + g) / 2 - sqrt(((a - g) / 2)^2 + b^2)`; the multiple is
+/// `c = sqrt(t sigma^2 / lambda_min)`. For one knot this is
+/// `min_detectable_single / amplitude`. The one-knot size at a pair's
+/// larger knot says little of the pair: on the paper rotor two knots of
+/// one sign three nodes apart are seen at 0.27 of their offsets where the
+/// larger knot alone needs 0.63 of its own (`tests/diagnose/cases.rs`).
 pub fn min_detectable_bow(
     d: &Diagnosis,
     data: &FitData<'_>,
@@ -551,12 +552,12 @@ pub fn min_detectable_bow(
     theta.resize(all.n_params(), 0.0);
     let en = fit::entries(&all, data);
     let (_, jac) = fit::evaluate(&all, data, &en, &theta, true).ok()?;
-    let g = fit::gram(&jac?);
+    let gram = fit::gram(&jac?);
     let p0 = base.n_params();
     let w = 2 * n;
-    let gnn = g.view((0, 0), (p0, p0)).into_owned();
-    let gne = g.view((0, p0), (p0, w)).into_owned();
-    let gee = g.view((p0, p0), (w, w)).into_owned();
+    let gnn = gram.view((0, 0), (p0, p0)).into_owned();
+    let gne = gram.view((0, p0), (p0, w)).into_owned();
+    let gee = gram.view((p0, p0), (w, w)).into_owned();
     let s = gee - gne.transpose() * gnn.cholesky()?.solve(&gne);
     let phi = DVector::from_fn(w, |i, _| {
         let v = if i % 2 == 0 { pr[i / 2] } else { pi[i / 2] };
@@ -566,8 +567,8 @@ pub fn min_detectable_bow(
     let jphi = DVector::from_fn(w, |i, _| if i % 2 == 0 { -phi[i + 1] } else { phi[i - 1] });
     let a = phi.dot(&(&s * &phi));
     let b = phi.dot(&(&s * &jphi));
-    let cc = jphi.dot(&(&s * &jphi));
-    let lambda = (0.5 * (a + cc) - (0.25 * (a - cc) * (a - cc) + b * b).sqrt()) / d.sigma2;
+    let g = jphi.dot(&(&s * &jphi));
+    let lambda = (0.5 * (a + g) - (0.25 * (a - g) * (a - g) + b * b).sqrt()) / d.sigma2;
     let t = detection_threshold(d, w as f64);
     (lambda > 0.0 && lambda.is_finite()).then(|| (t / lambda).sqrt())
 }
