@@ -124,9 +124,7 @@ pub fn min_detectable(
             _ => e.n_params(nq),
         };
         for o2 in groups {
-            let gne = g.view((0, o2), (p0, w)).into_owned();
-            let gee = g.view((o2, o2), (w, w)).into_owned();
-            let s = gee - gne.transpose() * ch.solve(&gne);
+            let s = schur_block(&g, &ch, o2, w);
             let mu = s.symmetric_eigenvalues().min();
             let size = if mu > 0.0 {
                 scale * (t * sigma2 / mu).sqrt()
@@ -137,6 +135,22 @@ pub fn min_detectable(
         }
     }
     Some(out)
+}
+
+/// The information left in the `w` parameters from `o` of the Gram
+/// matrix `g = J^T J` once its first `p0` (the nominal ones, `ch` the
+/// Cholesky factor of their block) are refitted: the Schur complement
+/// `G_ee - G_ne^T G_nn^-1 G_ne`.
+fn schur_block(
+    g: &DMatrix<f64>,
+    ch: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
+    o: usize,
+    w: usize,
+) -> DMatrix<f64> {
+    let p0 = ch.l_dirty().nrows();
+    let gne = g.view((0, o), (p0, w)).into_owned();
+    let gee = g.view((o, o), (w, w)).into_owned();
+    gee - gne.transpose() * ch.solve(&gne)
 }
 
 fn where_min(
@@ -555,10 +569,8 @@ pub fn min_detectable_bow(
     let gram = fit::gram(&jac?);
     let p0 = base.n_params();
     let w = 2 * n;
-    let gnn = gram.view((0, 0), (p0, p0)).into_owned();
-    let gne = gram.view((0, p0), (p0, w)).into_owned();
-    let gee = gram.view((p0, p0), (w, w)).into_owned();
-    let s = gee - gne.transpose() * gnn.cholesky()?.solve(&gne);
+    let ch = gram.view((0, 0), (p0, p0)).into_owned().cholesky()?;
+    let s = schur_block(&gram, &ch, p0, w);
     let phi = DVector::from_fn(w, |i, _| {
         let v = if i % 2 == 0 { pr[i / 2] } else { pi[i / 2] };
         v / scale
@@ -680,8 +692,8 @@ pub struct LawSize {
 /// `jn`) are refitted, `S = J_e^T J_e - J_e^T J_n (J_n^T J_n)^-1 J_n^T J_e`.
 fn schur_diagonal(jn: &DMatrix<f64>, je: &DMatrix<f64>) -> Option<Vec<f64>> {
     let ch = fit::gram(jn).cholesky()?;
-    let x = ch.solve(&jn.tr_mul(je));
     let cross = jn.tr_mul(je);
+    let x = ch.solve(&cross);
     Some(
         (0..je.ncols())
             .map(|k| je.column(k).norm_squared() - cross.column(k).dot(&x.column(k)))
