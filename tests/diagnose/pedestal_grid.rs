@@ -87,12 +87,13 @@ fn case(
     (named && found.is_some(), rel, z)
 }
 
-/// The grid on one rotor: 20 frequencies `0.5 .. 2` times `critical_rpm`
-/// (geometric), the pedestal under each bearing in turn.
-fn grid(model: &RotorModel, rpm_max: f64, critical_rpm: f64) {
+/// The grid on one rotor: of 20 frequencies `0.5 .. 2` times
+/// `critical_rpm` (geometric), the pedestal under each bearing in turn,
+/// the cases `points`.
+fn grid(model: &RotorModel, rpm_max: f64, critical_rpm: f64, points: &[usize]) {
     let f1 = critical_rpm / 60.0;
     let mut failed = Vec::new();
-    for i in 0..20 {
+    for &i in points {
         let f = f1 * 0.5 * 4f64.powf(i as f64 / 19.0);
         let bearing = i % model.bearings.len();
         let (ok, rel, z) = case(model, rpm_max, bearing, f, 7000 + i as u64);
@@ -103,17 +104,34 @@ fn grid(model: &RotorModel, rpm_max: f64, critical_rpm: f64) {
     assert!(failed.is_empty(), "missed: {failed:?}");
 }
 
+/// The paper rotor's grid cases where the pedestal and the rotor couple
+/// most (56 Hz, and 100 and 108 Hz about the first critical speed, 97
+/// Hz): the screened starts of the earlier search stalled at 2.4 to 5
+/// times the noise on each, named a pedestal under the wrong bearing,
+/// two pedestals or a speed-dependent bearing; the fits from the misfit
+/// profile's least point reach the noise.
+#[test]
+fn pedestals_coupled_with_the_first_critical_speed_are_found() {
+    let m = at_balance_grade(&RotorModel::paper(), 6.3, rpm_to_rad_s(15000.0)).unwrap();
+    grid(&m, 15000.0, 5796.4, &[2, 10, 11]);
+}
+
 #[test]
 #[ignore = "20 diagnoses: cargo test --release --test lib diagnose::pedestal_grid -- --ignored"]
 fn pedestal_grid_paper_rotor() {
     let m = at_balance_grade(&RotorModel::paper(), 6.3, rpm_to_rad_s(15000.0)).unwrap();
     // First critical speed 5796 rpm (backward; `rotorid campbell --model paper`).
-    grid(&m, 15000.0, 5796.4);
+    grid(&m, 15000.0, 5796.4, &(0..20).collect::<Vec<_>>());
 }
 
 #[test]
 #[ignore = "20 diagnoses: cargo test --release --test lib diagnose::pedestal_grid -- --ignored"]
 fn pedestal_grid_stepped_hollow_shaft() {
     // First critical speed 2770 rpm (backward; `rotorid campbell`).
-    grid(&stepped_hollow_g63(), 12000.0, 2769.7);
+    grid(
+        &stepped_hollow_g63(),
+        12000.0,
+        2769.7,
+        &(0..20).collect::<Vec<_>>(),
+    );
 }
