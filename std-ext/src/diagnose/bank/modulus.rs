@@ -505,14 +505,16 @@ fn derivative_at_one(
     Ok(terms_de)
 }
 
-/// The farthest neighbour (relative to the factor) whose terms give the
-/// first round of [`rounds`] its secant.
-const SECANT_FAR: f64 = 0.01;
+/// The farthest neighbour (relative to the factor) whose terms give a
+/// round of [`rounds`] its secant.
+const SECANT_FAR: f64 = 1e-4;
 
-/// Where [`rounds`] builds the terms of its first secant when the
-/// neighbour it is given is beyond [`SECANT_FAR`] (relative, on the side
-/// of that neighbour).
-const SECANT_NEAR: f64 = 1e-3;
+/// Where [`rounds`] builds the terms of a round's secant when the
+/// neighbour it has is beyond [`SECANT_FAR`] (relative, on the side of
+/// that neighbour): a pole of the reduced terms moves by about half this
+/// in speed, so that one crossing a measured speed between the two is
+/// rare.
+const SECANT_NEAR: f64 = 1e-5;
 
 /// Up to six rounds of `form` from the factor `e` and the parameters
 /// `theta`, the terms at `e` and at the factor nearest it taken from
@@ -539,21 +541,23 @@ fn rounds(
         .unwrap_or(0);
     let (mut e_prev, mut prev) = pick(k_prev, &mut built);
     drop(built);
-    // A neighbour farther than `SECANT_FAR` gives a secant, not a
-    // derivative: where the reduced terms have a pole between the two
-    // factors (a rotor on three bearings), its column is off by orders of
-    // magnitude, the factor barely moves and its standard deviation is
-    // that much too small. The first round then takes its derivative from
-    // terms built `SECANT_NEAR` away.
-    if (e_prev - e).abs() > SECANT_FAR * e {
-        let near = e * (1.0 - SECANT_NEAR * (e - e_prev).signum());
-        if let Ok(t) = build(ctx, form, near) {
-            (e_prev, prev) = (near, t);
-        }
-    }
     let mut last: Option<(Fit, f64)> = None;
     for _round in 0..6 {
         if cur.first().is_none_or(|t| t.da_de.is_none()) {
+            // A neighbour farther than `SECANT_FAR` gives a secant, not a
+            // derivative: where the reduced terms have a pole in the speed
+            // range (the shaft pinned at three bearings has a mode there),
+            // a speed the pole crosses between the two factors makes its
+            // column wrong by orders of magnitude; the factor then creeps
+            // by a fraction of its standard deviation a round, and that
+            // deviation is as many times too small. The derivative comes
+            // from terms built `SECANT_NEAR` away instead.
+            if (e_prev - e).abs() > SECANT_FAR * e {
+                let near = e * (1.0 - SECANT_NEAR * (e - e_prev).signum());
+                if let Ok(t) = build(ctx, form, near) {
+                    (e_prev, prev) = (near, t);
+                }
+            }
             terms::set_secant_derivative(&mut cur, e, &prev, e_prev)?;
         }
         let d = FitData::with_probes(ctx.samples, ctx.node_q, &cur)
