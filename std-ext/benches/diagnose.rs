@@ -7,9 +7,15 @@
 //! matrix (unbalance at balance grade G6.3, 0.5 % relative noise and a
 //! 0.5 um probe floor): `none`, and the three effects whose diagnoses took
 //! longest (a pedestal, runout, the shaft's modulus), on the machine's
-//! cores (the default) and on one (`_one_core`).
+//! cores (the default) and on one (`_one_core`). Then, on one core, the
+//! two other rotors of the realistic matrices (ROSS's stepped hollow shaft
+//! to 12000 rpm, the rotor on three bearings to 16500 rpm, as
+//! `examples/diagnose_timing.rs` makes their cases): `none` and runout
+//! (the longest case on every rotor), beside the nominal output-error
+//! identification of the same data.
 //!
 //! `cargo bench --bench diagnose -- --warm-up-time 1 --measurement-time 20`
+//! (the other rotors alone: add the filter `rotor_`)
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rotorid::diagnose::generator::generate;
@@ -81,6 +87,49 @@ fn bench(c: &mut Criterion) {
             g.bench_function("baseline_identify_oe_realistic", |b| {
                 b.iter(|| black_box(identify(&real, &case.meas, &o).expect("identify")))
             });
+        }
+    }
+    let one = DiagnoseOptions {
+        threads: 1,
+        ..Default::default()
+    };
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    for (name, path, rpm_max) in [
+        (
+            "stepped_hollow",
+            "tests/data/ross/stepped_hollow.toml",
+            12000.0,
+        ),
+        (
+            "three_bearing",
+            "tests/data/rotors/three_bearing.toml",
+            16500.0,
+        ),
+    ] {
+        let file = dir.join(path);
+        let base = rotorid::io::model_file::model_file_by_name_or_path(
+            file.to_str().expect("a UTF-8 path"),
+        )
+        .expect("model file")
+        .model;
+        let omega_max = rotorid::units::rpm_to_rad_s(rpm_max);
+        let m = rotorid::simulate::at_balance_grade(&base, 6.3, omega_max).unwrap_or(base);
+        let sp: Vec<f64> = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
+        for effect in [Effect::None, Effect::ProbeRunout] {
+            let mut case = generate(&m, effect, 11, &sp, Some(0.005)).expect("case");
+            rotorid::simulate::add_floor_noise(&mut case.meas, 0.5e-6, 11).expect("floor");
+            g.bench_function(
+                format!("rotor_{name}_diagnose_realistic_{}_one_core", effect.name()),
+                |b| b.iter(|| black_box(diagnose(&m, &case.meas, &one).expect("diagnose"))),
+            );
+            if effect == Effect::None {
+                let mut o = Options::new(rotorid::core::parametrization::Structure::physical(1));
+                o.estimator = Estimator::OutputError;
+                g.bench_function(
+                    format!("rotor_{name}_baseline_identify_oe_realistic"),
+                    |b| b.iter(|| black_box(identify(&m, &case.meas, &o).expect("identify"))),
+                );
+            }
         }
     }
     g.bench_function("terms_all_nodes", |b| {
