@@ -18,7 +18,6 @@
 //! model's, its damping divided by the same.
 
 use rotorid::diagnose::{diagnose, rotor_mass, DiagnoseOptions};
-use rotorid::model::{BearingCoefficients, BearingLaw, Pedestal};
 use rotorid::simulate::{add_floor_noise, at_balance_grade, simulate, SimOptions};
 use rotorid::units::rpm_to_rad_s;
 
@@ -46,34 +45,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let model = at_balance_grade(&base, 6.3, rpm_to_rad_s(grade_rpm))
         .ok_or("the model has no unbalance to scale")?;
-    if bearing >= model.bearings.len() {
-        return Err(format!("the model has {} bearings", model.bearings.len()).into());
-    }
-    let mut nominal = model.clone();
-    let omega_max = rpm_to_rad_s(rpm_max);
-    for b in &mut nominal.bearings {
-        let co = b.law.at(0.5 * omega_max);
-        b.law = BearingLaw::Constant(BearingCoefficients { k: co.k, c: co.c });
-    }
-    let mass = rotor_mass(&nominal) / nominal.bearings.len() as f64;
-    let wy = std::f64::consts::TAU * f_hz;
-    let wz = 1.15 * wy;
-    let (zy, zz) = (0.03, 0.05);
     let scatter: f64 = arg(5).map_or(Ok(0.0), str::parse)?;
-    let mut truth = nominal.clone();
-    for (i, b) in truth.bearings.iter_mut().enumerate() {
-        let co = b.law.at(0.0);
-        let f = 1.0 + scatter * ((i as f64 + 1.0) * 0.7).sin();
-        b.law = BearingLaw::Constant(BearingCoefficients {
-            k: co.k.map(|v| v * f),
-            c: co.c.map(|v| v / f),
-        });
-    }
-    truth.bearings[bearing].pedestal = Some(Pedestal {
-        mass: [mass, mass],
-        k: [mass * wy * wy, mass * wz * wz],
-        c: [2.0 * zy * mass * wy, 2.0 * zz * mass * wz],
-    });
+    let (nominal, truth) =
+        rotorid::diagnose::generator::pedestal_grid_case(&model, rpm_max, bearing, f_hz, scatter)
+            .ok_or(format!("the model has {} bearings", model.bearings.len()))?;
+    let mass = rotor_mass(&nominal) / nominal.bearings.len() as f64;
     let opts = SimOptions {
         speeds_rpm: (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect(),
         noise: 0.005,

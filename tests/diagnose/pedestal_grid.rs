@@ -14,11 +14,11 @@
 //! The model's bearings are the truth's, and, in a third grid, 13 and 20 %
 //! off it (the pedestal search holds them at the model's values to start).
 //!
-//! `#[ignore]`d (60 diagnoses, about a minute in release):
+//! `#[ignore]`d (60 diagnoses, under a minute in release on two cores):
 //! `cargo test --release --test lib diagnose::pedestal_grid -- --ignored --nocapture`.
 
-use rotorid::diagnose::{diagnose, rotor_mass, DiagnoseOptions, Effect, Finding};
-use rotorid::model::{BearingCoefficients, BearingLaw, Pedestal, RotorModel};
+use rotorid::diagnose::{diagnose, DiagnoseOptions, Effect, Finding};
+use rotorid::model::RotorModel;
 use rotorid::simulate::{add_floor_noise, at_balance_grade, simulate, SimOptions};
 use rotorid::units::rpm_to_rad_s;
 
@@ -42,30 +42,9 @@ fn case(
     seed: u64,
     scatter: f64,
 ) -> (bool, f64, f64) {
-    let mut nominal = model.clone();
-    let omega_max = rpm_to_rad_s(rpm_max);
-    for b in &mut nominal.bearings {
-        let co = b.law.at(0.5 * omega_max);
-        b.law = BearingLaw::Constant(BearingCoefficients { k: co.k, c: co.c });
-    }
-    let mass = rotor_mass(&nominal) / nominal.bearings.len() as f64;
-    let wy = std::f64::consts::TAU * f_hz;
-    let wz = 1.15 * wy;
-    let (zy, zz) = (0.03, 0.05);
-    let mut truth = nominal.clone();
-    for (i, b) in truth.bearings.iter_mut().enumerate() {
-        let co = b.law.at(0.0);
-        let f = 1.0 + scatter * ((i as f64 + 1.0) * 0.7).sin();
-        b.law = BearingLaw::Constant(BearingCoefficients {
-            k: co.k.map(|v| v * f),
-            c: co.c.map(|v| v / f),
-        });
-    }
-    truth.bearings[bearing].pedestal = Some(Pedestal {
-        mass: [mass, mass],
-        k: [mass * wy * wy, mass * wz * wz],
-        c: [2.0 * zy * mass * wy, 2.0 * zz * mass * wz],
-    });
+    let (nominal, truth) =
+        rotorid::diagnose::generator::pedestal_grid_case(model, rpm_max, bearing, f_hz, scatter)
+            .unwrap();
     let speeds_rpm: Vec<f64> = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
     let opts = SimOptions {
         speeds_rpm,

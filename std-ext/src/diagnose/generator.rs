@@ -494,3 +494,46 @@ pub fn draw(
     };
     generate(model, effect, seed, speeds_rpm, noise)
 }
+
+/// A case of the pedestal grid (`tests/diagnose/pedestal_grid.rs`,
+/// `examples/pedestal_case.rs`): `(nominal, truth)`. The nominal model is
+/// `model` with constant bearings, its laws at half the top speed
+/// `rpm_max`; the truth has, under `bearing`, a pedestal of the rotor's
+/// mass per bearing resonating at `f_hz` in y and 1.15 times it in z
+/// (stiffness `m w^2`), damping ratios 0.03 and 0.05, and its bearing `i`
+/// stiffer than the nominal one by `1 + scatter sin(0.7 (i + 1))`, its
+/// damping lower by as much. `None` when `bearing` is not one of the
+/// model's.
+pub fn pedestal_grid_case(
+    model: &RotorModel,
+    rpm_max: f64,
+    bearing: usize,
+    f_hz: f64,
+    scatter: f64,
+) -> Option<(RotorModel, RotorModel)> {
+    let mut nominal = model.clone();
+    let omega_max = rpm_to_rad_s(rpm_max);
+    for b in &mut nominal.bearings {
+        let co = b.law.at(0.5 * omega_max);
+        b.law = BearingLaw::Constant(BearingCoefficients { k: co.k, c: co.c });
+    }
+    let mass = rotor_mass(&nominal) / nominal.bearings.len() as f64;
+    let wy = std::f64::consts::TAU * f_hz;
+    let wz = 1.15 * wy;
+    let (zy, zz) = (0.03, 0.05);
+    let mut truth = nominal.clone();
+    for (i, b) in truth.bearings.iter_mut().enumerate() {
+        let co = b.law.at(0.0);
+        let f = 1.0 + scatter * ((i as f64 + 1.0) * 0.7).sin();
+        b.law = BearingLaw::Constant(BearingCoefficients {
+            k: co.k.map(|v| v * f),
+            c: co.c.map(|v| v / f),
+        });
+    }
+    truth.bearings.get_mut(bearing)?.pedestal = Some(Pedestal {
+        mass: [mass, mass],
+        k: [mass * wy * wy, mass * wz * wz],
+        c: [2.0 * zy * mass * wy, 2.0 * zz * mass * wz],
+    });
+    Some((nominal, truth))
+}
