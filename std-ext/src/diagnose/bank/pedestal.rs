@@ -27,9 +27,10 @@ use crate::estimate::predictor::Entry;
 /// measured to four times it (ROSS's stepped hollow shaft to 12000 rpm).
 pub const PEDESTAL_RATIOS: [f64; 8] = [0.15, 0.3, 0.45, 0.6, 0.75, 0.9, 1.1, 1.4];
 
-/// The best fit of a pedestal under one bearing: the least point of each
-/// bearing's misfit profile ([`profile`]) fitted in full, the bearing of
-/// least profile first, until one fits to the noise; unless one does,
+/// The best fit of a pedestal under one bearing: the starts of each
+/// bearing's misfit profile ([`profile`]) fitted in full, every bearing's
+/// first start before any second one, the bearing of least profile first,
+/// until one fits to the noise; unless one does,
 /// each bearing's fit restarted with its y and z frequencies apart
 /// ([`frequencies_apart`]). `None` when none fits.
 ///
@@ -83,9 +84,8 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
             *best = Some((f, m.clone(), bearing));
         }
     };
-    // The least point of each bearing's misfit profile over the y and z
-    // frequencies (`profile`), fitted in full, the bearing of least
-    // profile first, until one fits to the noise.
+    // The starts of each bearing's misfit profile over the y and z
+    // frequencies (`profile`), fitted in full until one fits to the noise.
     let profiled = parallel::map(&singles, ctx.threads(), |(_, m, ratios)| {
         profile(ctx, m, ratios)
     });
@@ -116,15 +116,13 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
     // pedestal's local minimum under its own bearing can misfit more than
     // one under another bearing.
     if best.as_ref().is_some_and(|b| !ctx.at_noise(&b.0)) {
-        for (bearing, f) in per_bearing.iter().enumerate() {
-            let Some(f) = f else { continue };
-            let m = ctx.with_ext(vec![Extension::Pedestal {
-                bearing,
-                split: false,
-            }]);
-            if let Some(g) = frequencies_apart(ctx, &m, f) {
+        for (bearing, m, _) in &singles {
+            let Some(f) = &per_bearing[*bearing] else {
+                continue;
+            };
+            if let Some(g) = frequencies_apart(ctx, m, f) {
                 if best.as_ref().is_none_or(|b| g.s < b.0.s) {
-                    best = Some((g, m, bearing));
+                    best = Some((g, m.clone(), *bearing));
                 }
             }
         }
@@ -166,13 +164,16 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
     ))
 }
 
-/// The least point of the misfit profile of the pedestal model `m` over
-/// its natural frequencies in y and z, each of `ratios` of the top speed
-/// (every pair), its mass the rotor's per bearing, damping ratio 0.05, the
-/// bearings at the model's own coefficients (`theta_model`): at each point
-/// the unbalance, on which the readings depend linearly, is solved for by
-/// least squares, `du = (J_u^T J_u)^-1 J_u^T r`. Returns `S` there and
-/// the scaled parameters. `None` when no point could be evaluated.
+/// The starts of the misfit profile of the pedestal model `m` over its
+/// natural frequencies in y and z, each of `ratios` of the top speed
+/// (every pair), its mass the rotor's per bearing, damping ratio
+/// [`PROFILE_ZETA`], the bearings at the model's own coefficients
+/// (`theta_model`): at each point the unbalance, on which the readings
+/// depend linearly, is solved for by least squares,
+/// `du = (J_u^T J_u)^-1 J_u^T r`. Returns `(S, scaled parameters)` of the
+/// least point and of the least one [`PROFILE_APART`] from it
+/// ([`PROFILE_STARTS`] in all), least first; empty when no point could
+/// be evaluated.
 ///
 /// A point costs one evaluation with its Jacobian, against about a dozen
 /// for a screening fit of five iterations. Its y and z frequencies apart
