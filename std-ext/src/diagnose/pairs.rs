@@ -115,6 +115,24 @@ fn fit_pair(
     };
     let fit = if uses_e {
         let te = match e_cache {
+            // The stiffness rounds' terms lack the node columns a bow or a
+            // plane reads: those terms at the same factor, with the
+            // rounds' derivative.
+            Some((fc, ec, t))
+                if *fc == form && *ec == e && terms::planes_only(t, ctx.model.n_nodes()) =>
+            {
+                let mut full = terms::build_form(
+                    ctx.builder,
+                    ctx.model,
+                    ctx.omegas,
+                    form,
+                    e,
+                    false,
+                    ctx.probe_nodes,
+                )?;
+                terms::copy_derivative(&mut full, t)?;
+                full
+            }
             Some((fc, ec, t)) if *fc == form && *ec == e && !t.is_empty() => t.clone(),
             _ => terms::build_form(
                 ctx.builder,

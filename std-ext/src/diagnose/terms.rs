@@ -176,6 +176,9 @@ pub struct Builder {
     probe_dofs: Vec<usize>,
     np: usize,
     n_nodes: usize,
+    /// Whether `loads` has the node columns (unbalance and bows at every
+    /// node) after the planes' ([`Builder::planes_only`]: not).
+    node_loads: bool,
     modal: Option<ModalReducer>,
 }
 
@@ -189,6 +192,52 @@ impl Builder {
             .ok();
         b.modal = modal;
         Ok(b)
+    }
+
+    /// The modal builder of the plane unbalances alone: its terms
+    /// ([`Builder::build`]) have no node columns ([`SpeedTerms::b_node`],
+    /// [`SpeedTerms::g_node`] and the probes' likewise are empty,
+    /// [`SpeedTerms::g_line`] is `None`), and it costs a fraction of
+    /// [`Builder::new`]'s set-up and sums (`2 N_b + N_planes` load columns
+    /// against `2 N_b + N_planes + 3 N_nodes`). For the fits of a shaft
+    /// stiffness factor, which read `A`, `B` and the probes' `P` and `u`
+    /// only; their entries equal [`Builder::new`]'s to round-off.
+    pub fn planes_only(model: &RotorModel, probe_nodes: &[usize]) -> Result<Self, ReductionError> {
+        let fe = FeModel::new(model)?;
+        let loads = fe.unbalance_distribution(&model.planes)?;
+        let probe_dofs = Self::probe_dofs(&fe, model, probe_nodes)?;
+        let reducer = Reducer::with_loads(&fe, model, loads.clone())?;
+        let modal = reducer.modal_probes(&probe_dofs).ok();
+        Ok(Builder {
+            model: model.clone(),
+            fe,
+            loads,
+            line: false,
+            probe_dofs,
+            np: model.planes.len(),
+            n_nodes: model.n_nodes(),
+            node_loads: false,
+            modal,
+        })
+    }
+
+    /// The shaft DOFs `(y, z)` of the probes at `probe_nodes` (0-based).
+    fn probe_dofs(
+        fe: &FeModel,
+        model: &RotorModel,
+        probe_nodes: &[usize],
+    ) -> Result<Vec<usize>, ReductionError> {
+        let n_nodes = model.n_nodes();
+        if let Some(n) = probe_nodes.iter().find(|&&n| n >= n_nodes) {
+            return Err(ReductionError::Invalid(format!(
+                "probe at node {} beyond the shaft's {n_nodes} nodes",
+                n + 1
+            )));
+        }
+        Ok(probe_nodes
+            .iter()
+            .flat_map(|&n| [fe.dof(n, Dir::Y), fe.dof(n, Dir::Z)])
+            .collect())
     }
 
     /// The builder with the banded adjoint reduction at every speed
@@ -230,16 +279,7 @@ impl Builder {
                 }
             }
         }
-        if let Some(n) = probe_nodes.iter().find(|&&n| n >= n_nodes) {
-            return Err(ReductionError::Invalid(format!(
-                "probe at node {} beyond the shaft's {n_nodes} nodes",
-                n + 1
-            )));
-        }
-        let probe_dofs: Vec<usize> = probe_nodes
-            .iter()
-            .flat_map(|&n| [fe.dof(n, Dir::Y), fe.dof(n, Dir::Z)])
-            .collect();
+        let probe_dofs = Self::probe_dofs(&fe, model, probe_nodes)?;
         // Fails here, once, if the bearings do not hold the shaft.
         Reducer::with_loads(&fe, model, loads.clone())?;
         Ok(Builder {
@@ -250,6 +290,7 @@ impl Builder {
             probe_dofs,
             np,
             n_nodes,
+            node_loads: true,
             modal: None,
         })
     }
@@ -267,7 +308,26 @@ impl Builder {
         e: f64,
         derivative: bool,
     ) -> Result<Vec<SpeedTerms>, ReductionError> {
-        self.build_with(omegas, e, derivative, self.modal.is_some())
+        self.build_with(
+            omegas,
+            e,
+            derivative,
+            self.modal.is_some(),
+            !self.node_loads,
+        )
+    }
+
+    /// [`Builder::build`] without the node columns, as a
+    /// [`Builder::planes_only`] builder's: the modal sum over the plane
+    /// columns alone, the entries those of [`Builder::build`] bit for bit
+    /// ([`ModalReducer::reduce_probes_loads`]).
+    pub fn build_planes(
+        &self,
+        omegas: &[f64],
+        e: f64,
+        derivative: bool,
+    ) -> Result<Vec<SpeedTerms>, ReductionError> {
+        self.build_with(omegas, e, derivative, self.modal.is_some(), true)
     }
 
     /// [`Builder::build`] by the banded adjoint reduction at every speed
@@ -281,7 +341,7 @@ impl Builder {
         e: f64,
         derivative: bool,
     ) -> Result<Vec<SpeedTerms>, ReductionError> {
-        self.build_with(omegas, e, derivative, false)
+        self.build_with(omegas, e, derivative, false, !self.node_loads)
     }
 
     fn build_with(
@@ -290,13 +350,15 @@ impl Builder {
         e: f64,
         derivative: bool,
         modal: bool,
+        planes_only: bool,
     ) -> Result<Vec<SpeedTerms>, ReductionError> {
         if !(e.is_finite() && e > 0.0) {
             return Err(ReductionError::Invalid(format!(
                 "shaft modulus factor must be finite and > 0, got {e}"
             )));
         }
-        let (np, n_nodes, line) = (self.np, self.n_nodes, self.line);
+        let (np, n_nodes) = (self.np, self.n_nodes);
+        let line = self.line && !planes_only;
         let probe_dofs = &self.probe_dofs;
         let modal = self.modal.as_ref().filter(|_| modal);
         let banded = match modal {
@@ -307,10 +369,13 @@ impl Builder {
                 self.loads.clone(),
             )?),
         };
+        // The node columns' blocks of the loads (empty without them).
+        let nn = if planes_only { 0 } else { n_nodes };
         type Reduced = (DMatrix<Complex64>, DMatrix<Complex64>, Option<NodeTerms>);
         let at = |omega: f64, e: f64| -> Result<Reduced, ReductionError> {
             let w = omega / e.sqrt();
             let (t, pt) = match (modal, &banded) {
+                (Some(m), _) if planes_only => m.reduce_probes_loads(w, np)?,
                 (Some(m), _) => m.reduce_probes(w)?,
                 (None, Some(r)) => r.reduce_adjoint_probes(w, probe_dofs)?,
                 (None, None) => unreachable!("a builder has one of the two reductions"),
@@ -319,9 +384,9 @@ impl Builder {
                 let w2 = Complex64::from(w * w);
                 NodeTerms {
                     u: pt.l.columns(0, np) * w2,
-                    u_node: pt.l.columns(np, n_nodes) * w2,
-                    h_node: pt.l.columns(np + n_nodes, n_nodes).into_owned(),
-                    h_line: line.then(|| pt.l.columns(np + 2 * n_nodes, n_nodes).into_owned()),
+                    u_node: pt.l.columns(np, nn) * w2,
+                    h_node: pt.l.columns(np + nn, nn).into_owned(),
+                    h_line: line.then(|| pt.l.columns(np + 2 * nn, nn).into_owned()),
                     p: pt.p,
                     dp_de: None,
                     du_de: None,
@@ -339,14 +404,13 @@ impl Builder {
             let (a, b_all, mut probes) = at(omega, e)?;
             let nq = a.nrows();
             let b = b_all.columns(0, np).into_owned();
-            let b_node = b_all.columns(np, n_nodes).into_owned();
+            let b_node = b_all.columns(np, nn).into_owned();
             // `e B / Omega^2` is the bow load of the unscaled `K_s` reduced at
             // `Omega / sqrt(e)`; the shaft's bow forcing is `e K_s q_bow`.
-            let g_node = b_all.columns(np + n_nodes, n_nodes).into_owned()
-                * Complex64::from(e / (omega * omega));
+            let g_node =
+                b_all.columns(np + nn, nn).into_owned() * Complex64::from(e / (omega * omega));
             let g_line = line.then(|| {
-                b_all.columns(np + 2 * n_nodes, n_nodes).into_owned()
-                    * Complex64::from(e / (omega * omega))
+                b_all.columns(np + 2 * nn, nn).into_owned() * Complex64::from(e / (omega * omega))
             });
             let (da_de, db_de) = if derivative {
                 let h = 1e-4 * e;
@@ -514,11 +578,68 @@ pub fn build_form(
     derivative: bool,
     probe_nodes: &[usize],
 ) -> Result<Vec<SpeedTerms>, ReductionError> {
+    build_form_with(
+        builder,
+        model,
+        omegas,
+        form,
+        f,
+        derivative,
+        probe_nodes,
+        false,
+    )
+}
+
+/// [`build_form`] without the node columns ([`Builder::build_planes`],
+/// [`Builder::planes_only`]): the terms a fit of the factor alone reads,
+/// at a fraction of the cost; `A`, `B` and the probes' `P`, `u` as
+/// [`build_form`]'s.
+pub fn build_form_planes(
+    builder: &Builder,
+    model: &RotorModel,
+    omegas: &[f64],
+    form: StiffnessForm,
+    f: f64,
+    derivative: bool,
+    probe_nodes: &[usize],
+) -> Result<Vec<SpeedTerms>, ReductionError> {
+    build_form_with(
+        builder,
+        model,
+        omegas,
+        form,
+        f,
+        derivative,
+        probe_nodes,
+        true,
+    )
+}
+
+#[allow(clippy::too_many_arguments)]
+fn build_form_with(
+    builder: &Builder,
+    model: &RotorModel,
+    omegas: &[f64],
+    form: StiffnessForm,
+    f: f64,
+    derivative: bool,
+    probe_nodes: &[usize],
+    planes_only: bool,
+) -> Result<Vec<SpeedTerms>, ReductionError> {
     if form == StiffnessForm::EAndG {
-        return builder.build(omegas, f, derivative);
+        return if planes_only {
+            builder.build_planes(omegas, f, derivative)
+        } else {
+            builder.build(omegas, f, derivative)
+        };
     }
     let at = |x: f64| -> Result<Vec<SpeedTerms>, ReductionError> {
-        Builder::new(&form.apply(model, x)?, probe_nodes)?.build(omegas, 1.0, false)
+        let changed = form.apply(model, x)?;
+        if planes_only {
+            Builder::planes_only(&changed, probe_nodes)?.build(omegas, 1.0, false)
+        } else {
+            Builder::new(&changed, probe_nodes)?.build(omegas, 1.0, false)
+        }
     };
     let mut t = at(f)?;
     if derivative {
@@ -527,6 +648,41 @@ pub fn build_form(
         set_secant_derivative(&mut t, f, &ahead, f + h)?;
     }
     Ok(t)
+}
+
+/// Copies `dA/de`, `dB/de` and the probes' `dP/de`, `du/de` of `from` onto
+/// `terms` (the same speeds and plane columns).
+pub fn copy_derivative(
+    terms: &mut [SpeedTerms],
+    from: &[SpeedTerms],
+) -> Result<(), ReductionError> {
+    if terms.len() != from.len() {
+        return Err(ReductionError::Invalid(format!(
+            "derivative of {} speeds copied onto {}",
+            from.len(),
+            terms.len()
+        )));
+    }
+    for (t, c) in terms.iter_mut().zip(from) {
+        if t.omega != c.omega || t.a.shape() != c.a.shape() || t.b.shape() != c.b.shape() {
+            return Err(ReductionError::Invalid(
+                "derivative copied between terms of different speeds or shapes".into(),
+            ));
+        }
+        t.da_de.clone_from(&c.da_de);
+        t.db_de.clone_from(&c.db_de);
+        if let (Some(tp), Some(cp)) = (t.probes.as_mut(), c.probes.as_ref()) {
+            tp.dp_de.clone_from(&cp.dp_de);
+            tp.du_de.clone_from(&cp.du_de);
+        }
+    }
+    Ok(())
+}
+
+/// Whether `terms` lack the node columns ([`build_form_planes`]) that a
+/// model with `n_nodes` nodes has.
+pub fn planes_only(terms: &[SpeedTerms], n_nodes: usize) -> bool {
+    terms.first().is_some_and(|t| t.b_node.ncols() < n_nodes)
 }
 
 #[cfg(test)]
@@ -702,5 +858,63 @@ mod tests {
         assert!(StiffnessForm::Section { first: 3, last: 99 }
             .apply(&m, 1.0)
             .is_err());
+    }
+
+    /// The plane-only terms of a stiffness form (`build_form_planes`) are
+    /// the whole terms' `A`, `B`, probe `P`, `u` and derivatives: bit for
+    /// bit for E and G (a prefix of the same modal sum), to round-off for
+    /// a section (its own, smaller set-up); they have no node columns,
+    /// `planes_only` tells them apart, and `copy_derivative` restores the
+    /// whole terms with the same derivative.
+    #[test]
+    fn plane_terms_are_the_whole_terms_without_node_columns() {
+        let m = RotorModel::paper();
+        let probes = [5, 0];
+        let omegas = [300.0, 900.0, 1500.0];
+        let builder = Builder::new(&m, &probes).unwrap();
+        let forms = [
+            StiffnessForm::EAndG,
+            StiffnessForm::EAlone,
+            StiffnessForm::Section { first: 4, last: 9 },
+        ];
+        for form in forms {
+            let f = 0.97;
+            let whole = build_form(&builder, &m, &omegas, form, f, true, &probes).unwrap();
+            let lean = build_form_planes(&builder, &m, &omegas, form, f, true, &probes).unwrap();
+            assert!(!planes_only(&whole, m.n_nodes()));
+            assert!(planes_only(&lean, m.n_nodes()));
+            let tol = if form == StiffnessForm::EAndG {
+                0.0
+            } else {
+                1e-10
+            };
+            let close = |a: &DMatrix<Complex64>, b: &DMatrix<Complex64>| {
+                assert_eq!(a.shape(), b.shape());
+                assert!((a - b).norm() <= tol * b.norm(), "{form:?}");
+            };
+            for (w, l) in whole.iter().zip(&lean) {
+                close(&l.a, &w.a);
+                close(&l.b, &w.b);
+                close(l.da_de.as_ref().unwrap(), w.da_de.as_ref().unwrap());
+                close(l.db_de.as_ref().unwrap(), w.db_de.as_ref().unwrap());
+                let (lp, wp) = (l.probes.as_ref().unwrap(), w.probes.as_ref().unwrap());
+                close(&lp.p, &wp.p);
+                close(&lp.u, &wp.u);
+                assert_eq!(l.b_node.ncols(), 0);
+                assert_eq!(l.g_node.ncols(), 0);
+                assert!(l.g_line.is_none() && lp.h_line.is_none());
+                assert_eq!((lp.u_node.ncols(), lp.h_node.ncols()), (0, 0));
+            }
+            let mut restored = build_form(&builder, &m, &omegas, form, f, false, &probes).unwrap();
+            copy_derivative(&mut restored, &lean).unwrap();
+            for (r, l) in restored.iter().zip(&lean) {
+                assert_eq!(r.da_de, l.da_de);
+                assert_eq!(
+                    r.probes.as_ref().unwrap().du_de,
+                    l.probes.as_ref().unwrap().du_de
+                );
+            }
+            assert!(copy_derivative(&mut restored[..2], &lean).is_err());
+        }
     }
 }

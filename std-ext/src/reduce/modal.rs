@@ -415,8 +415,9 @@ impl ModalReducer {
     /// `A(omega)` and `B(omega)` by the modal sum (module docs). An error if
     /// `omega` is not finite or lies on a pole (`1 - omega^2 mu_k = 0`).
     pub fn reduce(&self, omega: f64) -> Result<ReducedTerms, ReductionError> {
-        let flat = self.sum(omega)?;
-        self.assemble(&flat, omega)
+        let ncol = self.statics.rhs.ncols();
+        let flat = self.sum(omega, ncol)?;
+        self.assemble(&flat, omega, ncol)
     }
 
     /// [`ModalReducer::reduce`] and the [`ProbeTerms`] of the probe DOFs
@@ -424,11 +425,33 @@ impl ModalReducer {
     /// [`Reducer::reduce_adjoint_probes`] to the round-off of the modal
     /// form): `P = X_0 rows + Omega^2 R V`, `L = R T_i`.
     pub fn reduce_probes(&self, omega: f64) -> Result<(ReducedTerms, ProbeTerms), ReductionError> {
-        let flat = self.sum(omega)?;
-        let terms = self.assemble(&flat, omega)?;
+        self.reduce_probes_loads(omega, self.n_loads())
+    }
+
+    /// The number of load columns `N_p` (the columns of `B` and of the
+    /// probes' `L`).
+    pub fn n_loads(&self) -> usize {
+        self.statics.rhs.ncols() - self.statics.v_l.nrows()
+    }
+
+    /// [`ModalReducer::reduce_probes`] for the first `n_loads` load
+    /// columns only (at most [`ModalReducer::n_loads`]): `B` and the
+    /// probes' `L` have those columns. The residues' entries of a load
+    /// column are contiguous after those of the columns before it, so the
+    /// modal sum runs over a prefix of each residue and costs
+    /// `(2 N_b + n_loads) / (2 N_b + N_p)` of the whole; the entries are
+    /// the whole sum's, bit for bit (the same products, summed in the same
+    /// order).
+    pub fn reduce_probes_loads(
+        &self,
+        omega: f64,
+        n_loads: usize,
+    ) -> Result<(ReducedTerms, ProbeTerms), ReductionError> {
         let nq = self.statics.v_l.nrows();
-        let ncol = self.statics.rhs.ncols();
+        let ncol = nq + n_loads.min(self.n_loads());
         let n_loads = ncol - nq;
+        let flat = self.sum(omega, ncol)?;
+        let terms = self.assemble(&flat, omega, ncol)?;
         let np = self.probes.len();
         let w2 = omega * omega;
         let at = |r: usize, c: usize| {
@@ -462,17 +485,18 @@ impl ModalReducer {
         }
     }
 
-    /// `sum_k d_k(omega) R_k` of every left row and load column (layout of
-    /// [`ModalReducer::residues`]).
-    fn sum(&self, omega: f64) -> Result<Vec<f64>, ReductionError> {
+    /// `sum_k d_k(omega) R_k` of every left row and the first `ncol`
+    /// columns of `[V, T_i]` (layout of [`ModalReducer::residues`]: a
+    /// prefix of each residue).
+    fn sum(&self, omega: f64, ncol: usize) -> Result<Vec<f64>, ReductionError> {
         if !omega.is_finite() {
             return Err(ReductionError::Invalid(format!(
                 "speed must be finite, got {omega}"
             )));
         }
         let w2 = omega * omega;
-        let ncol = self.statics.rhs.ncols();
-        let rows = 2 * self.n_left * ncol;
+        let stride = 2 * self.n_left * self.statics.rhs.ncols();
+        let rows = 2 * self.n_left * ncol.min(self.statics.rhs.ncols());
         // flat = sum_k d_k R_k over the modes, four at a time (one pass
         // over `flat` per four residue columns; the columns are contiguous).
         let mut d = Vec::with_capacity(self.mu.len());
@@ -486,13 +510,14 @@ impl ModalReducer {
             d.push(1.0 / den);
         }
         let mut flat = vec![0.0; rows];
-        let cols = self.residues.as_slice().chunks_exact(rows);
+        let cols = self.residues.as_slice().chunks_exact(stride);
         let mut quads = d.chunks_exact(4);
-        let mut cols4 = self.residues.as_slice().chunks_exact(4 * rows);
+        let mut cols4 = self.residues.as_slice().chunks_exact(4 * stride);
         for (dq, block) in (&mut quads).zip(&mut cols4) {
-            let (c0, rest) = block.split_at(rows);
-            let (c1, rest) = rest.split_at(rows);
-            let (c2, c3) = rest.split_at(rows);
+            let c0 = &block[..rows];
+            let c1 = &block[stride..stride + rows];
+            let c2 = &block[2 * stride..2 * stride + rows];
+            let c3 = &block[3 * stride..3 * stride + rows];
             if let [d0, d1, d2, d3] = *dq {
                 for ((((y, a), b), c), e) in flat.iter_mut().zip(c0).zip(c1).zip(c2).zip(c3) {
                     *y += a * d0 + b * d1 + c * d2 + e * d3;
@@ -501,18 +526,23 @@ impl ModalReducer {
         }
         let done = d.len() - quads.remainder().len();
         for (col, &dk) in cols.skip(done).zip(quads.remainder()) {
-            for (y, r) in flat.iter_mut().zip(col) {
+            for (y, r) in flat.iter_mut().zip(&col[..rows]) {
                 *y += r * dk;
             }
         }
         Ok(flat)
     }
 
-    /// `A`, `B` from the modal sum of [`ModalReducer::sum`].
-    fn assemble(&self, flat: &[f64], omega: f64) -> Result<ReducedTerms, ReductionError> {
+    /// `A`, `B` (its first `ncol - 2 N_b` load columns) from the modal sum
+    /// of [`ModalReducer::sum`] over `ncol` columns.
+    fn assemble(
+        &self,
+        flat: &[f64],
+        omega: f64,
+        ncol: usize,
+    ) -> Result<ReducedTerms, ReductionError> {
         let w2 = omega * omega;
         let nq = self.statics.v_l.nrows();
-        let ncol = self.statics.rhs.ncols();
         // assemble_vy without temporaries: A = S_K - w2 M_red - w2^2 VY_A,
         // B = (T_red + w2 VY_B) w2.
         let vy = |r: usize, c: usize| {

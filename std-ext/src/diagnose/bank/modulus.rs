@@ -63,9 +63,11 @@ pub(crate) struct ModulusFit {
     pub terms_de: Option<Vec<SpeedTerms>>,
 }
 
-/// The terms of the context's model in `form` at the factor `f`.
+/// The terms of the context's model in `form` at the factor `f`, without
+/// the node columns (`terms::build_form_planes`): the rounds, the profile
+/// and the sections' ranking read `A`, `B` and the probes' `P`, `u` only.
 fn build(ctx: &Context<'_>, form: StiffnessForm, f: f64) -> Result<Vec<SpeedTerms>, DiagnoseError> {
-    Ok(terms::build_form(
+    Ok(terms::build_form_planes(
         ctx.builder,
         ctx.model,
         ctx.omegas,
@@ -277,7 +279,7 @@ fn rank_sections(
         .flat_map(|&form| section_steps(ctx.model, form, global).map(|f| (form, f)))
         .collect();
     let screened = parallel::map(&tries, ctx.threads(), |&(form, step)| {
-        let at = terms::build_form(
+        let at = terms::build_form_planes(
             ctx.builder,
             ctx.model,
             &omegas,
