@@ -243,7 +243,7 @@ pub fn text(
     if d.nominal.fit.stalled {
         let _ = writeln!(
             s,
-            "  (the nominal fit stopped stalled: its parameters wander off while its misfit, over ten times the noise, no longer falls; the nominal residual is an upper bound)"
+            "  (the nominal fit stopped stalled: its parameters wander off while its misfit, over three times the noise, no longer falls; the nominal residual is an upper bound)"
         );
     }
     if let Some(n) = noise {
