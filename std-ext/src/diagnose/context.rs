@@ -11,9 +11,10 @@ use crate::diagnose::extended::{ExtendedModel, Extension};
 use crate::diagnose::fit::{Fit, FitData};
 use crate::diagnose::input::DiagnoseOptions;
 use crate::diagnose::nominal::Setup;
-use crate::diagnose::terms::{Builder, SpeedTerms};
+use crate::diagnose::terms::{self, Builder, SpeedTerms};
 use crate::io::measurement::Sample;
 use crate::model::RotorModel;
+use crate::reduce::ReductionError;
 
 /// Chi-square per degree of freedom of the residual noise against the
 /// model-free noise level below which a fit explains the data to the noise:
@@ -56,6 +57,23 @@ pub(crate) struct Context<'a> {
 }
 
 impl Context<'_> {
+    /// The terms of the context's model at its speeds with the stiffness
+    /// form's change `change` ([`terms::build_form_columns`]).
+    pub(crate) fn form_terms(
+        &self,
+        change: terms::FormChange,
+        columns: terms::Columns,
+    ) -> Result<Vec<SpeedTerms>, ReductionError> {
+        terms::build_form_columns(
+            self.builder,
+            self.model,
+            self.omegas,
+            change,
+            self.probe_nodes,
+            columns,
+        )
+    }
+
     /// The nominal model with the extensions `ext`.
     pub(crate) fn with_ext(&self, ext: Vec<Extension>) -> ExtendedModel {
         ExtendedModel {

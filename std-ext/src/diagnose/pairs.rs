@@ -12,7 +12,7 @@ use crate::diagnose::extended::{ExtendedModel, Extension};
 use crate::diagnose::fit::{self, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::nominal::map_theta;
-use crate::diagnose::terms::{self, SpeedTerms, StiffnessForm};
+use crate::diagnose::terms::{self, Columns, FormChange, SpeedTerms, StiffnessForm};
 
 /// The pair (or the single pedestal found by the search for two) of least
 /// BIC among: the strongest significant hypothesis of `hyps` with each
@@ -114,35 +114,30 @@ fn fit_pair(
         (b.e_terms, b.stiffness)
     };
     let fit = if uses_e {
-        let te = match e_cache {
-            // The stiffness rounds' terms lack the node columns a bow or a
-            // plane reads: those terms at the same factor, with the
-            // rounds' derivative.
-            Some((fc, ec, t))
-                if *fc == form && *ec == e && terms::planes_only(t, ctx.model.n_nodes()) =>
-            {
-                let mut full = terms::build_form(
-                    ctx.builder,
-                    ctx.model,
-                    ctx.omegas,
+        let build = |derivative| {
+            ctx.form_terms(
+                FormChange {
                     form,
-                    e,
-                    false,
-                    ctx.probe_nodes,
-                )?;
-                terms::copy_derivative(&mut full, t)?;
-                full
+                    f: e,
+                    derivative,
+                },
+                Columns::All,
+            )
+        };
+        let te = match e_cache {
+            Some((fc, ec, t)) if *fc == form && *ec == e && !t.is_empty() => {
+                if terms::planes_only(t, ctx.model.n_nodes()) {
+                    // The stiffness rounds' terms lack the node columns a
+                    // bow or a plane reads: those terms at the same
+                    // factor, with the rounds' derivative.
+                    let mut full = build(false)?;
+                    terms::copy_derivative(&mut full, t)?;
+                    full
+                } else {
+                    t.clone()
+                }
             }
-            Some((fc, ec, t)) if *fc == form && *ec == e && !t.is_empty() => t.clone(),
-            _ => terms::build_form(
-                ctx.builder,
-                ctx.model,
-                ctx.omegas,
-                form,
-                e,
-                true,
-                ctx.probe_nodes,
-            )?,
+            _ => build(true)?,
         };
         let d = FitData::with_probes(data.samples, data.node_q, &te)
             .with_floors(&data.phi)

@@ -564,6 +564,18 @@ impl StiffnessForm {
     }
 }
 
+/// Which load columns a build gives: all of them, or the plane
+/// unbalances' alone ([`Builder::build_planes`], [`Builder::planes_only`]:
+/// what a fit of a stiffness factor alone reads, at a fraction of the
+/// cost; `A`, `B` and the probes' `P`, `u` as the whole build's).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Columns {
+    /// Planes, then unbalance and bows at every node.
+    All,
+    /// The planes alone: the node columns empty, no bearing-line bows.
+    Planes,
+}
+
 /// The terms of `model` with a stiffness error of `form` and factor `f`
 /// at every speed of `omegas`, with `dA/df`, `dB/df` by a forward
 /// difference (step `1e-4 f`) when `derivative`. `EAndG` through
@@ -578,54 +590,41 @@ pub fn build_form(
     derivative: bool,
     probe_nodes: &[usize],
 ) -> Result<Vec<SpeedTerms>, ReductionError> {
-    build_form_with(
-        builder,
-        model,
-        omegas,
+    let changed = FormChange {
         form,
         f,
         derivative,
-        probe_nodes,
-        false,
-    )
+    };
+    build_form_columns(builder, model, omegas, changed, probe_nodes, Columns::All)
 }
 
-/// [`build_form`] without the node columns ([`Builder::build_planes`],
-/// [`Builder::planes_only`]): the terms a fit of the factor alone reads,
-/// at a fraction of the cost; `A`, `B` and the probes' `P`, `u` as
-/// [`build_form`]'s.
-pub fn build_form_planes(
+/// A stiffness form's change to build: the form, its factor, and whether
+/// with its derivative ([`build_form`]).
+#[derive(Debug, Clone, Copy)]
+pub struct FormChange {
+    /// The form.
+    pub form: StiffnessForm,
+    /// Its factor.
+    pub f: f64,
+    /// Whether `dA/df`, `dB/df` are built (a forward difference).
+    pub derivative: bool,
+}
+
+/// [`build_form`] with the load columns `columns`.
+pub fn build_form_columns(
     builder: &Builder,
     model: &RotorModel,
     omegas: &[f64],
-    form: StiffnessForm,
-    f: f64,
-    derivative: bool,
+    change: FormChange,
     probe_nodes: &[usize],
+    columns: Columns,
 ) -> Result<Vec<SpeedTerms>, ReductionError> {
-    build_form_with(
-        builder,
-        model,
-        omegas,
+    let FormChange {
         form,
         f,
         derivative,
-        probe_nodes,
-        true,
-    )
-}
-
-#[allow(clippy::too_many_arguments)]
-fn build_form_with(
-    builder: &Builder,
-    model: &RotorModel,
-    omegas: &[f64],
-    form: StiffnessForm,
-    f: f64,
-    derivative: bool,
-    probe_nodes: &[usize],
-    planes_only: bool,
-) -> Result<Vec<SpeedTerms>, ReductionError> {
+    } = change;
+    let planes_only = columns == Columns::Planes;
     if form == StiffnessForm::EAndG {
         return if planes_only {
             builder.build_planes(omegas, f, derivative)
@@ -679,7 +678,7 @@ pub fn copy_derivative(
     Ok(())
 }
 
-/// Whether `terms` lack the node columns ([`build_form_planes`]) that a
+/// Whether `terms` lack the node columns ([`Columns::Planes`]) that a
 /// model with `n_nodes` nodes has.
 pub fn planes_only(terms: &[SpeedTerms], n_nodes: usize) -> bool {
     terms.first().is_some_and(|t| t.b_node.ncols() < n_nodes)
@@ -860,7 +859,7 @@ mod tests {
             .is_err());
     }
 
-    /// The plane-only terms of a stiffness form (`build_form_planes`) are
+    /// The plane-only terms of a stiffness form (`Columns::Planes`) are
     /// the whole terms' `A`, `B`, probe `P`, `u` and derivatives: bit for
     /// bit for E and G (a prefix of the same modal sum), to round-off for
     /// a section (its own, smaller set-up); they have no node columns,
@@ -880,7 +879,13 @@ mod tests {
         for form in forms {
             let f = 0.97;
             let whole = build_form(&builder, &m, &omegas, form, f, true, &probes).unwrap();
-            let lean = build_form_planes(&builder, &m, &omegas, form, f, true, &probes).unwrap();
+            let change = FormChange {
+                form,
+                f,
+                derivative: true,
+            };
+            let lean = build_form_columns(&builder, &m, &omegas, change, &probes, Columns::Planes)
+                .unwrap();
             assert!(!planes_only(&whole, m.n_nodes()));
             assert!(planes_only(&lean, m.n_nodes()));
             let tol = if form == StiffnessForm::EAndG {

@@ -31,7 +31,7 @@ use crate::diagnose::fit::{self, Fit, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::nominal::oe_start;
 use crate::diagnose::parallel;
-use crate::diagnose::terms::{self, SpeedTerms, StiffnessForm};
+use crate::diagnose::terms::{self, Columns, FormChange, SpeedTerms, StiffnessForm};
 use crate::io::measurement::Sample;
 use crate::model::RotorModel;
 
@@ -66,18 +66,15 @@ pub(crate) struct ModulusFit {
 }
 
 /// The terms of the context's model in `form` at the factor `f`, without
-/// the node columns (`terms::build_form_planes`): the rounds, the profile
+/// the node columns ([`Columns::Planes`]): the rounds, the profile
 /// and the sections' ranking read `A`, `B` and the probes' `P`, `u` only.
 fn build(ctx: &Context<'_>, form: StiffnessForm, f: f64) -> Result<Vec<SpeedTerms>, DiagnoseError> {
-    Ok(terms::build_form_planes(
-        ctx.builder,
-        ctx.model,
-        ctx.omegas,
+    let change = FormChange {
         form,
         f,
-        false,
-        ctx.probe_nodes,
-    )?)
+        derivative: false,
+    };
+    Ok(ctx.form_terms(change, Columns::Planes)?)
 }
 
 /// The fit of the factor on the shaft's stiffness: for E and G, the best
@@ -281,14 +278,18 @@ fn rank_sections(
         .flat_map(|&form| section_steps(ctx.model, form, global).map(|f| (form, f)))
         .collect();
     let screened = parallel::map(&tries, ctx.threads(), |&(form, step)| {
-        let at = terms::build_form_planes(
+        let change = FormChange {
+            form,
+            f: step,
+            derivative: false,
+        };
+        let at = terms::build_form_columns(
             ctx.builder,
             ctx.model,
             &omegas,
-            form,
-            step,
-            false,
+            change,
             ctx.probe_nodes,
+            Columns::Planes,
         )
         .ok()?;
         let (_, mut theta, _) = oe_start(
