@@ -17,10 +17,12 @@
 //! `cargo bench --bench diagnose -- --warm-up-time 1 --measurement-time 20`
 //! (the other rotors alone: add the filter `rotor_`)
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::measurement::WallTime;
+use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
 use rotorid::diagnose::generator::generate;
 use rotorid::diagnose::{diagnose, terms, DiagnoseOptions, Effect};
 use rotorid::estimate::{identify, Estimator, Options};
+use rotorid::io::measurement::Measurements;
 use rotorid::model::RotorModel;
 use std::hint::black_box;
 
@@ -73,26 +75,8 @@ fn bench(c: &mut Criterion) {
             })
         });
         // The same on one core (the requirement's reading).
-        let one = DiagnoseOptions {
-            threads: 1,
-            ..Default::default()
-        };
-        g.bench_function(
-            format!("diagnose_realistic_{}_one_core", effect.name()),
-            |b| b.iter(|| black_box(diagnose(&real, &case.meas, &one).expect("diagnose"))),
-        );
-        if effect == Effect::None {
-            let mut o = Options::new(rotorid::core::parametrization::Structure::physical(1));
-            o.estimator = Estimator::OutputError;
-            g.bench_function("baseline_identify_oe_realistic", |b| {
-                b.iter(|| black_box(identify(&real, &case.meas, &o).expect("identify")))
-            });
-        }
+        one_core(&mut g, "", &real, &case.meas, effect);
     }
-    let one = DiagnoseOptions {
-        threads: 1,
-        ..Default::default()
-    };
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     for (name, path, rpm_max) in [
         (
@@ -118,24 +102,40 @@ fn bench(c: &mut Criterion) {
         for effect in [Effect::None, Effect::ProbeRunout] {
             let mut case = generate(&m, effect, 11, &sp, Some(0.005)).expect("case");
             rotorid::simulate::add_floor_noise(&mut case.meas, 0.5e-6, 11).expect("floor");
-            g.bench_function(
-                format!("rotor_{name}_diagnose_realistic_{}_one_core", effect.name()),
-                |b| b.iter(|| black_box(diagnose(&m, &case.meas, &one).expect("diagnose"))),
-            );
-            if effect == Effect::None {
-                let mut o = Options::new(rotorid::core::parametrization::Structure::physical(1));
-                o.estimator = Estimator::OutputError;
-                g.bench_function(
-                    format!("rotor_{name}_baseline_identify_oe_realistic"),
-                    |b| b.iter(|| black_box(identify(&m, &case.meas, &o).expect("identify"))),
-                );
-            }
+            one_core(&mut g, &format!("rotor_{name}_"), &m, &case.meas, effect);
         }
     }
     g.bench_function("terms_all_nodes", |b| {
         b.iter(|| black_box(terms::build(&model, &omegas, 1.0, false).expect("terms")))
     });
     g.finish();
+}
+
+/// `{prefix}diagnose_realistic_{effect}_one_core`: the diagnosis of `meas`
+/// on one core; for `none` also `{prefix}baseline_identify_oe_realistic`,
+/// the nominal output-error identification of the same data beside it.
+fn one_core(
+    g: &mut BenchmarkGroup<'_, WallTime>,
+    prefix: &str,
+    model: &RotorModel,
+    meas: &Measurements,
+    effect: Effect,
+) {
+    let one = DiagnoseOptions {
+        threads: 1,
+        ..Default::default()
+    };
+    g.bench_function(
+        format!("{prefix}diagnose_realistic_{}_one_core", effect.name()),
+        |b| b.iter(|| black_box(diagnose(model, meas, &one).expect("diagnose"))),
+    );
+    if effect == Effect::None {
+        let mut o = Options::new(rotorid::core::parametrization::Structure::physical(1));
+        o.estimator = Estimator::OutputError;
+        g.bench_function(format!("{prefix}baseline_identify_oe_realistic"), |b| {
+            b.iter(|| black_box(identify(model, meas, &o).expect("identify")))
+        });
+    }
 }
 
 criterion_group!(benches, bench);
