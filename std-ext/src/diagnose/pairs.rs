@@ -129,13 +129,13 @@ fn fit_pair(
                 if terms::planes_only(t, ctx.model.n_nodes()) {
                     // The stiffness rounds' terms lack the node columns a
                     // bow or a plane reads: those terms at the same
-                    // factor, with the rounds' derivative.
+                    // factor, with the rounds' derivative, kept in the
+                    // cache for the other pairs.
                     let mut full = build(false)?;
                     terms::copy_derivative(&mut full, t)?;
-                    full
-                } else {
-                    t.clone()
+                    *t = full;
                 }
+                t.clone()
             }
             _ => build(true)?,
         };
