@@ -398,6 +398,8 @@ pub(crate) fn oe_start_with_runout(
         Some(m) => fit(FitNoise {
             model: Some(m.clone()),
             refine,
+            // A bank's start: the hypothesis's fit goes on from it.
+            stall: !refine,
             runout: runout.clone(),
             ..Default::default()
         })

@@ -1058,15 +1058,20 @@ fn gauss_newton_step(pass: &Pass, n: usize) -> (Option<DVector<f64>>, Option<f64
 ///
 /// It ends when `S` or the scaled step change by less than the tolerance,
 /// or when the next step (undamped) would move the estimate by less than
-/// [`STEP_STDS`] standard deviations: then without trying it.
+/// [`STEP_STDS`] standard deviations: then without trying it. With
+/// `stall_cost` (`STALL_MISFIT N s^2`, [`FitNoise::stall`]) it also ends,
+/// not converged, once `S` is above it and fell by less than
+/// [`STALL_DROP`] over the last [`STALL_WINDOW`] iterations.
 fn levenberg_marquardt(
     data: &Data<'_>,
     w: &[f64],
     start: (Vec<f64>, Pass),
     opts: &OutputErrorOptions,
+    stall_cost: Option<f64>,
 ) -> Result<Polished, OutputErrorError> {
     let np = data.n_all();
     let (mut theta, mut cur) = start;
+    let mut history: Vec<f64> = vec![cur.cost];
     let n = data.n_counted();
     if cur.cost <= PERFECT * n as f64 {
         return Ok((theta, 0, true, Some(cur)));
@@ -1152,6 +1157,13 @@ fn levenberg_marquardt(
                 Some(p) => p,
                 None => data.pass(WeightsFrom::Given(w), &theta, true)?.0,
             };
+            history.push(cur.cost);
+            if let Some(f) = stall_cost.filter(|_| history.len() > STALL_WINDOW) {
+                let before = history[history.len() - 1 - STALL_WINDOW];
+                if cur.cost > f && before - cur.cost < STALL_DROP * cur.cost {
+                    return Ok((theta, it, false, Some(cur)));
+                }
+            }
             mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
             nu = 2.0;
         } else {
@@ -1206,7 +1218,27 @@ pub struct FitNoise {
     /// The noise model the misfit is judged against (e.g. the model-free
     /// estimate): [`OutputErrorFit::chi2_per_dof`].
     pub reference: Option<NoiseModel>,
+    /// With `model` held (not refined), let a polish stop *stalled*: when
+    /// its `S` is above [`STALL_MISFIT`] times the noise floor `N s^2`
+    /// that `model` predicts (an RMS misfit over three times its relative
+    /// noise `s`) and the last [`STALL_WINDOW`] iterations lowered it by
+    /// less than [`STALL_DROP`] of it in all. A start for a fit that goes on
+    /// from it (a diagnosis's hypotheses) needs no more: a model this far
+    /// from the data creeps along a valley to the iteration limit.
+    pub stall: bool,
 }
+
+/// `S` over the held noise model's floor above which a polish may stop
+/// stalled ([`FitNoise::stall`]): an RMS misfit `sqrt(10)` times the noise.
+pub const STALL_MISFIT: f64 = 10.0;
+
+/// Iterations over which a stalled polish lowered `S` by less than
+/// [`STALL_DROP`] ([`FitNoise::stall`]).
+pub const STALL_WINDOW: usize = 5;
+
+/// Relative fall of `S` over [`STALL_WINDOW`] iterations below which a
+/// polish far above its noise floor stops ([`FitNoise::stall`]).
+pub const STALL_DROP: f64 = 2e-3;
 
 /// A sample the noise model cannot explain, excluded from the fit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -1596,6 +1628,12 @@ fn fit_from(
         });
     // Refinements read the leverages from, and reweigh, the kept rows.
     data.keep_rows = refine;
+    // The held model's noise floor of `S`: `N s^2` (each weighted complex
+    // residual has variance `s^2` under it).
+    let stall_cost = model
+        .as_ref()
+        .filter(|_| noise.stall && !refine && noise.sample_std.is_none())
+        .map(|m| STALL_MISFIT * data.n_counted() as f64 * m.relative * m.relative);
     // A pass keeps its result only if it explains the data better: on data
     // the start already fits to round-off, the instrumental-variable
     // equations (whose conditioning is that of the normal equations) must
@@ -1713,7 +1751,7 @@ fn fit_from(
                 _ => data.reweighted(&theta, true)?,
             };
             let start_theta = theta.clone();
-            let (t, it, ok, p) = levenberg_marquardt(&data, &w, (theta, cur), opts)?;
+            let (t, it, ok, p) = levenberg_marquardt(&data, &w, (theta, cur), opts, stall_cost)?;
             theta = t;
             // Unmoved, the polish's pass is the prediction's at `theta`.
             reweighted = p.is_some() && theta == start_theta;

@@ -295,6 +295,7 @@ pub fn refine(
         outliers: setup.outliers,
         runout: setup.runout.clone(),
         reference: reference.clone(),
+        stall: false,
     };
     // Where the fit under the noise model cannot be done (its weighted
     // normal equations singular), the proportional fit, with a warning.
