@@ -79,17 +79,13 @@ use crate::io::measurement::Sample;
 /// Weight floor relative to a channel's RMS reading.
 pub const FLOOR: f64 = 1e-3;
 
-/// `S` over its noise floor above which a fit may stop stalled (module
-/// documentation): an RMS misfit `sqrt(10)` times the noise.
-pub const STALL_MISFIT: f64 = 10.0;
-
-/// Iterations over which a stalled fit lowered `S` by less than
-/// [`STALL_DROP`].
-pub const STALL_WINDOW: usize = 5;
-
-/// Relative fall of `S` over [`STALL_WINDOW`] iterations below which a
-/// fit far above its noise floor stops.
-pub const STALL_DROP: f64 = 2e-3;
+use crate::estimate::output_error::stalled;
+/// The stall rule's settings, shared with the output-error starts
+/// ([`crate::estimate::output_error::FitNoise::stall`]): `S` over its noise
+/// floor above which a fit may stop stalled (module documentation, an RMS
+/// misfit `sqrt(10)` times the noise); the iterations over which it fell
+/// by less than the relative [`STALL_DROP`].
+pub use crate::estimate::output_error::{STALL_DROP, STALL_MISFIT, STALL_WINDOW};
 
 /// Fall of `S` over [`STALL_WINDOW`] iterations, in units of the noise
 /// variance of one real reading, below which a fit has converged.
@@ -415,7 +411,7 @@ pub fn fit_with(
     let mut s = r.norm_squared();
     let mut mu = 1e-3;
     let mut converged = false;
-    let mut stalled = false;
+    let mut is_stalled = false;
     let stall_s = data
         .noise_level
         .map(|sn| STALL_MISFIT * 0.5 * n.saturating_sub(p) as f64 * sn * sn);
@@ -469,13 +465,13 @@ pub fn fit_with(
         history.push(s);
         if !converged && history.len() > STALL_WINDOW {
             let before = history[history.len() - 1 - STALL_WINDOW];
-            if stall_s.is_some_and(|f| s > f) && before - s < STALL_DROP * s {
-                stalled = true;
+            if stall_s.is_some_and(|f| stalled(&history, f)) {
+                is_stalled = true;
             } else if flat.is_some_and(|f| before - s < f) {
                 converged = true;
             }
         }
-        let last = converged || stalled || iterations == max_iter;
+        let last = converged || is_stalled || iterations == max_iter;
         // The accepted trial's residuals and evaluations are those of the
         // new `theta`: the Jacobian comes from them.
         r = r_new;
@@ -484,7 +480,7 @@ pub fn fit_with(
         } else {
             None
         };
-        if converged || stalled {
+        if converged || is_stalled {
             break;
         }
     }
@@ -500,7 +496,7 @@ pub fn fit_with(
         covariance,
         iterations,
         converged,
-        stalled,
+        stalled: is_stalled,
     })
 }
 

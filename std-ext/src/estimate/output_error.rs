@@ -1158,11 +1158,8 @@ fn levenberg_marquardt(
                 None => data.pass(WeightsFrom::Given(w), &theta, true)?.0,
             };
             history.push(cur.cost);
-            if let Some(f) = stall_cost.filter(|_| history.len() > STALL_WINDOW) {
-                let before = history[history.len() - 1 - STALL_WINDOW];
-                if cur.cost > f && before - cur.cost < STALL_DROP * cur.cost {
-                    return Ok((theta, it, false, Some(cur)));
-                }
+            if stall_cost.is_some_and(|f| stalled(&history, f)) {
+                return Ok((theta, it, false, Some(cur)));
             }
             mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
             nu = 2.0;
@@ -1239,6 +1236,17 @@ pub const STALL_WINDOW: usize = 5;
 /// Relative fall of `S` over [`STALL_WINDOW`] iterations below which a
 /// polish far above its noise floor stops ([`FitNoise::stall`]).
 pub const STALL_DROP: f64 = 2e-3;
+
+/// Whether a fit whose `S` after each accepted iteration is `history`
+/// has stalled above `bound` ([`STALL_MISFIT`] times its noise floor):
+/// the last `S` is above it and fell by less than [`STALL_DROP`] of
+/// itself over the last [`STALL_WINDOW`] iterations.
+pub fn stalled(history: &[f64], bound: f64) -> bool {
+    match (history.last(), history.len().checked_sub(STALL_WINDOW + 1)) {
+        (Some(&s), Some(k)) => s > bound && history[k] - s < STALL_DROP * s,
+        _ => false,
+    }
+}
 
 /// A sample the noise model cannot explain, excluded from the fit.
 #[derive(Debug, Clone, Copy, PartialEq)]
