@@ -337,6 +337,9 @@ pub(crate) fn oe_start_with_runout(
     } = noise;
     let mut o = Options::new(structure);
     o.scaling = Some(scaling);
+    // A start needs the weights only: no path, no covariance.
+    o.record_history = false;
+    o.covariance = false;
     let index: HashMap<u64, usize> = terms
         .iter()
         .enumerate()

@@ -164,6 +164,11 @@ pub struct Options {
     pub steady: SteadyPolicy<f64>,
     /// Keep the estimates after every speed.
     pub record_history: bool,
+    /// Estimate the covariance of the QRD/RLS estimate
+    /// ([`Identification::covariance`]): every row folded in is kept for
+    /// it. Off, no row is kept and the covariance is `None` (a start that
+    /// only needs the weights).
+    pub covariance: bool,
     /// The estimate reported: the QRD/RLS alone (the library default, the
     /// paper's method) or refined by the output-error fit (the default of
     /// `rotorid identify`).
@@ -262,6 +267,7 @@ impl Options {
             normalise_rows: false,
             steady: SteadyPolicy::default_guard(),
             record_history: true,
+            covariance: true,
             estimator: Estimator::Rls,
             noise_floor: None,
             outliers: true,
@@ -661,7 +667,8 @@ struct State<T, F> {
     rows: Vec<WeightedRow>,
     /// `sum ln lambda_used` so far.
     log_w: f64,
-    /// Too many rows kept: no covariance for this run.
+    /// No covariance for this run: too many rows kept, or none asked for
+    /// ([`Options::covariance`]).
     rows_overflow: bool,
 }
 
@@ -849,6 +856,7 @@ fn run<T: Real, F: IdField<T> + Widen>(
     };
     config.validate().map_err(IdentifyError::Config)?;
     let mut st = State::<T, F>::new(config, nb, np).map_err(IdentifyError::Config)?;
+    st.rows_overflow = !options.covariance;
     let nq = 2 * nb;
     let mut history = Vec::new();
     let mut a_t = vec![Complex::new(T::zero(), T::zero()); nq * nq];
