@@ -259,17 +259,7 @@ fn rank_sections(
     sections: &[StiffnessForm],
     global: f64,
 ) -> Result<Vec<SectionStart>, DiagnoseError> {
-    let setup = ctx.setup;
-    // Every SCREEN_EVERY-th speed: the ranking needs the shape of the
-    // misfit, not its last digit.
-    let keep: Vec<usize> = (0..ctx.samples.len()).step_by(SCREEN_EVERY).collect();
-    let omegas: Vec<f64> = keep.iter().map(|&i| ctx.omegas[i]).collect();
-    let samples: Vec<Sample> = keep.iter().map(|&i| ctx.samples[i].clone()).collect();
-    let node_q: Vec<Vec<Complex64>> = if ctx.node_q.is_empty() {
-        Vec::new()
-    } else {
-        keep.iter().map(|&i| ctx.node_q[i].clone()).collect()
-    };
+    let screen = Screen::new(ctx);
     // Side by side on the context's threads, in the sections' order.
     // Each section at two diameter changes (`section_steps`), the better
     // kept: two points of its misfit's profile.
@@ -278,36 +268,9 @@ fn rank_sections(
         .flat_map(|&form| section_steps(ctx.model, form, global).map(|f| (form, f)))
         .collect();
     let screened = parallel::map(&tries, ctx.threads(), |&(form, step)| {
-        let change = FormChange {
-            form,
-            f: step,
-            derivative: false,
-        };
-        let at = terms::build_form_columns(
-            ctx.builder,
-            ctx.model,
-            &omegas,
-            change,
-            ctx.probe_nodes,
-            Columns::Planes,
-        )
-        .ok()?;
-        let (_, mut theta, _) = oe_start(
-            ctx.model,
-            &samples,
-            &at,
-            setup.structure,
-            setup.scaling,
-            setup.held_noise(),
-        )
-        .ok()?;
-        let d = FitData::with_probes(&samples, &node_q, &at)
-            .with_floors(&setup.phi)
-            .with_noise_level(setup.noise_level);
-        let en = fit::entries(ctx.base, &d);
-        let (r, _) = fit::evaluate(ctx.base, &d, &en, &theta, false).ok()?;
-        theta.push(0.0);
-        Some((r.norm_squared(), form, step, theta))
+        screen
+            .score(form, step)
+            .map(|(s, theta)| (s, form, step, theta))
     });
     // Each section's better point, the sections in order of it.
     let mut scored: Vec<(f64, StiffnessForm, f64, Vec<f64>)> = Vec::new();
@@ -326,6 +289,72 @@ fn rank_sections(
         out.push((form, step, theta, at));
     }
     Ok(out)
+}
+
+/// The screening of a section's diameter on every [`SCREEN_EVERY`]-th
+/// speed: the ranking needs the shape of the misfit, not its last digit.
+struct Screen<'c, 'a> {
+    ctx: &'c Context<'a>,
+    omegas: Vec<f64>,
+    samples: Vec<Sample>,
+    node_q: Vec<Vec<Complex64>>,
+}
+
+impl<'c, 'a> Screen<'c, 'a> {
+    fn new(ctx: &'c Context<'a>) -> Self {
+        let keep: Vec<usize> = (0..ctx.samples.len()).step_by(SCREEN_EVERY).collect();
+        Screen {
+            ctx,
+            omegas: keep.iter().map(|&i| ctx.omegas[i]).collect(),
+            samples: keep.iter().map(|&i| ctx.samples[i].clone()).collect(),
+            node_q: if ctx.node_q.is_empty() {
+                Vec::new()
+            } else {
+                keep.iter().map(|&i| ctx.node_q[i].clone()).collect()
+            },
+        }
+    }
+
+    /// `S` of the nominal model estimated afresh (filter, then the
+    /// output-error fit, as `starts` does: the bearings of the nominal
+    /// estimate have absorbed part of the effect, so a step from it in the
+    /// factor alone says little) on the terms of `form` at the factor
+    /// `f`, with those parameters and the factor's offset (zero); `None`
+    /// where the terms cannot be built (a diameter at or below the bore)
+    /// or the fit fails.
+    fn score(&self, form: StiffnessForm, f: f64) -> Option<(f64, Vec<f64>)> {
+        let (ctx, setup) = (self.ctx, self.ctx.setup);
+        let change = FormChange {
+            form,
+            f,
+            derivative: false,
+        };
+        let at = terms::build_form_columns(
+            ctx.builder,
+            ctx.model,
+            &self.omegas,
+            change,
+            ctx.probe_nodes,
+            Columns::Planes,
+        )
+        .ok()?;
+        let (_, mut theta, _) = oe_start(
+            ctx.model,
+            &self.samples,
+            &at,
+            setup.structure,
+            setup.scaling,
+            setup.held_noise(),
+        )
+        .ok()?;
+        let d = FitData::with_probes(&self.samples, &self.node_q, &at)
+            .with_floors(&setup.phi)
+            .with_noise_level(setup.noise_level);
+        let en = fit::entries(ctx.base, &d);
+        let (r, _) = fit::evaluate(ctx.base, &d, &en, &theta, false).ok()?;
+        theta.push(0.0);
+        Some((r.norm_squared(), theta))
+    }
 }
 
 /// The factor on the outer diameter of `form`'s section that changes the
