@@ -372,22 +372,10 @@ fn section_step(model: &RotorModel, form: StiffnessForm, global: f64) -> f64 {
     let StiffnessForm::Section { first, last } = form else {
         return 1.0;
     };
-    let flex = |el: &crate::model::ShaftElement| {
-        let (o4, i4) = (el.outer_diameter.powi(4), el.inner_diameter.powi(4));
-        let i = std::f64::consts::PI * (o4 - i4) / 64.0;
-        (el.length / (el.material.e * i), 4.0 * o4 / (o4 - i4))
-    };
-    let all: f64 = model.shaft.iter().map(|el| flex(el).0).sum();
-    let sec: f64 = model
-        .shaft
-        .get(first..=last)
-        .unwrap_or(&[])
-        .iter()
-        .map(|el| {
-            let (f, k) = flex(el);
-            f * k
-        })
-        .sum();
+    let (all, sec) = (
+        flexibility(model, 0, usize::MAX).0,
+        flexibility(model, first, last).1,
+    );
     let eps = if sec > 0.0 && all.is_finite() {
         (global - 1.0) * all / sec
     } else {
@@ -400,6 +388,25 @@ fn section_step(model: &RotorModel, form: StiffnessForm, global: f64) -> f64 {
     } else {
         1.0 + size
     }
+}
+
+/// The bending flexibility `sum L / (E I)` (1/(N m)) of the shaft elements
+/// `first..=last` (those that exist), and its change per unit relative
+/// change of their outer diameter, `sum 4 L d_o^4 / (E I (d_o^4 - d_i^4))`
+/// (its sign dropped; [`section_step`]).
+fn flexibility(model: &RotorModel, first: usize, last: usize) -> (f64, f64) {
+    let n = model.shaft.len();
+    let run = if first < n {
+        &model.shaft[first..=last.min(n - 1)]
+    } else {
+        &[]
+    };
+    run.iter().fold((0.0, 0.0), |(a, b), el| {
+        let (o4, i4) = (el.outer_diameter.powi(4), el.inner_diameter.powi(4));
+        let i = std::f64::consts::PI * (o4 - i4) / 64.0;
+        let f = el.length / (el.material.e * i);
+        (a + f, b + f * 4.0 * o4 / (o4 - i4))
+    })
 }
 
 /// The best start of `m` in `form`: the profile of the nominal model's
