@@ -445,6 +445,18 @@ impl Builder {
 /// to the secant through `prev` (the same speeds, built for `e_prev`):
 /// `(A(e) - A(e_prev)) / (e - e_prev)`, first-order accurate in
 /// `e - e_prev`. A Jacobian for the iteration, as in [`build`].
+///
+/// At a speed where `A` or `B` changes by more than [`POLE_RATIO`] times
+/// the relative change of the factor (`|dA| / |A| > POLE_RATIO |de| / e`,
+/// Frobenius norms), a pole of the reduced terms (a mode of the shaft
+/// with its bearing nodes held) lies within a fraction of a per cent of
+/// that speed: there both terms grow like `1 / (omega - omega_p)` and
+/// their derivatives like its square, the response stays finite only by
+/// their cancellation, and a secant (or the linearisation in `e` itself)
+/// is wrong by orders of magnitude within a step of the factor. Its
+/// derivatives are set to zero: the step leaves that speed's response as
+/// it is (the next round's exact terms take it up), and the factor's
+/// standard deviation comes from the other speeds.
 pub fn set_secant_derivative(
     terms: &mut [SpeedTerms],
     e: f64,
@@ -460,21 +472,37 @@ pub fn set_secant_derivative(
         )));
     }
     let s = Complex64::from(1.0 / h);
+    let rel = (h / e).abs();
     for (t, p) in terms.iter_mut().zip(prev) {
         if t.omega != p.omega || t.a.shape() != p.a.shape() || t.b.shape() != p.b.shape() {
             return Err(ReductionError::Invalid(
                 "secant between terms of different speeds or shapes".into(),
             ));
         }
-        t.da_de = Some((&t.a - &p.a) * s);
-        t.db_de = Some((&t.b - &p.b) * s);
+        let (da, db) = (&t.a - &p.a, &t.b - &p.b);
+        let steep = |d: &DMatrix<Complex64>, x: &DMatrix<Complex64>| {
+            !(d.norm() <= POLE_RATIO * rel * x.norm())
+        };
+        let near_pole = steep(&da, &t.a) || steep(&db, &t.b);
+        let w = Complex64::from(if near_pole { 0.0 } else { 1.0 });
+        t.da_de = Some(da * (s * w));
+        t.db_de = Some(db * (s * w));
         if let (Some(tn), Some(pn)) = (t.probes.as_mut(), p.probes.as_ref()) {
-            tn.dp_de = Some((&tn.p - &pn.p) * s);
-            tn.du_de = Some((&tn.u - &pn.u) * s);
+            tn.dp_de = Some((&tn.p - &pn.p) * (s * w));
+            tn.du_de = Some((&tn.u - &pn.u) * (s * w));
         }
     }
     Ok(())
 }
+
+/// The relative change of a speed's reduced terms per relative change of
+/// the stiffness factor above which [`set_secant_derivative`] takes that
+/// speed as at a pole. Away from the poles the ratio is of order one (the
+/// terms scale with the stiffness); it exceeds `1e3` only within about
+/// `1 / 2000` of a pole's speed (`A ~ 1 / (omega - omega_p)`, `omega_p`
+/// moving with `sqrt(e)`), where a step of the factor of the size of its
+/// standard deviation moves the pole across the speed.
+pub const POLE_RATIO: f64 = 1e3;
 
 /// The form of a shaft stiffness error (`shaft_stiffness_error`): what a
 /// factor `f` changes in the model.
