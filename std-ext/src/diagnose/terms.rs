@@ -481,7 +481,11 @@ pub fn set_secant_derivative(
         }
         let (da, db) = (&t.a - &p.a, &t.b - &p.b);
         let steep = |d: &DMatrix<Complex64>, x: &DMatrix<Complex64>| {
-            !(d.norm() <= POLE_RATIO * rel * x.norm())
+            // Beyond the ratio, or not comparable (a non-finite term).
+            !matches!(
+                d.norm().partial_cmp(&(POLE_RATIO * rel * x.norm())),
+                Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+            )
         };
         let near_pole = steep(&da, &t.a) || steep(&db, &t.b);
         let w = Complex64::from(if near_pole { 0.0 } else { 1.0 });
