@@ -11,7 +11,9 @@ use nalgebra::DMatrix;
 use num_complex::Complex64;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rotorid::estimate::{EstimateSet, IdentifyError, TermsAt};
+use rotorid::estimate::{
+    identify_with, EstimateSet, Identification, IdentifyError, Options, TermsAt,
+};
 use rotorid::fe::assembly::FeModel;
 use rotorid::fe::response::{unbalance_response, Forcing};
 use rotorid::io::measurement::{Measurements, Sample};
@@ -171,6 +173,24 @@ impl DenseReduction {
 
     pub fn source(&self) -> impl FnMut(f64) -> Result<TermsAt, IdentifyError> + '_ {
         move |w| Ok(self.terms(w))
+    }
+
+    /// `identify_with` on `model`'s bearings and planes, the terms from
+    /// this reduction.
+    pub fn identify(
+        &self,
+        model: &RotorModel,
+        meas: &Measurements,
+        opts: &Options,
+    ) -> Result<Identification, IdentifyError> {
+        identify_with(
+            &model.bearing_nodes(),
+            &model.planes,
+            meas,
+            opts,
+            &mut self.source(),
+            None,
+        )
     }
 }
 

@@ -85,20 +85,11 @@ fn the_covariance_left_out_changes_no_estimate() {
     add_noise(&mut meas, 0.005, 7).unwrap();
     rotorid::simulate::add_floor_noise(&mut meas, 0.5e-6, 8).unwrap();
     let red = DenseReduction::new(&model);
-    let mut src = |w: f64| Ok(red.terms(w));
-    let mut run = |covariance: bool| {
+    let run = |covariance: bool| {
         let mut opts = Options::new(Structure::physical(1));
         opts.scaling = Some(auto_scaling(&model, rpm_to_rad_s(15000.0)));
         opts.covariance = covariance;
-        identify_with(
-            &model.bearing_nodes(),
-            &model.planes,
-            &meas,
-            &opts,
-            &mut src,
-            None,
-        )
-        .unwrap()
+        red.identify(&model, &meas, &opts).unwrap()
     };
     let with = run(true);
     let without = run(false);
