@@ -73,13 +73,13 @@ use num_complex::Complex64;
 
 use crate::diagnose::extended::{Eval, ExtendedModel};
 use crate::diagnose::terms::SpeedTerms;
+use crate::estimate::output_error::stalled;
 use crate::estimate::predictor::{Entry, PredictError};
 use crate::io::measurement::Sample;
 
 /// Weight floor relative to a channel's RMS reading.
 pub const FLOOR: f64 = 1e-3;
 
-use crate::estimate::output_error::stalled;
 /// The stall rule's settings, shared with the output-error starts
 /// ([`crate::estimate::output_error::FitNoise::stall`]): `S` over its noise
 /// floor above which a fit may stop stalled (module documentation, an RMS

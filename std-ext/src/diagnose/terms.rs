@@ -488,12 +488,19 @@ pub fn set_secant_derivative(
             )
         };
         let near_pole = steep(&da, &t.a) || steep(&db, &t.b);
-        let w = Complex64::from(if near_pole { 0.0 } else { 1.0 });
-        t.da_de = Some(da * (s * w));
-        t.db_de = Some(db * (s * w));
+        let secant = |mut d: DMatrix<Complex64>| {
+            if near_pole {
+                d.fill(Complex64::new(0.0, 0.0));
+            } else {
+                d *= s;
+            }
+            Some(d)
+        };
+        t.da_de = secant(da);
+        t.db_de = secant(db);
         if let (Some(tn), Some(pn)) = (t.probes.as_mut(), p.probes.as_ref()) {
-            tn.dp_de = Some((&tn.p - &pn.p) * (s * w));
-            tn.du_de = Some((&tn.u - &pn.u) * (s * w));
+            tn.dp_de = secant(&tn.p - &pn.p);
+            tn.du_de = secant(&tn.u - &pn.u);
         }
     }
     Ok(())

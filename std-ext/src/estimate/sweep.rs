@@ -667,9 +667,9 @@ struct State<T, F> {
     rows: Vec<WeightedRow>,
     /// `sum ln lambda_used` so far.
     log_w: f64,
-    /// No covariance for this run: too many rows kept, or none asked for
-    /// ([`Options::covariance`]).
-    rows_overflow: bool,
+    /// Rows are kept for the covariance: asked for
+    /// ([`Options::covariance`]) and not yet too many.
+    keep_rows: bool,
 }
 
 /// Rows kept for the covariance estimate (memory bound of the desktop
@@ -695,7 +695,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
             w: vec![F::zero(); m],
             rows: Vec::new(),
             log_w: 0.0,
-            rows_overflow: false,
+            keep_rows: true,
         };
         s.kernel().init()?;
         Ok(s)
@@ -737,7 +737,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
             if lam > 0.0 {
                 self.log_w += lam.ln();
                 let m = self.p.len();
-                if !self.rows_overflow {
+                if self.keep_rows {
                     for (row, dj) in self.u.chunks_exact(m).zip(&self.d) {
                         let row = row.iter().map(|x| x.widen()).collect();
                         self.rows.push(WeightedRow {
@@ -757,7 +757,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
                         self.rows.drain(..cut);
                         if self.rows.len() > MAX_COV_ROWS {
                             self.rows = Vec::new();
-                            self.rows_overflow = true;
+                            self.keep_rows = false;
                         }
                     }
                 }
@@ -769,7 +769,7 @@ impl<T: Real, F: IdField<T> + Widen> State<T, F> {
     /// The covariance of the scaled weights from the rows kept
     /// ([`sandwich_covariance`]); `None` when the rows were given up.
     fn covariance(&self) -> Option<DMatrix<Complex64>> {
-        if self.rows_overflow {
+        if !self.keep_rows {
             return None;
         }
         let r: Vec<Complex64> = self.r.iter().map(|x| x.widen()).collect();
@@ -856,7 +856,7 @@ fn run<T: Real, F: IdField<T> + Widen>(
     };
     config.validate().map_err(IdentifyError::Config)?;
     let mut st = State::<T, F>::new(config, nb, np).map_err(IdentifyError::Config)?;
-    st.rows_overflow = !options.covariance;
+    st.keep_rows = options.covariance;
     let nq = 2 * nb;
     let mut history = Vec::new();
     let mut a_t = vec![Complex::new(T::zero(), T::zero()); nq * nq];
