@@ -175,7 +175,8 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
 /// ([`PROFILE_STARTS`] in all), least first; empty when no point could
 /// be evaluated.
 ///
-/// A point costs one evaluation with its Jacobian, against about a dozen
+/// A point costs one evaluation with the unbalance's columns of the
+/// Jacobian ([`fit::evaluate_columns`]), against about a dozen full ones
 /// for a screening fit of five iterations. Its y and z frequencies apart
 /// and its bearings held reach the basin of a pedestal that couples with a
 /// rotor mode: on the paper rotor's grid (pedestals at 56, 100 and 108 Hz,
@@ -212,10 +213,9 @@ fn profile(ctx: &Context<'_>, m: &ExtendedModel, ratios: &[f64]) -> Vec<(f64, Ve
                 t[i] = 0.0;
             }
             t.extend_from_slice(&ped.to_scaled(&scales));
-            let Ok((r, Some(j))) = fit::evaluate(m, data, &en, &t, true) else {
+            let Ok((r, ju)) = fit::evaluate_columns(m, data, &en, &t, &unbalance) else {
                 continue;
             };
-            let ju = j.select_columns(unbalance.iter());
             let Some(ch) = fit::gram(&ju).cholesky() else {
                 continue;
             };
