@@ -213,6 +213,38 @@ impl<'a> FitData<'a> {
         self
     }
 
+    /// These data at the samples `keep` only (indices, in order), each
+    /// row with its weights as they are: the data of a screening on fewer
+    /// speeds. `samples`, `node_q` and `terms` are those samples', their
+    /// node probes' readings (empty: none) and their terms, in the order
+    /// of `keep`. `None` when an index is out of range or the lengths
+    /// differ.
+    pub fn rows<'b>(
+        &self,
+        keep: &[usize],
+        samples: &'b [Sample],
+        node_q: &'b [Vec<Complex64>],
+        terms: &'b [SpeedTerms],
+    ) -> Option<FitData<'b>> {
+        let n = self.readings.len();
+        if keep.iter().any(|&k| k >= n)
+            || samples.len() != keep.len()
+            || terms.len() != keep.len()
+            || !(node_q.is_empty() || node_q.len() == keep.len())
+        {
+            return None;
+        }
+        Some(FitData {
+            samples,
+            node_q,
+            terms,
+            readings: keep.iter().map(|&k| self.readings[k].clone()).collect(),
+            inv_w: keep.iter().map(|&k| self.inv_w[k].clone()).collect(),
+            noise_level: self.noise_level,
+            phi: self.phi.clone(),
+        })
+    }
+
     /// Number of real equations `2 N`.
     pub fn n_equations(&self) -> usize {
         2 * self.inv_w.iter().map(Vec::len).sum::<usize>()
@@ -606,6 +638,69 @@ mod tests {
         for (a, b) in f.theta.iter().zip(&truth) {
             assert!((a - b).abs() < 1e-6 * (1.0 + b.abs()), "{a} vs {b}");
         }
+    }
+
+    /// The rows of some samples keep their weights as the whole data
+    /// give them (without a floor, a channel's weight floor is its RMS
+    /// over every sample, which the kept samples alone would not give),
+    /// and a fit's residuals on them are the whole data's at those rows.
+    #[test]
+    fn rows_keep_the_weights_of_the_whole_data() {
+        let m = RotorModel::paper();
+        let omegas: Vec<f64> = (1..=30).map(|i| 50.0 * i as f64).collect();
+        let terms = build(&m, &omegas, 1.0, false).unwrap();
+        let param = Parametrization {
+            structure: Structure::physical(1),
+            scaling: auto_scaling(&m, 1500.0),
+            bearing_nodes: m.bearing_nodes(),
+            plane_nodes: m.planes.clone(),
+        };
+        let x = ExtendedModel {
+            pr: Predictor::new(param),
+            ext: vec![],
+            scales: Scales {
+                q: 1e-5,
+                mass: 50.0,
+                omega: 1000.0,
+            },
+            relative_probes: true,
+        };
+        let theta: Vec<f64> = (0..x.n_params()).map(|i| 1.0 + 0.01 * i as f64).collect();
+        let samples: Vec<Sample> = terms
+            .iter()
+            .enumerate()
+            .map(|(k, st)| Sample {
+                omega: st.omega,
+                // Readings spread over three decades, so that the weight
+                // floor matters.
+                q: x.predict(st, &x.pr.entries(st.omega), &theta, None)
+                    .unwrap()
+                    .iter()
+                    .map(|q| q * (10f64).powi(k as i32 % 4 - 3))
+                    .collect(),
+            })
+            .collect();
+        let data = FitData::new(&samples, &terms).with_noise_level(Some(0.01));
+        let keep: Vec<usize> = (0..samples.len()).step_by(3).collect();
+        let (ks, kt): (Vec<Sample>, Vec<SpeedTerms>) = keep
+            .iter()
+            .map(|&k| (samples[k].clone(), terms[k].clone()))
+            .unzip();
+        let thin = data.rows(&keep, &ks, &[], &kt).unwrap();
+        assert_eq!(thin.noise_level, data.noise_level);
+        let fresh = FitData::new(&ks, &kt);
+        assert_ne!(fresh.inv_w, thin.inv_w);
+        let (r, _) = evaluate(&x, &data, &entries(&x, &data), &theta, false).unwrap();
+        let (rt, _) = evaluate(&x, &thin, &entries(&x, &thin), &theta, false).unwrap();
+        let per = 2 * x.n_outputs(&terms[0]);
+        for (i, &k) in keep.iter().enumerate() {
+            assert_eq!(rt.rows(i * per, per), r.rows(k * per, per));
+        }
+        // Lengths that do not match, an index past the end.
+        assert!(data.rows(&keep, &ks[1..], &[], &kt).is_none());
+        assert!(data
+            .rows(&[samples.len()], &ks[..1], &[], &kt[..1])
+            .is_none());
     }
 
     /// `J^T J` equals the column dot products, exactly symmetric, for

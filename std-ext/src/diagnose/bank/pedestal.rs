@@ -15,10 +15,13 @@ use crate::diagnose::choice::Judge;
 use crate::diagnose::context::Context;
 use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::{ExtendedModel, Extension, PedestalParams};
-use crate::diagnose::fit::{self, Fit};
+use crate::diagnose::fit::{self, Fit, FitData};
 use crate::diagnose::parallel;
 use crate::diagnose::stats::bic;
+use crate::diagnose::terms::SpeedTerms;
 use crate::estimate::predictor::Entry;
+use crate::io::measurement::Sample;
+use num_complex::Complex64;
 
 /// Natural frequencies of the pedestal search's profile (in y and in z)
 /// and of the pairs' starts, as fractions of the top measured speed
@@ -116,11 +119,13 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
     // pedestal's local minimum under its own bearing can misfit more than
     // one under another bearing.
     if best.as_ref().is_some_and(|b| !ctx.at_noise(&b.0)) {
+        let thin = Thinned::new(ctx);
+        let screen = thin.data(ctx);
         for (bearing, m, _) in &singles {
             let Some(f) = &per_bearing[*bearing] else {
                 continue;
             };
-            if let Some(g) = frequencies_apart(ctx, m, f) {
+            if let Some(g) = frequencies_apart(ctx, screen.as_ref().unwrap_or(ctx.data), m, f) {
                 if best.as_ref().is_none_or(|b| g.s < b.0.s) {
                     best = Some((g, m.clone(), *bearing));
                 }
@@ -270,16 +275,59 @@ const APART: [f64; 4] = [0.8, 0.9, 1.12, 1.25];
 /// run off: [`frequencies_apart`] restarts it from the other axis'.
 const RUN_OFF: f64 = 2.0;
 
+/// The screening of [`frequencies_apart`] uses every `SCREEN_EVERY`-th
+/// speed.
+const SCREEN_EVERY: usize = 3;
+
+/// Every [`SCREEN_EVERY`]-th sample of the context, with its node
+/// probes' readings and its terms: what [`FitData::rows`] borrows.
+struct Thinned {
+    keep: Vec<usize>,
+    samples: Vec<Sample>,
+    node_q: Vec<Vec<Complex64>>,
+    terms: Vec<SpeedTerms>,
+}
+
+impl Thinned {
+    fn new(ctx: &Context<'_>) -> Self {
+        let keep: Vec<usize> = (0..ctx.samples.len()).step_by(SCREEN_EVERY).collect();
+        Thinned {
+            samples: keep.iter().map(|&k| ctx.samples[k].clone()).collect(),
+            node_q: if ctx.node_q.is_empty() {
+                Vec::new()
+            } else {
+                keep.iter().map(|&k| ctx.node_q[k].clone()).collect()
+            },
+            terms: keep.iter().map(|&k| ctx.terms[k].clone()).collect(),
+            keep,
+        }
+    }
+
+    /// The context's data at these samples, their weights as they are.
+    fn data(&self, ctx: &Context<'_>) -> Option<FitData<'_>> {
+        ctx.data
+            .rows(&self.keep, &self.samples, &self.node_q, &self.terms)
+    }
+}
+
 /// The pedestal fit `f` of `m` restarted with its natural frequency in y,
 /// then in z, times each of [`APART`] (the other kept), from both
 /// nominal starts of the search (the nominal estimate and the model's
-/// values): the restarts screened by three iterations side by side, the
-/// two best fitted in full, the better returned.
+/// values): the restarts screened by three iterations side by side on
+/// `screen` (every [`SCREEN_EVERY`]-th speed of the context's data: the
+/// ranking needs the shape of the misfit, not its last digit), the two
+/// best fitted in full on every speed from where their screening ended,
+/// the better returned.
 /// A pedestal's y and z frequencies differ on a machine (its stiffness is
 /// seldom the same both ways); the starts of the search have them equal,
 /// and its fits can stop where one frequency sits on a resonance that
 /// belongs to the other. `None` when no restart could be fitted.
-fn frequencies_apart(ctx: &Context<'_>, m: &ExtendedModel, f: &Fit) -> Option<Fit> {
+fn frequencies_apart(
+    ctx: &Context<'_>,
+    screen: &FitData<'_>,
+    m: &ExtendedModel,
+    f: &Fit,
+) -> Option<Fit> {
     let o = ctx.base.n_params();
     let jobs: Vec<(usize, usize, f64)> = (0..2)
         .flat_map(|list| (0..2).flat_map(move |axis| APART.iter().map(move |&k| (list, axis, k))))
@@ -299,7 +347,7 @@ fn frequencies_apart(ctx: &Context<'_>, m: &ExtendedModel, f: &Fit) -> Option<Fi
             t[i] = t[other];
         }
         t[i] += k.ln();
-        fit::fit_with(m, ctx.data, &t, 3, false).ok()
+        fit::fit_with(m, screen, &t, 3, false).ok()
     });
     let mut screened: Vec<Fit> = screened.into_iter().flatten().collect();
     screened.sort_by(|a, b| a.s.total_cmp(&b.s));
