@@ -583,6 +583,26 @@ mod tests {
     use crate::tables::auto_scaling;
     use rotorid_core::parametrization::Structure;
 
+    /// The extended model of `m` (bearings of physical order 1) with `ext`.
+    fn paper_model(m: &RotorModel, ext: Vec<Extension>) -> ExtendedModel {
+        let param = Parametrization {
+            structure: Structure::physical(1),
+            scaling: auto_scaling(m, 1500.0),
+            bearing_nodes: m.bearing_nodes(),
+            plane_nodes: m.planes.clone(),
+        };
+        ExtendedModel {
+            pr: Predictor::new(param),
+            ext,
+            scales: Scales {
+                q: 1e-5,
+                mass: 50.0,
+                omega: 1000.0,
+            },
+            relative_probes: true,
+        }
+    }
+
     /// On noise-free data made by the model itself, the fit from a start
     /// 20 % off returns the parameters and a zero residual; the covariance
     /// equals a dense inverse of the Gauss-Newton matrix; a few columns of
@@ -592,22 +612,7 @@ mod tests {
         let m = RotorModel::paper();
         let omegas: Vec<f64> = (1..=60).map(|i| 25.0 * i as f64).collect();
         let terms = build(&m, &omegas, 1.0, false).unwrap();
-        let param = Parametrization {
-            structure: Structure::physical(1),
-            scaling: auto_scaling(&m, 1500.0),
-            bearing_nodes: m.bearing_nodes(),
-            plane_nodes: m.planes.clone(),
-        };
-        let x = ExtendedModel {
-            pr: Predictor::new(param),
-            ext: vec![Extension::Runout, Extension::Plane { node: 16 }],
-            scales: Scales {
-                q: 1e-5,
-                mass: 50.0,
-                omega: 1000.0,
-            },
-            relative_probes: true,
-        };
+        let x = paper_model(&m, vec![Extension::Runout, Extension::Plane { node: 16 }]);
         let p = x.n_params();
         let truth: Vec<f64> = (0..p)
             .map(|i| 1.0 + 0.5 * ((i * 7 % 5) as f64 - 2.0) / 2.0)
@@ -649,22 +654,7 @@ mod tests {
         let m = RotorModel::paper();
         let omegas: Vec<f64> = (1..=30).map(|i| 50.0 * i as f64).collect();
         let terms = build(&m, &omegas, 1.0, false).unwrap();
-        let param = Parametrization {
-            structure: Structure::physical(1),
-            scaling: auto_scaling(&m, 1500.0),
-            bearing_nodes: m.bearing_nodes(),
-            plane_nodes: m.planes.clone(),
-        };
-        let x = ExtendedModel {
-            pr: Predictor::new(param),
-            ext: vec![],
-            scales: Scales {
-                q: 1e-5,
-                mass: 50.0,
-                omega: 1000.0,
-            },
-            relative_probes: true,
-        };
+        let x = paper_model(&m, vec![]);
         let theta: Vec<f64> = (0..x.n_params()).map(|i| 1.0 + 0.01 * i as f64).collect();
         let samples: Vec<Sample> = terms
             .iter()
