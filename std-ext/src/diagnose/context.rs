@@ -56,7 +56,37 @@ pub(crate) struct Context<'a> {
     pub theta_model: Vec<f64>,
 }
 
+/// Every `n`-th sample of a context ([`Context::thinned`]): a screening's
+/// samples, which ranks starts on the shape of the misfit, not its last
+/// digit.
+pub(crate) struct Thinned {
+    /// The samples kept (indices into the context's).
+    pub keep: Vec<usize>,
+    /// Their speeds (rad/s).
+    pub omegas: Vec<f64>,
+    /// The samples.
+    pub samples: Vec<Sample>,
+    /// Their node probes' readings (empty: none).
+    pub node_q: Vec<Vec<Complex64>>,
+}
+
 impl Context<'_> {
+    /// Every `n`-th sample (from the first), with its speed and node
+    /// probes' readings.
+    pub(crate) fn thinned(&self, n: usize) -> Thinned {
+        let keep: Vec<usize> = (0..self.samples.len()).step_by(n.max(1)).collect();
+        Thinned {
+            omegas: keep.iter().map(|&k| self.omegas[k]).collect(),
+            samples: keep.iter().map(|&k| self.samples[k].clone()).collect(),
+            node_q: if self.node_q.is_empty() {
+                Vec::new()
+            } else {
+                keep.iter().map(|&k| self.node_q[k].clone()).collect()
+            },
+            keep,
+        }
+    }
+
     /// The terms of the context's model at its speeds with the stiffness
     /// form's change `change` ([`terms::build_form_columns`]).
     pub(crate) fn form_terms(

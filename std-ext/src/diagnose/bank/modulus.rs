@@ -21,10 +21,8 @@
 //! flexibility as the global factor does ([`section_step`]) and twice it,
 //! the better of the two counting, and the best two are fitted.
 
-use num_complex::Complex64;
-
 use crate::diagnose::candidate::{Candidate, FormFit};
-use crate::diagnose::context::Context;
+use crate::diagnose::context::{Context, Thinned};
 use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::{ExtendedModel, Extension, E_STEP};
 use crate::diagnose::fit::{self, Fit, FitData};
@@ -32,7 +30,6 @@ use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::nominal::oe_start;
 use crate::diagnose::parallel;
 use crate::diagnose::terms::{self, Columns, FormChange, SpeedTerms, StiffnessForm};
-use crate::io::measurement::Sample;
 use crate::model::RotorModel;
 
 /// Terms built at several factors: `(f, terms at f)`.
@@ -295,23 +292,14 @@ fn rank_sections(
 /// speed: the ranking needs the shape of the misfit, not its last digit.
 struct Screen<'c, 'a> {
     ctx: &'c Context<'a>,
-    omegas: Vec<f64>,
-    samples: Vec<Sample>,
-    node_q: Vec<Vec<Complex64>>,
+    thin: Thinned,
 }
 
 impl<'c, 'a> Screen<'c, 'a> {
     fn new(ctx: &'c Context<'a>) -> Self {
-        let keep: Vec<usize> = (0..ctx.samples.len()).step_by(SCREEN_EVERY).collect();
         Screen {
             ctx,
-            omegas: keep.iter().map(|&i| ctx.omegas[i]).collect(),
-            samples: keep.iter().map(|&i| ctx.samples[i].clone()).collect(),
-            node_q: if ctx.node_q.is_empty() {
-                Vec::new()
-            } else {
-                keep.iter().map(|&i| ctx.node_q[i].clone()).collect()
-            },
+            thin: ctx.thinned(SCREEN_EVERY),
         }
     }
 
@@ -332,7 +320,7 @@ impl<'c, 'a> Screen<'c, 'a> {
         let at = terms::build_form_columns(
             ctx.builder,
             ctx.model,
-            &self.omegas,
+            &self.thin.omegas,
             change,
             ctx.probe_nodes,
             Columns::Planes,
@@ -340,14 +328,14 @@ impl<'c, 'a> Screen<'c, 'a> {
         .ok()?;
         let (_, mut theta, _) = oe_start(
             ctx.model,
-            &self.samples,
+            &self.thin.samples,
             &at,
             setup.structure,
             setup.scaling,
             setup.held_noise(),
         )
         .ok()?;
-        let d = FitData::with_probes(&self.samples, &self.node_q, &at)
+        let d = FitData::with_probes(&self.thin.samples, &self.thin.node_q, &at)
             .with_floors(&setup.phi)
             .with_noise_level(setup.noise_level);
         let en = fit::entries(ctx.base, &d);

@@ -20,8 +20,6 @@ use crate::diagnose::parallel;
 use crate::diagnose::stats::bic;
 use crate::diagnose::terms::SpeedTerms;
 use crate::estimate::predictor::Entry;
-use crate::io::measurement::Sample;
-use num_complex::Complex64;
 
 /// Natural frequencies of the pedestal search's profile (in y and in z)
 /// and of the pairs' starts, as fractions of the top measured speed
@@ -119,8 +117,11 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
     // pedestal's local minimum under its own bearing can misfit more than
     // one under another bearing.
     if best.as_ref().is_some_and(|b| !ctx.at_noise(&b.0)) {
-        let thin = Thinned::new(ctx);
-        let screen = thin.data(ctx);
+        let thin = ctx.thinned(SCREEN_EVERY);
+        let terms: Vec<SpeedTerms> = thin.keep.iter().map(|&k| ctx.terms[k].clone()).collect();
+        let screen = ctx
+            .data
+            .rows(&thin.keep, &thin.samples, &thin.node_q, &terms);
         for (bearing, m, _) in &singles {
             let Some(f) = &per_bearing[*bearing] else {
                 continue;
@@ -278,37 +279,6 @@ const RUN_OFF: f64 = 2.0;
 /// The screening of [`frequencies_apart`] uses every `SCREEN_EVERY`-th
 /// speed.
 const SCREEN_EVERY: usize = 3;
-
-/// Every [`SCREEN_EVERY`]-th sample of the context, with its node
-/// probes' readings and its terms: what [`FitData::rows`] borrows.
-struct Thinned {
-    keep: Vec<usize>,
-    samples: Vec<Sample>,
-    node_q: Vec<Vec<Complex64>>,
-    terms: Vec<SpeedTerms>,
-}
-
-impl Thinned {
-    fn new(ctx: &Context<'_>) -> Self {
-        let keep: Vec<usize> = (0..ctx.samples.len()).step_by(SCREEN_EVERY).collect();
-        Thinned {
-            samples: keep.iter().map(|&k| ctx.samples[k].clone()).collect(),
-            node_q: if ctx.node_q.is_empty() {
-                Vec::new()
-            } else {
-                keep.iter().map(|&k| ctx.node_q[k].clone()).collect()
-            },
-            terms: keep.iter().map(|&k| ctx.terms[k].clone()).collect(),
-            keep,
-        }
-    }
-
-    /// The context's data at these samples, their weights as they are.
-    fn data(&self, ctx: &Context<'_>) -> Option<FitData<'_>> {
-        ctx.data
-            .rows(&self.keep, &self.samples, &self.node_q, &self.terms)
-    }
-}
 
 /// The pedestal fit `f` of `m` restarted with its natural frequency in y,
 /// then in z, times each of [`APART`] (the other kept), from both
