@@ -56,9 +56,13 @@ pub(crate) struct Context<'a> {
     pub theta_model: Vec<f64>,
 }
 
-/// Every `n`-th sample of a context ([`Context::thinned`]): a screening's
-/// samples, which ranks starts on the shape of the misfit, not its last
-/// digit.
+/// The screenings (the stiffness sections', the pedestal restarts') run on
+/// every `SCREEN_EVERY`-th speed ([`Context::thinned`]): they rank starts
+/// on the shape of the misfit, not its last digit.
+pub(crate) const SCREEN_EVERY: usize = 3;
+
+/// Every [`SCREEN_EVERY`]-th sample of a context ([`Context::thinned`]):
+/// a screening's samples.
 pub(crate) struct Thinned {
     /// The samples kept (indices into the context's).
     pub keep: Vec<usize>,
@@ -71,10 +75,10 @@ pub(crate) struct Thinned {
 }
 
 impl Context<'_> {
-    /// Every `n`-th sample (from the first), with its speed and node
-    /// probes' readings.
-    pub(crate) fn thinned(&self, n: usize) -> Thinned {
-        let keep: Vec<usize> = (0..self.samples.len()).step_by(n.max(1)).collect();
+    /// Every [`SCREEN_EVERY`]-th sample (from the first), with its speed
+    /// and node probes' readings.
+    pub(crate) fn thinned(&self) -> Thinned {
+        let keep: Vec<usize> = (0..self.samples.len()).step_by(SCREEN_EVERY).collect();
         Thinned {
             omegas: keep.iter().map(|&k| self.omegas[k]).collect(),
             samples: keep.iter().map(|&k| self.samples[k].clone()).collect(),

@@ -177,9 +177,6 @@ pub(crate) fn shaft_stiffness_error(ctx: &Context<'_>) -> Result<ModulusFit, Dia
     Ok(out)
 }
 
-/// The screening of the sections uses every `SCREEN_EVERY`-th speed.
-const SCREEN_EVERY: usize = 3;
-
 /// How many sections, the best of the screening, are fitted.
 const SECTIONS_FITTED: usize = 2;
 
@@ -248,7 +245,7 @@ type SectionStart = (StiffnessForm, f64, Vec<f64>, Vec<SpeedTerms>);
 /// [`section_steps`]' two factors for the global factor `global` (by the
 /// filter and the output-error fit, as `starts` does: the bearings of the
 /// nominal estimate have absorbed part of the effect, so a step from it in
-/// the factor alone says little), on every [`SCREEN_EVERY`]-th speed; each
+/// the factor alone says little), on every [`SCREEN_EVERY`](crate::diagnose::context::SCREEN_EVERY)-th speed; each
 /// with that start and its terms at every speed. Sections whose terms
 /// cannot be built (a diameter at or below the bore) are left out.
 fn rank_sections(
@@ -288,7 +285,7 @@ fn rank_sections(
     Ok(out)
 }
 
-/// The screening of a section's diameter on every [`SCREEN_EVERY`]-th
+/// The screening of a section's diameter on every [`SCREEN_EVERY`](crate::diagnose::context::SCREEN_EVERY)-th
 /// speed: the ranking needs the shape of the misfit, not its last digit.
 struct Screen<'c, 'a> {
     ctx: &'c Context<'a>,
@@ -299,7 +296,7 @@ impl<'c, 'a> Screen<'c, 'a> {
     fn new(ctx: &'c Context<'a>) -> Self {
         Screen {
             ctx,
-            thin: ctx.thinned(SCREEN_EVERY),
+            thin: ctx.thinned(),
         }
     }
 

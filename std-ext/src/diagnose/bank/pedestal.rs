@@ -117,7 +117,7 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
     // pedestal's local minimum under its own bearing can misfit more than
     // one under another bearing.
     if best.as_ref().is_some_and(|b| !ctx.at_noise(&b.0)) {
-        let thin = ctx.thinned(SCREEN_EVERY);
+        let thin = ctx.thinned();
         let terms: Vec<SpeedTerms> = thin.keep.iter().map(|&k| ctx.terms[k].clone()).collect();
         let screen = ctx
             .data
@@ -276,15 +276,11 @@ const APART: [f64; 4] = [0.8, 0.9, 1.12, 1.25];
 /// run off: [`frequencies_apart`] restarts it from the other axis'.
 const RUN_OFF: f64 = 2.0;
 
-/// The screening of [`frequencies_apart`] uses every `SCREEN_EVERY`-th
-/// speed.
-const SCREEN_EVERY: usize = 3;
-
 /// The pedestal fit `f` of `m` restarted with its natural frequency in y,
 /// then in z, times each of [`APART`] (the other kept), from both
 /// nominal starts of the search (the nominal estimate and the model's
 /// values): the restarts screened by three iterations side by side on
-/// `screen` (every [`SCREEN_EVERY`]-th speed of the context's data: the
+/// `screen` (every [`SCREEN_EVERY`](crate::diagnose::context::SCREEN_EVERY)-th speed of the context's data: the
 /// ranking needs the shape of the misfit, not its last digit), the two
 /// best fitted in full on every speed from where their screening ended,
 /// the better returned.
