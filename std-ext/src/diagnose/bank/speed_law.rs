@@ -27,13 +27,17 @@ use crate::estimate::Parametrization;
 use rotorid_core::parametrization::{Structure, MAX_ORDER};
 
 /// The best fit of the bearing laws of `physical` orders `order + 1` and
-/// `order + 2` (up to `MAX_ORDER`, where the equations leave room), each
-/// the better of two starts (the nominal estimate with higher orders zero;
-/// the law of that order identified directly); chosen by
-/// `n ln(S / n) + P ln n`. `None` when none fits.
+/// `order + 2` (up to `MAX_ORDER`, where the equations leave room): the
+/// first the better of two starts ([`first_order_fit`]), the second from
+/// the first's fit with its new coefficients zero (the laws are nested, so
+/// it starts where the lower order ended and can only fit better; a second
+/// start would cost a filter and a fit with the most parameters of the
+/// bank); chosen by BIC. `None` when none fits.
 pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
-    let (pr, theta0, n_real) = (&ctx.setup.pr, &ctx.theta0, ctx.setup.n_real);
+    let (pr, n_real) = (&ctx.setup.pr, ctx.setup.n_real);
     let mut best: Option<(Fit, ExtendedModel, usize)> = None;
+    // The fit of the order below, as the start of the next (nested laws).
+    let mut lower: Option<(Fit, Predictor)> = None;
     let mut alt = 0;
     for order in ctx.opts.order + 1..=(ctx.opts.order + 2).min(MAX_ORDER) {
         let param = Parametrization {
@@ -45,34 +49,21 @@ pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
             continue;
         }
         alt += 1;
-        let t = map_theta(pr, theta0, &prn);
         let m = ExtendedModel {
-            pr: prn,
+            pr: prn.clone(),
             ..ctx.base.clone()
         };
-        let mut f_order = fit::fit(&m, ctx.data, &t, 50).ok();
-        // Second start: the law of this order identified directly (filter,
-        // then output-error fit). Its equations are linear in the law's
-        // coefficients, so the filter needs no start, while the nominal
-        // constants can lie far from a law that varies strongly.
-        let setup = ctx.setup;
-        if let Ok((_, t2, _)) = oe_start(
-            ctx.model,
-            ctx.samples,
-            ctx.terms,
-            Structure::physical(order),
-            setup.scaling,
-            setup.held_noise(),
-        ) {
-            if t2.len() == m.n_params() {
-                if let Ok(f2) = fit::fit(&m, ctx.data, &t2, 50) {
-                    if f_order.as_ref().is_none_or(|b| f2.s < b.s) {
-                        f_order = Some(f2);
-                    }
-                }
+        let f_order = match lower.take() {
+            // The law one order higher contains the one below: from its
+            // fit, the new coefficients zero, `S` can only fall.
+            Some((f_low, pr_low)) => {
+                let t = map_theta(&pr_low, &f_low.theta, &prn);
+                fit::fit(&m, ctx.data, &t, 50).ok()
             }
-        }
+            None => first_order_fit(ctx, &m, order),
+        };
         if let Some(f) = f_order {
+            lower = Some((f.clone(), prn));
             if best
                 .as_ref()
                 .is_none_or(|b| bic(&f, n_real) < bic(&b.0, n_real))
@@ -116,4 +107,33 @@ pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
         1.0,
         alt,
     ))
+}
+
+/// The fit of the bearing law of `physical` order `order` (the model `m`),
+/// the better of two starts: the nominal estimate with the higher orders
+/// zero, and the law identified directly (filter, then output-error fit).
+/// Its equations are linear in the law's coefficients, so the filter needs
+/// no start, while the nominal constants can lie far from a law that
+/// varies strongly.
+fn first_order_fit(ctx: &Context<'_>, m: &ExtendedModel, order: usize) -> Option<Fit> {
+    let setup = ctx.setup;
+    let t = map_theta(&setup.pr, &ctx.theta0, &m.pr);
+    let mut best = fit::fit(m, ctx.data, &t, 50).ok();
+    if let Ok((_, t2, _)) = oe_start(
+        ctx.model,
+        ctx.samples,
+        ctx.terms,
+        Structure::physical(order),
+        setup.scaling,
+        setup.held_noise(),
+    ) {
+        if t2.len() == m.n_params() {
+            if let Ok(f2) = fit::fit(m, ctx.data, &t2, 50) {
+                if best.as_ref().is_none_or(|b| f2.s < b.s) {
+                    best = Some(f2);
+                }
+            }
+        }
+    }
+    best
 }
