@@ -12,7 +12,6 @@ use crate::diagnose::extended::{ExtendedModel, Extension};
 use crate::diagnose::fit::{self, Fit, FitData};
 use crate::diagnose::input::DiagnoseError;
 use crate::diagnose::stats::bic;
-use crate::diagnose::terms::SpeedTerms;
 use crate::fe::assembly::{Dir, FeModel};
 use crate::model::{BowPoint, RotorModel, ShaftBow};
 
@@ -148,12 +147,8 @@ const KNOT_ROUNDS: usize = 2;
 /// first on top of that fit (started from it). The best of them then has
 /// each node in turn exchanged for the one `screen` ranks first with the
 /// other node's fit held ([`KNOT_ROUNDS`] rounds, while the fit improves).
-/// The search (screens and fits) runs on every
-/// [`SCREEN_EVERY`](crate::diagnose::context::SCREEN_EVERY)-th speed, the
-/// rows with the whole data's weights ([`FitData::rows`]): it ranks pairs
-/// on the shape of the misfit. Its best pair is then fitted on every speed
-/// from where the search left it. The best fit with its model and label,
-/// and the number of pairs there are (the alternatives of the test).
+/// The best fit with its model and label, and the number of pairs there
+/// are (the alternatives of the test).
 fn two_nodes(
     ctx: &Context<'_>,
     families: &[Vec<Extension>],
@@ -162,14 +157,6 @@ fn two_nodes(
     let mut best: Option<(Fit, [Extension; 2])> = None;
     let mut tried = 0;
     let nom = ctx.base.n_params();
-    // The search runs on every `SCREEN_EVERY`-th speed (the rows with the
-    // whole data's weights); its best pair is fitted on every speed.
-    let thin = ctx.thinned();
-    let thin_terms: Vec<SpeedTerms> = thin.keep.iter().map(|&k| ctx.terms[k].clone()).collect();
-    let rows = ctx
-        .data
-        .rows(&thin.keep, &thin.samples, &thin.node_q, &thin_terms);
-    let data = rows.as_ref().unwrap_or(ctx.data);
     let apart = |a: Extension, b: Extension| node_of(a).abs_diff(node_of(b)) >= MIN_KNOT_GAP;
     for (exts, fb) in families.iter().zip(family_best) {
         let pairs: Vec<Vec<usize>> = (0..exts.len())
@@ -180,13 +167,13 @@ fn two_nodes(
         // (one knot, its parameters' start, the other knot; the start of
         // the nominal parameters).
         let mut starts: Vec<(Extension, [f64; 2], Extension, Vec<f64>)> = Vec::new();
-        let ranked = screen_groups(ctx.base, data, &ctx.theta0, exts, &pairs)?;
+        let ranked = screen_groups(ctx.base, ctx.data, &ctx.theta0, exts, &pairs)?;
         if let Some(&i) = ranked.first() {
             let (a, b) = (exts[pairs[i][0]], exts[pairs[i][1]]);
             starts.push((a, [0.0; 2], b, ctx.theta0.clone()));
         }
         if let Some((fa, a)) = fb {
-            for b in second_knots(ctx, data, exts, *a, &fa.theta, 2)? {
+            for b in second_knots(ctx, exts, *a, &fa.theta, 2)? {
                 starts.push((
                     *a,
                     [fa.theta[nom], fa.theta[nom + 1]],
@@ -197,7 +184,7 @@ fn two_nodes(
         }
         let mut family: Option<(Fit, [Extension; 2])> = None;
         for (a, pa, b, theta_nom) in starts {
-            if let Some(f) = fit_pair(ctx, data, a, pa, b, &theta_nom) {
+            if let Some(f) = fit_pair(ctx, a, pa, b, &theta_nom) {
                 if family.as_ref().is_none_or(|x| f.0.s < x.0.s) {
                     family = Some(f);
                 }
@@ -214,14 +201,14 @@ fn two_nodes(
                 let o = nom + 2 * keep;
                 let mut t_held = f.theta[..nom].to_vec();
                 t_held.extend_from_slice(&f.theta[o..o + 2]);
-                let Some(b) = second_knots(ctx, data, exts, held, &t_held, 1)?
+                let Some(b) = second_knots(ctx, exts, held, &t_held, 1)?
                     .into_iter()
                     .find(|b| *b != pair[1 - keep])
                 else {
                     continue;
                 };
                 let held_start = [f.theta[o], f.theta[o + 1]];
-                if let Some(g) = fit_pair(ctx, data, held, held_start, b, &f.theta[..nom]) {
+                if let Some(g) = fit_pair(ctx, held, held_start, b, &f.theta[..nom]) {
                     if g.0.s < f.s {
                         family = Some(g);
                     }
@@ -237,21 +224,23 @@ fn two_nodes(
             }
         }
     }
-    // The best pair on every speed, from where the search left it.
-    let best = best.and_then(|(f, pair)| {
-        let m = ctx.with_ext(pair.to_vec());
-        let f = fit::fit(&m, ctx.data, &f.theta, 50).ok()?;
-        Some((f, m, two_knot_label(pair[0], pair[1])))
-    });
-    Ok((best, tried))
+    Ok((
+        best.map(|(f, pair)| {
+            (
+                f,
+                ctx.with_ext(pair.to_vec()),
+                two_knot_label(pair[0], pair[1]),
+            )
+        }),
+        tried,
+    ))
 }
 
 /// The `n` second knots of `exts` (at least [`MIN_KNOT_GAP`] from `a`)
-/// that [`screen`] ranks first on `data` on top of the one-knot bow `a`
-/// at the estimate `theta` (nominal parameters, then `a`'s two).
+/// that [`screen`] ranks first on top of the one-knot bow `a` at the
+/// estimate `theta` (nominal parameters, then `a`'s two).
 fn second_knots(
     ctx: &Context<'_>,
-    data: &FitData<'_>,
     exts: &[Extension],
     a: Extension,
     theta: &[f64],
@@ -263,16 +252,14 @@ fn second_knots(
         .filter(|&e| node_of(e).abs_diff(node_of(a)) >= MIN_KNOT_GAP)
         .collect();
     let on_a = ctx.with_ext(vec![a]);
-    let ranked = screen(&on_a, data, theta, &others)?;
+    let ranked = screen(&on_a, ctx.data, theta, &others)?;
     Ok(ranked.into_iter().take(n).map(|i| others[i]).collect())
 }
 
-/// The fit on `data` of the bow with knots `a` and `b` from the nominal
-/// parameters `theta_nom`, `a`'s at `pa` and `b`'s at zero; the knots in
-/// node order.
+/// The fit of the bow with knots `a` and `b` from the nominal parameters
+/// `theta_nom`, `a`'s at `pa` and `b`'s at zero; the knots in node order.
 fn fit_pair(
     ctx: &Context<'_>,
-    data: &FitData<'_>,
     a: Extension,
     pa: [f64; 2],
     b: Extension,
@@ -289,7 +276,7 @@ fn fit_pair(
     }
     let mut t = theta_nom.get(..ctx.base.n_params())?.to_vec();
     t.extend_from_slice(&t_ext);
-    fit::fit(&m, data, &t, 50).ok().map(|f| (f, pair))
+    fit::fit(&m, ctx.data, &t, 50).ok().map(|f| (f, pair))
 }
 
 /// The node of a node extension (0 for others).
