@@ -28,7 +28,7 @@ use rotorid_core::parametrization::{Structure, MAX_ORDER};
 
 /// The best fit of the bearing laws of `physical` orders `order + 1` and
 /// `order + 2` (up to `MAX_ORDER`, where the equations leave room): the
-/// first the better of two starts ([`first_order_fit`]), the second from
+/// first the better of two starts ([`fit_from_two_starts`]), the second from
 /// the first's fit with its new coefficients zero (the laws are nested, so
 /// it starts where the lower order ended and can only fit better; a second
 /// start would cost a filter and a fit with the most parameters of the
@@ -36,8 +36,9 @@ use rotorid_core::parametrization::{Structure, MAX_ORDER};
 pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
     let (pr, n_real) = (&ctx.setup.pr, ctx.setup.n_real);
     let mut best: Option<(Fit, ExtendedModel, usize)> = None;
-    // The fit of the order below, as the start of the next (nested laws).
-    let mut lower: Option<(Fit, Predictor)> = None;
+    // The estimate of the order below and its predictor, as the start of
+    // the next (nested laws).
+    let mut lower: Option<(Vec<f64>, Predictor)> = None;
     let mut alt = 0;
     for order in ctx.opts.order + 1..=(ctx.opts.order + 2).min(MAX_ORDER) {
         let param = Parametrization {
@@ -56,14 +57,14 @@ pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
         let f_order = match lower.take() {
             // The law one order higher contains the one below: from its
             // fit, the new coefficients zero, `S` can only fall.
-            Some((f_low, pr_low)) => {
-                let t = map_theta(&pr_low, &f_low.theta, &prn);
+            Some((theta_low, pr_low)) => {
+                let t = map_theta(&pr_low, &theta_low, &prn);
                 fit::fit(&m, ctx.data, &t, 50).ok()
             }
-            None => first_order_fit(ctx, &m, order),
+            None => fit_from_two_starts(ctx, &m, order),
         };
         if let Some(f) = f_order {
-            lower = Some((f.clone(), prn));
+            lower = Some((f.theta.clone(), prn));
             if best
                 .as_ref()
                 .is_none_or(|b| bic(&f, n_real) < bic(&b.0, n_real))
@@ -115,7 +116,7 @@ pub(crate) fn speed_dependent_bearing(ctx: &Context<'_>) -> Option<Candidate> {
 /// Its equations are linear in the law's coefficients, so the filter needs
 /// no start, while the nominal constants can lie far from a law that
 /// varies strongly.
-fn first_order_fit(ctx: &Context<'_>, m: &ExtendedModel, order: usize) -> Option<Fit> {
+fn fit_from_two_starts(ctx: &Context<'_>, m: &ExtendedModel, order: usize) -> Option<Fit> {
     let setup = ctx.setup;
     let t = map_theta(&setup.pr, &ctx.theta0, &m.pr);
     let mut best = fit::fit(m, ctx.data, &t, 50).ok();
