@@ -14,8 +14,14 @@
 //! (the longest case on every rotor), beside the nominal output-error
 //! identification of the same data.
 //!
+//! Last, the fits' Gram matrix `J^T J` ([`rotorid::diagnose::fit::gram`],
+//! its upper triangle by column blocks) beside the whole product `J^T J`
+//! it replaced, at the sizes of the three-bearing rotor's fits (300
+//! speeds, 6 channels: 3600 real rows; 30 and 78 parameters).
+//!
 //! `cargo bench --bench diagnose -- --warm-up-time 1 --measurement-time 20`
-//! (the other rotors alone: add the filter `rotor_`)
+//! (the other rotors alone: add the filter `rotor_`; the Gram matrix alone:
+//! `gram`)
 
 use criterion::measurement::WallTime;
 use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
@@ -108,6 +114,36 @@ fn bench(c: &mut Criterion) {
     g.bench_function("terms_all_nodes", |b| {
         b.iter(|| black_box(terms::build(&model, &omegas, 1.0, false).expect("terms")))
     });
+    g.finish();
+    gram(c);
+}
+
+/// [`rotorid::diagnose::fit::gram`] against the whole product `J^T J`
+/// (mirrored, as it was formed before), the same numbers bit for bit.
+fn gram(c: &mut Criterion) {
+    let mut g = c.benchmark_group("gram");
+    for (m, p) in [(3600, 30), (3600, 78)] {
+        let mut x = 0.61_f64;
+        let j = nalgebra::DMatrix::from_fn(m, p, |_, _| {
+            x = (x * 997.0 + 0.377).fract();
+            x - 0.5
+        });
+        g.bench_function(format!("gram_{m}x{p}"), |b| {
+            b.iter(|| black_box(rotorid::diagnose::fit::gram(black_box(&j))))
+        });
+        g.bench_function(format!("gram_{m}x{p}_whole_product"), |b| {
+            b.iter(|| {
+                let j = black_box(&j);
+                let mut w = j.transpose() * j;
+                for a in 0..p {
+                    for b in a + 1..p {
+                        w[(b, a)] = w[(a, b)];
+                    }
+                }
+                black_box(w)
+            })
+        });
+    }
     g.finish();
 }
 
