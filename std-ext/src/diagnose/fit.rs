@@ -439,31 +439,32 @@ fn jacobian_columns(
 /// at about `(1 + b/p)/2` of its work (`b` the block width).
 pub fn gram(j: &DMatrix<f64>) -> DMatrix<f64> {
     let (m, p) = j.shape();
-    if m <= GRAM_SMALL || p <= GRAM_SMALL {
+    let mut g = if m <= GRAM_SMALL || p <= GRAM_SMALL {
         // nalgebra's own loops, not the kernel, below its threshold.
-        let mut g = j.transpose() * j;
-        for a in 0..p {
-            for b in a + 1..p {
-                g[(b, a)] = g[(a, b)];
+        j.transpose() * j
+    } else {
+        let jt = nalgebra::DMatrixView::from_slice_with_strides(j.as_slice(), p, m, m, 1);
+        let mut g = DMatrix::zeros(p, p);
+        // Blocks wider than nalgebra's small-size threshold (5), so that
+        // every product goes to the same kernel as the whole one would; a
+        // narrow last block joins the one before it.
+        let mut b0 = 0;
+        while b0 < p {
+            let mut b1 = (b0 + GRAM_BLOCK).min(p);
+            if p - b1 < GRAM_BLOCK {
+                b1 = p;
             }
+            g.view_mut((0, b0), (b1, b1 - b0)).gemm(
+                1.0,
+                &jt.rows(0, b1),
+                &j.columns(b0, b1 - b0),
+                0.0,
+            );
+            b0 = b1;
         }
-        return g;
-    }
-    let jt = nalgebra::DMatrixView::from_slice_with_strides(j.as_slice(), p, m, m, 1);
-    let mut g = DMatrix::zeros(p, p);
-    // Blocks wider than nalgebra's small-size threshold (5), so that
-    // every product goes to the same kernel as the whole one would; a
-    // narrow last block joins the one before it.
-    let mut b0 = 0;
-    while b0 < p {
-        let mut b1 = (b0 + GRAM_BLOCK).min(p);
-        if p - b1 < GRAM_BLOCK {
-            b1 = p;
-        }
-        g.view_mut((0, b0), (b1, b1 - b0))
-            .gemm(1.0, &jt.rows(0, b1), &j.columns(b0, b1 - b0), 0.0);
-        b0 = b1;
-    }
+        g
+    };
+    // The lower triangle from the upper.
     for a in 0..p {
         for b in a + 1..p {
             g[(b, a)] = g[(a, b)];
