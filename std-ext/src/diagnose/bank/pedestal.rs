@@ -71,20 +71,6 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
         singles.push((bearing, m, ratios));
     }
     let mut per_bearing: Vec<Option<Fit>> = vec![None; ctx.model.bearings.len()];
-    let mut keep = |f: Fit, m: &ExtendedModel, bearing: usize, best: &mut Option<_>| {
-        if per_bearing[bearing]
-            .as_ref()
-            .is_none_or(|b: &Fit| f.s < b.s)
-        {
-            per_bearing[bearing] = Some(f.clone());
-        }
-        if best
-            .as_ref()
-            .is_none_or(|b: &(Fit, ExtendedModel, usize)| f.s < b.0.s)
-        {
-            *best = Some((f, m.clone(), bearing));
-        }
-    };
     // The starts of each bearing's misfit profile over the y and z
     // frequencies (`profile`), fitted in full until one fits to the noise.
     let profiled = parallel::map(&singles, ctx.threads(), |(_, m, ratios)| {
@@ -108,8 +94,15 @@ pub(crate) fn foundation_flexibility(ctx: &Context<'_>) -> Option<Candidate> {
         let Some((_, m, _)) = singles.iter().find(|s| s.0 == bearing) else {
             continue;
         };
-        if let Ok(f) = fit::fit(m, data, &t, 60) {
-            keep(f, m, bearing, &mut best);
+        // A second start that reaches the first one's minimum ends there.
+        let known: Vec<&Fit> = per_bearing[bearing].iter().collect();
+        if let Ok(f) = fit::fit_known(m, data, &t, 60, &known) {
+            if per_bearing[bearing].as_ref().is_none_or(|b| f.s < b.s) {
+                per_bearing[bearing] = Some(f.clone());
+            }
+            if best.as_ref().is_none_or(|b| f.s < b.0.s) {
+                best = Some((f, m.clone(), bearing));
+            }
         }
     }
     // Each bearing's best fit with its y and z frequencies moved apart
@@ -317,11 +310,19 @@ fn frequencies_apart(
     });
     let mut screened: Vec<Fit> = screened.into_iter().flatten().collect();
     screened.sort_by(|a, b| a.s.total_cmp(&b.s));
-    screened
-        .iter()
-        .take(2)
-        .filter_map(|s| fit::fit(m, ctx.data, &s.theta, 60).ok())
-        .min_by(|a, b| a.s.total_cmp(&b.s))
+    // A restart that returns to `f`'s minimum, or to the first restart's,
+    // ends there.
+    let mut out: Option<Fit> = None;
+    for s in screened.iter().take(2) {
+        let known: Vec<&Fit> = std::iter::once(f).chain(out.as_ref()).collect();
+        let Ok(g) = fit::fit_known(m, ctx.data, &s.theta, 60, &known) else {
+            continue;
+        };
+        if out.as_ref().is_none_or(|o| g.s < o.s) {
+            out = Some(g);
+        }
+    }
+    out
 }
 
 /// The speed where the nominal weighted residuals `r` of `bearing`'s four

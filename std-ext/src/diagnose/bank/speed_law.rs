@@ -129,7 +129,10 @@ fn fit_from_two_starts(ctx: &Context<'_>, m: &ExtendedModel, order: usize) -> Op
         setup.held_noise(),
     ) {
         if t2.len() == m.n_params() {
-            if let Ok(f2) = fit::fit(m, ctx.data, &t2, 50) {
+            // From the filter's start to the first start's minimum: it
+            // ends there.
+            let known: Vec<&Fit> = best.iter().collect();
+            if let Ok(f2) = fit::fit_known(m, ctx.data, &t2, 50, &known) {
                 if best.as_ref().is_none_or(|b| f2.s < b.s) {
                     best = Some(f2);
                 }
