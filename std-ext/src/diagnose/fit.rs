@@ -735,6 +735,27 @@ mod tests {
         }
     }
 
+    /// The readings `x` predicts with `theta` at each speed of `terms`,
+    /// each times `factor()` (a relative error).
+    fn readings(
+        x: &ExtendedModel,
+        terms: &[SpeedTerms],
+        theta: &[f64],
+        mut factor: impl FnMut() -> Complex64,
+    ) -> Vec<Sample> {
+        terms
+            .iter()
+            .map(|st| Sample {
+                omega: st.omega,
+                q: x.predict(st, &x.pr.entries(st.omega), theta, None)
+                    .unwrap()
+                    .iter()
+                    .map(|y| y * factor())
+                    .collect(),
+            })
+            .collect()
+    }
+
     /// On noise-free data made by the model itself, the fit from a start
     /// 20 % off returns the parameters and a zero residual; the covariance
     /// equals a dense inverse of the Gauss-Newton matrix; a few columns of
@@ -749,17 +770,7 @@ mod tests {
         let truth: Vec<f64> = (0..p)
             .map(|i| 1.0 + 0.5 * ((i * 7 % 5) as f64 - 2.0) / 2.0)
             .collect();
-        let samples: Vec<Sample> = terms
-            .iter()
-            .map(|st| Sample {
-                omega: st.omega,
-                q: x.predict(st, &x.pr.entries(st.omega), &truth, None)
-                    .unwrap()
-                    .iter()
-                    .copied()
-                    .collect(),
-            })
-            .collect();
+        let samples = readings(&x, &terms, &truth, || Complex64::new(1.0, 0.0));
         let data = FitData::new(&samples, &terms);
         let start: Vec<f64> = truth.iter().map(|t| t * 0.8).collect();
         // A few columns alone: those of the whole Jacobian, bit for bit.
@@ -799,17 +810,9 @@ mod tests {
             u = (u * 997.0 + 0.123).fract();
             u - 0.5
         };
-        let samples: Vec<Sample> = terms
-            .iter()
-            .map(|st| Sample {
-                omega: st.omega,
-                q: x.predict(st, &x.pr.entries(st.omega), &truth, None)
-                    .unwrap()
-                    .iter()
-                    .map(|y| y * Complex64::new(1.0 + noise * draw(), noise * draw()))
-                    .collect(),
-            })
-            .collect();
+        let samples = readings(&x, &terms, &truth, || {
+            Complex64::new(1.0 + noise * draw(), noise * draw())
+        });
         let data = FitData::new(&samples, &terms).with_noise_level(Some(noise));
         let start = |k: f64| -> Vec<f64> {
             truth
