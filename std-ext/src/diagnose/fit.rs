@@ -532,8 +532,9 @@ pub fn fit_with(
 /// [`fit`] that ends once it reaches the basin of a minimum already found
 /// (module documentation, "Known minima"): `known` are fits of the same
 /// model on the same data; where the iterate comes within
-/// [`KNOWN_BASIN`] noise variances of a converged one, that fit is
-/// returned, with this one's iterations.
+/// [`KNOWN_BASIN`] noise variances of one that a stopping test ended
+/// (converged or stalled), that fit is returned, with this one's
+/// iterations.
 pub fn fit_known(
     model: &ExtendedModel,
     data: &FitData<'_>,
@@ -545,7 +546,9 @@ pub fn fit_known(
 }
 
 /// A minimum already found, as [`fit_known`] tests an iterate against it:
-/// the fit and its Gauss-Newton matrix `J^T J = sigma^2 cov^-1`.
+/// the fit and its Gauss-Newton matrix `J^T J = sigma^2 cov^-1`
+/// (recovered from the covariance, a `P x P` inverse per known fit and
+/// call: the fit keeps no `J^T J` of its own).
 struct Known<'f> {
     fit: &'f Fit,
     gram: DMatrix<f64>,

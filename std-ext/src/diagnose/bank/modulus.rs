@@ -314,9 +314,9 @@ impl<'c, 'a> Screen<'c, 'a> {
     /// from the nominal estimate, so the fit from there is short: on the
     /// three-bearing rotor's runout case, 437 iterations over the 24
     /// screenings against 1 121 for the filter's starts and output-error
-    /// fits they replace. With those parameters and the factor's offset (zero);
-    /// `None` where the terms cannot be built (a diameter at or below the
-    /// bore) or the fit fails.
+    /// fits they replace. With those parameters and the factor's offset
+    /// (zero); `None` where the terms cannot be built (a diameter at or
+    /// below the bore) or the fit fails.
     fn score(&self, form: StiffnessForm, f: f64) -> Option<(f64, Vec<f64>)> {
         let (ctx, setup) = (self.ctx, self.ctx.setup);
         let change = FormChange {
