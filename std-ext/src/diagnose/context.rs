@@ -22,6 +22,7 @@ use crate::reduce::ReductionError;
 pub const NOISE_CHI2: f64 = 1.2;
 
 /// What the hypothesis fits, the choice and the pairs read.
+#[derive(Clone)]
 pub(crate) struct Context<'a> {
     /// The nominal rotor model.
     pub model: &'a RotorModel,

@@ -335,7 +335,8 @@ impl<'c, 'a> Screen<'c, 'a> {
         .ok()?;
         let d = FitData::with_probes(&self.thin.samples, &self.thin.node_q, &at)
             .with_floors(&setup.phi)
-            .with_noise_level(setup.noise_level);
+            .with_noise_level(setup.noise_level)
+            .with_explained(ctx.data.explained);
         let fitted = fit::fit_with(ctx.base, &d, &ctx.theta0, SCREEN_ITERATIONS, false).ok()?;
         let (s, mut theta) = (fitted.s, fitted.theta);
         theta.push(0.0);
@@ -601,7 +602,8 @@ fn rounds(
         }
         let d = FitData::with_probes(ctx.samples, ctx.node_q, &cur)
             .with_floors(&setup.phi)
-            .with_noise_level(setup.noise_level);
+            .with_noise_level(setup.noise_level)
+            .with_explained(ctx.data.explained);
         let iterations = if round == 0 { 50 } else { LATER_ITERATIONS };
         let Ok(f) = fit::fit(m, &d, &theta, iterations) else {
             break;
@@ -615,7 +617,15 @@ fn rounds(
         let insignificant = f
             .std(m.offset(0))
             .is_some_and(|sd| (e_new - e).abs() < ROUND_END * E_STEP * sd);
-        let done = (e_new - e).abs() < 1e-7 * e || insignificant || e_new.is_nan() || e_new <= 0.0;
+        // A fit stopped behind one at the noise: this form is not the
+        // answer, and a round more would move it by a fraction of
+        // its misfit (module docs of `fit`, "Behind a fit at the noise").
+        let behind = f.stalled && d.explained;
+        let done = (e_new - e).abs() < 1e-7 * e
+            || insignificant
+            || behind
+            || e_new.is_nan()
+            || e_new <= 0.0;
         theta = f.theta.clone();
         last = Some((f, e));
         if done {
