@@ -82,23 +82,26 @@
 //!
 //! # Behind a fit at the noise
 //!
-//! The bank fits its short families first (the runout, the probe gains).
-//! When one of them explains the data to the noise
-//! ([`crate::diagnose::NOISE_CHI2`]), another hypothesis can change the
+//! The bank fits its families in three groups: the short ones (the
+//! runout, the probe gains), then the node effects, then the long ones
+//! (the speed law, the pedestal, the shaft's stiffness). Once a group has
+//! a fit that explains the data to the noise
+//! ([`crate::diagnose::NOISE_CHI2`]), a later hypothesis can change the
 //! diagnosis only by ending within a tie of that fit (9.2 noise
-//! variances) or below it by BIC: within about 1.2 times its noise floor.
-//! On such data ([`FitData::explained`]) a fit still above
-//! [`STALL_MISFIT`] times its floor after its first [`STALL_WINDOW`]
-//! iterations stops there, stalled, however fast `S` still falls, and
-//! the shaft modulus' rounds end at such a fit. From the nominal
-//! estimate with its effect at zero, a hypothesis makes its largest fall
-//! in its first steps; one that explains the data is below the bound
-//! within the window (test
+//! variances) or below it by BIC: within about [`NOISE_CHI2`] times its
+//! own noise floor. On such data ([`FitData::explained`]) a fit that has
+//! run a [`STALL_WINDOW`] stops stalled when `S` is still above
+//! [`STALL_MISFIT`] times its floor, however fast it falls, or when, at
+//! the last window's rate of fall for the iterations it has left, it would
+//! still be above [`NOISE_CHI2`] times the floor at its iteration limit
+//! (`behind`); the shaft modulus' rounds end at such a fit. From the
+//! nominal estimate with its effect at zero, a hypothesis that explains
+//! the data makes its largest fall in its first steps and is below both
+//! bounds within the window (test
 //! `a_fit_behind_one_at_the_noise_stops_at_its_first_window`). What is
-//! given up: a hypothesis that would creep for more than a window at over
-//! `sqrt(10)` times the noise and then fall to it, on data that a runout
-//! or a probe gain already explains to the noise. Its `S` in the report is
-//! then an upper bound, as for every stalled fit.
+//! given up: a hypothesis that would creep and then fall to the noise, on
+//! data another family already explains to the noise; its `S` in the
+//! report is then an upper bound, as for every stalled fit.
 //!
 //! # Covariance
 //!
@@ -108,6 +111,7 @@
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
+use crate::diagnose::context::NOISE_CHI2;
 use crate::diagnose::extended::{Eval, ExtendedModel};
 use crate::diagnose::terms::SpeedTerms;
 use crate::estimate::output_error::stalled;
@@ -152,8 +156,9 @@ pub struct FitData<'a> {
     /// [`FitData::with_floors`].
     pub phi: Vec<f64>,
     /// Whether another hypothesis already explains these data to the
-    /// noise: a fit far above the noise then stops at its first stall
-    /// window (module documentation, "Behind a fit at the noise").
+    /// noise: a fit that could not come near it then stops after its
+    /// first stall window (module documentation, "Behind a fit at the
+    /// noise").
     pub explained: bool,
 }
 
@@ -621,12 +626,19 @@ pub const KNOWN_BASIN: f64 = 1.0;
 
 /// Whether a fit whose `S` after each accepted iteration is `history`,
 /// on data another hypothesis explains to the noise
-/// ([`FitData::explained`]), stops behind it: after its first
-/// [`STALL_WINDOW`] iterations `S` is still above `bound`
-/// ([`STALL_MISFIT`] times its noise floor), however fast it falls
-/// (module documentation, "Behind a fit at the noise").
-fn behind(history: &[f64], bound: f64) -> bool {
-    history.len() > STALL_WINDOW && history.last().is_some_and(|&s| s > bound)
+/// ([`FitData::explained`]), stops behind it (module documentation,
+/// "Behind a fit at the noise"), once it has run a [`STALL_WINDOW`]:
+/// when `S` is still above `stall` ([`STALL_MISFIT`] times its noise
+/// floor), however fast it falls; or when, falling at the last window's
+/// rate for the `left` iterations it has left, it would still be above
+/// `noise` ([`NOISE_CHI2`] times the floor) at its iteration limit.
+fn behind(history: &[f64], stall: f64, noise: f64, left: usize) -> bool {
+    let (Some(&s), Some(k)) = (history.last(), history.len().checked_sub(STALL_WINDOW + 1)) else {
+        return false;
+    };
+    let rate = (s / history[k]).min(1.0);
+    let windows = left as f64 / STALL_WINDOW as f64;
+    s > stall || s * rate.powf(windows) > noise
 }
 
 fn fit_inner(
@@ -707,9 +719,16 @@ fn fit_inner(
         history.push(s);
         if !converged && history.len() > STALL_WINDOW {
             let before = history[history.len() - 1 - STALL_WINDOW];
-            if stall_s
-                .is_some_and(|f| stalled(&history, f) || (data.explained && behind(&history, f)))
-            {
+            if stall_s.is_some_and(|f| {
+                stalled(&history, f)
+                    || (data.explained
+                        && behind(
+                            &history,
+                            f,
+                            f * NOISE_CHI2 / STALL_MISFIT,
+                            max_iter - iterations,
+                        ))
+            }) {
                 is_stalled = true;
             } else if flat.is_some_and(|f| before - s < f) {
                 converged = true;
@@ -892,6 +911,34 @@ mod tests {
         off.theta[0] += 10.0 * sd;
         let told = fit_known(&x, &data, &start(-0.3), 100, &[&off]).unwrap();
         assert_eq!(told, b);
+    }
+
+    /// The two tests of [`behind`] on histories of `S` (in floors: the
+    /// stall bound 10, the noise bound 1.2): above the stall bound after
+    /// a window, whatever the fall; below it, a fall that at its rate
+    /// would not reach the noise bound within the iterations left.
+    #[test]
+    fn behind_stops_where_the_noise_is_out_of_reach() {
+        let (stall, noise) = (10.0, 1.2);
+        // Not a whole window yet.
+        assert!(!behind(&[40.0, 30.0, 20.0, 15.0, 12.0], stall, noise, 45));
+        // Above the stall bound, falling fast.
+        assert!(behind(
+            &[80.0, 40.0, 30.0, 20.0, 15.0, 11.0],
+            stall,
+            noise,
+            45
+        ));
+        // Below it, falling by 1 % a window: 5 x 0.99^9 = 4.6 at the limit.
+        let creep = [5.05, 5.04, 5.03, 5.02, 5.01, 5.0];
+        assert!(behind(&creep, stall, noise, 45));
+        // Halving a window: 5 x 0.5^9 = 0.01 at the limit.
+        let fall = [10.0, 9.0, 8.0, 7.0, 6.0, 5.0];
+        assert!(!behind(&fall, stall, noise, 45));
+        // At the limit, the same fall leaves it at 5.
+        assert!(behind(&fall, stall, noise, 0));
+        // Below the noise bound, not moving.
+        assert!(!behind(&[1.1; 6], stall, noise, 45));
     }
 
     /// On data another hypothesis explains to the noise, a fit far above

@@ -70,14 +70,17 @@ impl Family {
     ];
 
     /// The families fitted first: short, and each able to explain the
-    /// data on its own, so that the long ones may stop behind them
+    /// data on its own, so that the others may stop behind them
     /// ([`run`]).
     const SHORT: [usize; 2] = [3, 5];
+
+    /// The node effects, fitted next.
+    const NODES: [usize; 1] = [2];
 
     /// The others, in the order the workers take them in: the longest
     /// first (measured on the paper, stepped hollow and three-bearing
     /// rotors).
-    const LONG: [usize; 4] = [1, 0, 4, 2];
+    const LONG: [usize; 3] = [1, 0, 4];
 
     /// The name of its lap.
     fn name(self) -> &'static str {
@@ -120,11 +123,12 @@ impl Family {
 }
 
 /// Fits every family of the bank, side by side on the context's threads
-/// ([`crate::diagnose::parallel::map`]): first the short ones (runout,
-/// gains), then the others, on data marked explained when one of the
-/// short ones fits to the noise (module docs of `fit`, "Behind a fit at
-/// the noise"). The families read the context only, and the two groups
-/// are fixed, so the result is the same on any number of cores. A lap of
+/// ([`crate::diagnose::parallel::map`]), in three groups: the short ones
+/// (runout, gains), the node effects, the long ones; each group on data
+/// marked explained when a group before it has a fit at the noise (module
+/// docs of `fit`, "Behind a fit at the noise"). The families read the
+/// context only, and the groups are fixed, so the result is the same on
+/// any number of cores. A lap of
 /// `clock` each, its own duration (with more than one core the laps add
 /// up to more than the bank's wall-clock time).
 pub(crate) fn run(ctx: &Context<'_>, clock: &mut Stages) -> Result<Bank, DiagnoseError> {
@@ -133,25 +137,24 @@ pub(crate) fn run(ctx: &Context<'_>, clock: &mut Stages) -> Result<Bank, Diagnos
         let out = Family::ALL[k].fit(ctx);
         (k, out, t.elapsed().as_secs_f64())
     };
-    // The short families first; when one of them explains the data to the
-    // noise, the others' fits far above it stop at their first stall
-    // window.
-    let mut fitted =
-        crate::diagnose::parallel::map(&Family::SHORT, ctx.threads(), |&k| lap(ctx, k));
-    let explained = fitted.iter().any(|(_, out, _)| {
-        out.as_ref()
-            .is_ok_and(|(c, _)| c.iter().any(|c| ctx.at_noise(&c.fit)))
-    });
-    let data = ctx.data.clone().with_explained(explained);
-    let rest = Context {
-        data: &data,
-        ..ctx.clone()
-    };
-    fitted.extend(crate::diagnose::parallel::map(
-        &Family::LONG,
-        ctx.threads(),
-        |&k| lap(&rest, k),
-    ));
+    // The short families first, then the node effects, then the long
+    // ones; once a family explains the data to the noise, the fits of
+    // those after it stop behind it.
+    let mut fitted = Vec::new();
+    let mut explained = false;
+    for group in [&Family::SHORT[..], &Family::NODES, &Family::LONG] {
+        let data = ctx.data.clone().with_explained(explained);
+        let now = Context {
+            data: &data,
+            ..ctx.clone()
+        };
+        let out = crate::diagnose::parallel::map(group, ctx.threads(), |&k| lap(&now, k));
+        explained |= out.iter().any(|(_, out, _)| {
+            out.as_ref()
+                .is_ok_and(|(c, _)| c.iter().any(|c| ctx.at_noise(&c.fit)))
+        });
+        fitted.extend(out);
+    }
     // Back in the order of the hypotheses.
     fitted.sort_by_key(|(k, ..)| *k);
     let mut hypotheses: Vec<Candidate> = Vec::new();
