@@ -10,8 +10,10 @@
 //! cores (the default) and on one (`_one_core`). Then, on one core, the
 //! two other rotors of the realistic matrices (ROSS's stepped hollow shaft
 //! to 12000 rpm, the rotor on three bearings to 16500 rpm, as
-//! `examples/diagnose_timing.rs` makes their cases): `none` and runout
-//! (the longest case on every rotor), beside the nominal output-error
+//! `examples/diagnose_timing.rs` makes their cases): `none`, the speed
+//! law, the pedestal and runout (runout the longest case on every rotor
+//! until the fits behind one at the noise, the pedestal and the speed law
+//! on the three-bearing rotor since), beside the nominal output-error
 //! identification of the same data.
 //!
 //! Last, the fits' Gram matrix `J^T J` ([`rotorid::diagnose::fit::gram`],
@@ -105,7 +107,12 @@ fn bench(c: &mut Criterion) {
         let omega_max = rotorid::units::rpm_to_rad_s(rpm_max);
         let m = rotorid::simulate::at_balance_grade(&base, 6.3, omega_max).unwrap_or(base);
         let sp: Vec<f64> = (1..=300).map(|i| rpm_max * i as f64 / 300.0).collect();
-        for effect in [Effect::None, Effect::ProbeRunout] {
+        for effect in [
+            Effect::None,
+            Effect::SpeedDependentBearing,
+            Effect::FoundationFlexibility,
+            Effect::ProbeRunout,
+        ] {
             let mut case = generate(&m, effect, 11, &sp, Some(0.005)).expect("case");
             rotorid::simulate::add_floor_noise(&mut case.meas, 0.5e-6, 11).expect("floor");
             one_core(&mut g, &format!("rotor_{name}_"), &m, &case.meas, effect);
