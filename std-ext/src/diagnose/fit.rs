@@ -101,7 +101,11 @@
 //! `a_fit_behind_one_at_the_noise_stops_at_its_first_window`). What is
 //! given up: a hypothesis that would creep and then fall to the noise, on
 //! data another family already explains to the noise; its `S` in the
-//! report is then an upper bound, as for every stalled fit.
+//! report is then an upper bound, as for every stalled fit. The pedestal
+//! search is not stopped this way: its fits cross the rotor's resonances
+//! and can creep from twenty times the noise floor before they fall to it
+//! (a paper-rotor probe-gain case), and a search whose fits end above the
+//! noise goes on to more starts.
 //!
 //! # Covariance
 //!
