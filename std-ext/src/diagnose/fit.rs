@@ -806,6 +806,36 @@ mod tests {
         }
     }
 
+    /// The paper rotor's model with an extra plane at node 16, 60 speeds
+    /// to 1500 rad/s: its terms, the model, the true parameters (the
+    /// plane's two at `plane` when given) and readings with relative noise
+    /// `noise` (a fixed sequence).
+    fn plane_case(
+        noise: f64,
+        plane: Option<[f64; 2]>,
+    ) -> (Vec<SpeedTerms>, ExtendedModel, Vec<f64>, Vec<Sample>) {
+        let m = RotorModel::paper();
+        let omegas: Vec<f64> = (1..=60).map(|i| 25.0 * i as f64).collect();
+        let terms = build(&m, &omegas, 1.0, false).unwrap();
+        let x = paper_model(&m, vec![Extension::Plane { node: 16 }]);
+        let p = x.n_params();
+        let mut truth: Vec<f64> = (0..p)
+            .map(|i| 1.0 + 0.5 * ((i * 7 % 5) as f64 - 2.0) / 2.0)
+            .collect();
+        if let Some(u) = plane {
+            truth[p - 2..].copy_from_slice(&u);
+        }
+        let mut u = 0.37_f64;
+        let mut draw = || {
+            u = (u * 997.0 + 0.123).fract();
+            u - 0.5
+        };
+        let samples = readings(&x, &terms, &truth, || {
+            Complex64::new(1.0 + noise * draw(), noise * draw())
+        });
+        (terms, x, truth, samples)
+    }
+
     /// The readings `x` predicts with `theta` at each speed of `terms`,
     /// each times `factor()` (a relative error).
     fn readings(
@@ -867,23 +897,8 @@ mod tests {
     /// ends as it does alone, bit for bit.
     #[test]
     fn a_restart_ends_at_the_minimum_it_reaches() {
-        let m = RotorModel::paper();
-        let omegas: Vec<f64> = (1..=60).map(|i| 25.0 * i as f64).collect();
-        let terms = build(&m, &omegas, 1.0, false).unwrap();
-        let x = paper_model(&m, vec![Extension::Plane { node: 16 }]);
-        let p = x.n_params();
-        let truth: Vec<f64> = (0..p)
-            .map(|i| 1.0 + 0.5 * ((i * 7 % 5) as f64 - 2.0) / 2.0)
-            .collect();
         let noise = 0.005;
-        let mut u = 0.37_f64;
-        let mut draw = || {
-            u = (u * 997.0 + 0.123).fract();
-            u - 0.5
-        };
-        let samples = readings(&x, &terms, &truth, || {
-            Complex64::new(1.0 + noise * draw(), noise * draw())
-        });
+        let (terms, x, truth, samples) = plane_case(noise, None);
         let data = FitData::new(&samples, &terms).with_noise_level(Some(noise));
         let start = |k: f64| -> Vec<f64> {
             truth
@@ -951,26 +966,11 @@ mod tests {
     /// alone, bit for bit.
     #[test]
     fn a_fit_behind_one_at_the_noise_stops_at_its_first_window() {
-        let m = RotorModel::paper();
-        let omegas: Vec<f64> = (1..=60).map(|i| 25.0 * i as f64).collect();
-        let terms = build(&m, &omegas, 1.0, false).unwrap();
-        let x = paper_model(&m, vec![Extension::Plane { node: 16 }]);
-        let p = x.n_params();
-        let mut truth: Vec<f64> = (0..p)
-            .map(|i| 1.0 + 0.5 * ((i * 7 % 5) as f64 - 2.0) / 2.0)
-            .collect();
-        // The extra plane's unbalance, large against the noise.
-        truth[p - 2] = 300.0;
-        truth[p - 1] = -200.0;
+        // The extra plane's unbalance large against the noise.
         let noise = 0.001;
-        let mut u = 0.37_f64;
-        let mut draw = || {
-            u = (u * 997.0 + 0.123).fract();
-            u - 0.5
-        };
-        let samples = readings(&x, &terms, &truth, || {
-            Complex64::new(1.0 + noise * draw(), noise * draw())
-        });
+        let (terms, x, truth, samples) = plane_case(noise, Some([300.0, -200.0]));
+        let p = x.n_params();
+        let m = RotorModel::paper();
         let data = FitData::new(&samples, &terms).with_noise_level(Some(noise));
         let explained = data.clone().with_explained(true);
         // The nominal model, without the plane: far above the noise.
