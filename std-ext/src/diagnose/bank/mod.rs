@@ -82,6 +82,16 @@ impl Family {
     /// rotors).
     const LONG: [usize; 3] = [1, 0, 4];
 
+    /// Whether its fits stop behind a fit at the noise of an earlier
+    /// group ([`run`]). Not the pedestal search's: its fits cross the
+    /// rotor's resonances and may creep before they fall, and a search
+    /// whose fits end above the noise goes on to more starts (on a
+    /// paper-rotor probe-gain case its stage took three to five times as
+    /// long).
+    fn stops_behind(self) -> bool {
+        !matches!(self, Family::Pedestal)
+    }
+
     /// The name of its lap.
     fn name(self) -> &'static str {
         match self {
@@ -139,11 +149,7 @@ pub(crate) fn run(ctx: &Context<'_>, clock: &mut Stages) -> Result<Bank, Diagnos
     };
     // The short families first, then the node effects, then the long
     // ones; once a family explains the data to the noise, the fits of
-    // those after it stop behind it, but for the pedestal search's: its
-    // fits cross the rotor's resonances and may creep before they fall,
-    // and a search whose fits end above the noise goes on to more starts
-    // (on a paper-rotor probe-gain case its stage took three to five
-    // times as long).
+    // those after it that stop behind one stop behind it.
     let mut fitted = Vec::new();
     let mut explained = false;
     for group in [&Family::SHORT[..], &Family::NODES, &Family::LONG] {
@@ -152,9 +158,15 @@ pub(crate) fn run(ctx: &Context<'_>, clock: &mut Stages) -> Result<Bank, Diagnos
             data: &data,
             ..ctx.clone()
         };
-        let out = crate::diagnose::parallel::map(group, ctx.threads(), |&k| match Family::ALL[k] {
-            Family::Pedestal => lap(ctx, k),
-            _ => lap(&now, k),
+        let out = crate::diagnose::parallel::map(group, ctx.threads(), |&k| {
+            lap(
+                if Family::ALL[k].stops_behind() {
+                    &now
+                } else {
+                    ctx
+                },
+                k,
+            )
         });
         explained |= out.iter().any(|(_, out, _)| {
             out.as_ref()
