@@ -31,6 +31,11 @@ pub struct Candidate {
     ///
     /// [`Diagnosis::stiffness_alike`]: super::Diagnosis::stiffness_alike
     pub stiffness_forms: Vec<FormFit>,
+    /// For a stiffness error on a section: the standard deviation of its
+    /// factor that the section's ends leave open (the runs of elements
+    /// the data cannot tell from it, `bank::section_ends`), added in
+    /// quadrature to the fit's in the findings; zero otherwise.
+    pub ends_std: f64,
     /// Alternatives tried for this hypothesis (nodes, bearings, orders).
     pub alternatives: usize,
     /// For a bow of two knots (two [`Extension::Bow`] extensions, knots
@@ -67,6 +72,17 @@ impl Candidate {
     pub fn residual(&self) -> f64 {
         self.fit.residual()
     }
+    /// Sets [`Candidate::ends_std`], the fit's standard deviation of the
+    /// section's factor in [`Candidate::stiffness_forms`] widened by it
+    /// (in quadrature).
+    pub(crate) fn set_ends_std(&mut self, std: f64) {
+        self.ends_std = std;
+        for f in &mut self.stiffness_forms {
+            if f.form == self.stiffness {
+                f.factor_std = f.factor_std.hypot(std);
+            }
+        }
+    }
     /// A model fitted for `effects` (empty: nominal), not yet judged: its
     /// statistic and threshold zero, not significant.
     pub(crate) fn new(
@@ -85,6 +101,7 @@ impl Candidate {
             e_terms,
             stiffness: StiffnessForm::EAndG,
             stiffness_forms: Vec::new(),
+            ends_std: 0.0,
             alternatives,
             bow_coupling: None,
             statistic: 0.0,

@@ -163,6 +163,13 @@ pub fn diagnose(
     // 3. Choice.
     let choice = choice::choose(&ctx, &mut hypotheses, &mut e_terms)?;
     clock.lap("choice and pairs");
+    // A diameter off on a section: how well the data place its ends.
+    if let Some(c) = choice.chosen.and_then(|i| hypotheses.get_mut(i)) {
+        if let Some(std) = bank::section_ends(&ctx, c, choice.sigma2) {
+            c.set_ends_std(std);
+        }
+    }
+    clock.lap("section ends");
     let effects = match choice.chosen {
         Some(i) => hypotheses[i].effects.clone(),
         None => Vec::new(),

@@ -98,7 +98,9 @@ pub enum Finding {
     ShaftStiffnessError {
         /// The factor (on what `form` says).
         factor: f64,
-        /// Its standard deviation.
+        /// Its standard deviation; for a section's diameter, the fit's
+        /// with the part the section's ends leave open added in
+        /// quadrature (`Candidate::ends_std`).
         factor_std: f64,
         /// What the factor multiplies: "the shaft's E and G", "the
         /// shaft's E (G kept)" or "the outer diameter of shaft elements
@@ -524,7 +526,7 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
             Extension::EScale => {
                 out.push(Finding::ShaftStiffnessError {
                     factor: c.e_terms + E_STEP * f.theta[o],
-                    factor_std: E_STEP * f.std(o).unwrap_or(f64::NAN),
+                    factor_std: (E_STEP * f.std(o).unwrap_or(f64::NAN)).hypot(c.ends_std),
                     form: c.stiffness.describe(),
                     alike: Vec::new(),
                 });

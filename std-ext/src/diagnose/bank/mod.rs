@@ -16,11 +16,13 @@ mod modulus;
 mod nodes;
 mod pedestal;
 mod runout;
+mod section_ends;
 mod speed_law;
 
 pub(crate) use nodes::rescreen;
 pub(crate) use pedestal::two_pedestals;
 pub use pedestal::PEDESTAL_RATIOS;
+pub(crate) use section_ends::section_ends;
 
 use nalgebra::{DMatrix, DVector};
 
