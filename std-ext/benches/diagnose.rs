@@ -14,7 +14,9 @@
 //! law, the pedestal and runout (runout the longest case on every rotor
 //! until the fits behind one at the noise, the pedestal and the speed law
 //! on the three-bearing rotor since), beside the nominal output-error
-//! identification of the same data.
+//! identification of the same data; and a diameter off on a run of
+//! elements (`generator::Form::Diameter`), named as a section whose ends
+//! the diagnosis then weighs.
 //!
 //! Last, the fits' Gram matrix `J^T J` ([`rotorid::diagnose::fit::gram`],
 //! its upper triangle by column blocks) beside the whole product `J^T J`
@@ -27,12 +29,17 @@
 
 use criterion::measurement::WallTime;
 use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
-use rotorid::diagnose::generator::generate;
+use rotorid::diagnose::generator::{generate, generate_form, Form};
+use rotorid::diagnose::terms::StiffnessForm;
 use rotorid::diagnose::{diagnose, terms, DiagnoseOptions, Effect};
 use rotorid::estimate::{identify, Estimator, Options};
 use rotorid::io::measurement::Measurements;
 use rotorid::model::RotorModel;
 use std::hint::black_box;
+
+/// The seed of the diameter cases of the other rotors (a section named on
+/// both; on the three-bearing rotor the longest of ten).
+const DIAMETER_SEED: u64 = 4_000_007;
 
 fn bench(c: &mut Criterion) {
     let model = RotorModel::paper();
@@ -117,6 +124,32 @@ fn bench(c: &mut Criterion) {
             rotorid::simulate::add_floor_noise(&mut case.meas, 0.5e-6, 11).expect("floor");
             one_core(&mut g, &format!("rotor_{name}_"), &m, &case.meas, effect);
         }
+        // A diameter off on a run of elements the bank's sections do not
+        // hold (the machine's form): a section is named, and its ends
+        // weighed (`diagnose::bank::section_ends`).
+        let mut case = generate_form(
+            &m,
+            Effect::ShaftStiffnessError,
+            Form::Diameter,
+            DIAMETER_SEED,
+            &sp,
+            Some(0.005),
+        )
+        .expect("case");
+        rotorid::simulate::add_floor_noise(&mut case.meas, 0.5e-6, DIAMETER_SEED).expect("floor");
+        let named = diagnose(&m, &case.meas, &DiagnoseOptions::default()).expect("diagnose");
+        assert!(
+            matches!(named.extended().stiffness, StiffnessForm::Section { .. }),
+            "{name}: the diameter case is named {}",
+            named.extended().label
+        );
+        one_core(
+            &mut g,
+            &format!("rotor_{name}_diameter_"),
+            &m,
+            &case.meas,
+            Effect::ShaftStiffnessError,
+        );
     }
     g.bench_function("terms_all_nodes", |b| {
         b.iter(|| black_box(terms::build(&model, &omegas, 1.0, false).expect("terms")))

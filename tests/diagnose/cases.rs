@@ -802,6 +802,9 @@ fn confusion(m: &RotorModel, sp: &[f64], noise: Option<f64>, floor: f64) {
     // Cases named right whose size is comparable, and those of them sized
     // within 5 % and 3.5 reported standard deviations.
     let (mut sized, mut sized_right) = (0, 0);
+    // Of those, the ones within 3.5 reported standard deviations alone
+    // (whether the deviation is honest, 5 % or not).
+    let mut sized_sigmas = 0;
     let mut by_effect: BTreeMap<Effect, (usize, usize)> = BTreeMap::new();
     // The same by effect and form: the bank's own forms, which it fits
     // exactly, apart from those it approximates (a distributed unbalance
@@ -870,6 +873,7 @@ fn confusion(m: &RotorModel, sp: &[f64], noise: Option<f64>, floor: f64) {
                 let within = (got - want).abs() <= 0.05 * want.abs();
                 let sigmas = (got - want).abs() <= 3.5 * std;
                 sized_right += usize::from(within && sigmas);
+                sized_sigmas += usize::from(sigmas);
                 by_effect.entry(effect).or_insert((0, 0)).0 += usize::from(within && sigmas);
                 by_effect.entry(effect).or_insert((0, 0)).1 += 1;
                 let t = sized_by_form
@@ -907,6 +911,7 @@ fn confusion(m: &RotorModel, sp: &[f64], noise: Option<f64>, floor: f64) {
         }
     }
     println!("sized within 5 % and 3.5 std where named right: {sized_right}/{sized}");
+    println!("within 3.5 reported std (5 % or not) where named right: {sized_sigmas}/{sized}");
     for (e, (ok, of)) in &by_effect {
         println!("  {}: {ok}/{of}", e.name());
     }

@@ -8,8 +8,8 @@
 //! place its ends only roughly: a longer section at a smaller factor fits
 //! about as well as a shorter one at a larger factor. The factor's
 //! standard deviation of the fit holds for the section found, not for the
-//! one on the machine (on realistic data, the factor found lay tens to
-//! hundreds of those deviations from the hidden one); this module adds the
+//! one on the machine (on realistic data, the factor found lay 5 to 600
+//! of those deviations from the hidden one); this module adds the
 //! part the ends leave open.
 //!
 //! **Every run, linearised.** About the fit found (the section `a..=b` at
