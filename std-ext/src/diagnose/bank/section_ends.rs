@@ -157,7 +157,11 @@ pub(crate) fn section_ends(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Opt
     let mut stepped: Vec<Run> = Vec::new();
     let mut x_found = None;
     for (a, b, x) in picked {
-        let mut c_s = DVector::<f64>::zeros(r_f.len());
+        // C_s (the weights of the module docs) and sum_{e in s} D_e.
+        let (mut c_s, mut d_s) = (
+            DVector::<f64>::zeros(r_f.len()),
+            DVector::<f64>::zeros(r_f.len()),
+        );
         for e in a..=b {
             let w = if (first..=last).contains(&e) {
                 1.0 / f
@@ -165,6 +169,7 @@ pub(crate) fn section_ends(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Opt
                 1.0
             };
             c_s.axpy(w, &cols.column(e), 1.0);
+            d_s += cols.column(e);
         }
         // The parameters of the linearised fit: J^+ (r_0 + x C_s).
         let Ok(dtheta) = svd.solve(&(&r0 + &c_s * x), RANK_TOL * svd.singular_values.max()) else {
@@ -175,7 +180,7 @@ pub(crate) fn section_ends(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Opt
             .zip(dtheta.iter())
             .map(|(t, d)| t + d)
             .collect();
-        let Some((s, x)) = steps(ctx, &thin, (a, b), &c_s, x, start) else {
+        let Some((s, x)) = steps(ctx, &thin, (a, b), &d_s, x, start) else {
             continue;
         };
         if (a, b) == (first, last) {
@@ -235,14 +240,15 @@ fn residual(
 
 /// Up to [`STEPS`] Gauss-Newton steps of the run `a..=b` in the nominal
 /// parameters and its factor `1 + x` together, from `theta` and `x`, on
-/// the run's own terms; `c_s` the run's column per unit change of the
-/// drawn diameters (at `1 + x`, per unit change of `x`: `c_s / (1 + x)`).
-/// The misfit the last step predicts and the `x` it reaches.
+/// the run's own terms; `d_s = sum_{e in s} D_e`, the residual's change
+/// per relative change of the run's diameters (at `1 + x`, per unit
+/// change of `x`: `d_s / (1 + x)`). The misfit the last step predicts
+/// and the `x` it reaches.
 fn steps(
     ctx: &Context<'_>,
     thin: &Thinned,
     (a, b): (usize, usize),
-    c_s: &DVector<f64>,
+    d_s: &DVector<f64>,
     mut x: f64,
     mut theta: Vec<f64>,
 ) -> Option<(f64, f64)> {
@@ -259,7 +265,7 @@ fn steps(
             let t = q.tr_mul(&v);
             v - &q * t
         };
-        let col = c_s / (1.0 + x);
+        let col = d_s / (1.0 + x);
         let pr = project(r.clone());
         let pc = project(col.clone());
         let cc = pc.norm_squared();
