@@ -39,6 +39,9 @@
 //!    chi-square per degree of freedom of [`MISFIT_CHI2`], the strongest
 //!    effect is paired with each other significant one, and if none fits, the
 //!    answer is `unexplained`.
+//!    When the answer is a section's diameter alone, its factor's standard
+//!    deviation takes in the runs of elements the data cannot tell from
+//!    the section found (`bank::section_ends`).
 //! 4. **Observability** ([`observe`]): from the Fisher information, the
 //!    smallest size of each effect these sensors and speeds can detect,
 //!    and which effects the data cannot tell apart.
@@ -59,7 +62,7 @@
 //! * step 2, one module per hypothesis family: `bank` (with
 //!   [`PEDESTAL_RATIOS`]);
 //! * step 3, the choice: `choice` (with [`MISFIT_CHI2`]) and the pairs:
-//!   `pairs`;
+//!   `pairs`; a section's ends: `bank::section_ends`;
 //! * step 4, the observability: [`observe`];
 //! * the statistics ([`chi2_quantile_upper`], [`gamma_q`],
 //!   [`normal_quantile_upper`], the BIC): `stats`;
