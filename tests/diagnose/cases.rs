@@ -1218,7 +1218,9 @@ fn machine_forms() {
 /// the hidden one ([`same_form`]), the hidden factor lies within 3.5
 /// reported deviations of the one found in at least two cases of three;
 /// by the fit's deviation alone, in at most one of three (the factor
-/// found lies tens to hundreds of those off). Not every case: where the
+/// found lies up to hundreds of those off). The finding names the runs
+/// at either end of those the data cannot tell apart (`ends`), in at
+/// least half. Not every case: where the
 /// data prefer another run of elements by far more than a tie (a run the
 /// bank's sections do not hold, none of the linearised model's leading
 /// runs), the spread around the section found misses it.
@@ -1238,7 +1240,7 @@ fn a_sections_factor_deviation_holds_its_ends() {
             ("three bearings", m, sp)
         },
     ];
-    let (mut judged, mut within, mut within_fit) = (0, 0, 0);
+    let (mut judged, mut within, mut within_fit, mut with_ends) = (0, 0, 0, 0);
     for (name, m, sp) in &rotors {
         let mut here = 0;
         for seed in 0..12u64 {
@@ -1265,13 +1267,16 @@ fn a_sections_factor_deviation_holds_its_ends() {
             {
                 continue;
             }
-            let (factor, std) = d
+            let (factor, std, ends) = d
                 .findings()
                 .iter()
                 .find_map(|f| match f {
                     Finding::ShaftStiffnessError {
-                        factor, factor_std, ..
-                    } => Some((*factor, *factor_std)),
+                        factor,
+                        factor_std,
+                        ends,
+                        ..
+                    } => Some((*factor, *factor_std, ends.clone())),
                     _ => None,
                 })
                 .expect("a stiffness finding");
@@ -1288,6 +1293,25 @@ fn a_sections_factor_deviation_holds_its_ends() {
                 c.ends_std > 0.0,
                 "{name} seed {seed}: no spread of the ends"
             );
+            // The runs at either end of the tie, named in the finding.
+            let ends: Vec<(String, f64)> = ends.into_iter().map(|e| (e.form, e.factor)).collect();
+            println!("    ends: {ends:?}");
+            assert!(
+                ends.is_empty() || (ends.len() == 2 && ends[0].1 < ends[1].1),
+                "{ends:?}"
+            );
+            if let [lo, hi] = &ends[..] {
+                // The text report says so, with both runs.
+                let nominal = rotorid::diagnose::predictions(m, &d, &d.nominal).unwrap();
+                let text = rotorid::report::diagnose::text(&d, &case.meas.samples, &nominal);
+                assert!(
+                    text.contains("the data do not fix its ends")
+                        && text.contains(&format!("{} x {:.4}", lo.0, lo.1))
+                        && text.contains(&format!("{} x {:.4}", hi.0, hi.1)),
+                    "{text}"
+                );
+            }
+            with_ends += usize::from(!ends.is_empty());
             here += 1;
             judged += 1;
             within += usize::from((factor - hidden).abs() <= 3.5 * std);
@@ -1295,7 +1319,13 @@ fn a_sections_factor_deviation_holds_its_ends() {
         }
         assert!(here >= 3, "{name}: {here} cases named on a section");
     }
-    println!("within 3.5 deviations: {within} of {judged}; by the fit's alone {within_fit}");
+    println!(
+        "within 3.5 deviations: {within} of {judged}; by the fit's alone {within_fit}; ends named in {with_ends}"
+    );
     assert!(3 * within >= 2 * judged, "{within} of {judged}");
     assert!(3 * within_fit <= judged, "{within_fit} of {judged}");
+    assert!(
+        2 * with_ends >= judged,
+        "ends named in {with_ends} of {judged}"
+    );
 }

@@ -36,6 +36,10 @@ pub struct Candidate {
     /// the data cannot tell from it, `bank::section_ends`), added in
     /// quadrature to the fit's in the findings; zero otherwise.
     pub ends_std: f64,
+    /// For a stiffness error on a section: the runs of elements of least
+    /// and greatest factor among those the data cannot tell from it,
+    /// `(section, diameter factor)` (empty otherwise, or when none is).
+    pub ends: Vec<(StiffnessForm, f64)>,
     /// Alternatives tried for this hypothesis (nodes, bearings, orders).
     pub alternatives: usize,
     /// For a bow of two knots (two [`Extension::Bow`] extensions, knots
@@ -72,10 +76,11 @@ impl Candidate {
     pub fn residual(&self) -> f64 {
         self.fit.residual()
     }
-    /// Sets [`Candidate::ends_std`], the fit's standard deviation of the
-    /// section's factor in [`Candidate::stiffness_forms`] widened by it
-    /// (in quadrature).
-    pub(crate) fn set_ends_std(&mut self, std: f64) {
+    /// Sets [`Candidate::ends_std`] and [`Candidate::ends`], the fit's
+    /// standard deviation of the section's factor in
+    /// [`Candidate::stiffness_forms`] widened by the first (in quadrature).
+    pub(crate) fn set_ends(&mut self, std: f64, ends: Vec<(StiffnessForm, f64)>) {
+        self.ends = ends;
         self.ends_std = std;
         for f in &mut self.stiffness_forms {
             if f.form == self.stiffness {
@@ -102,6 +107,7 @@ impl Candidate {
             stiffness: StiffnessForm::EAndG,
             stiffness_forms: Vec::new(),
             ends_std: 0.0,
+            ends: Vec::new(),
             alternatives,
             bow_coupling: None,
             statistic: 0.0,

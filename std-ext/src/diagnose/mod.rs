@@ -101,7 +101,7 @@ pub use input::{DiagnoseError, DiagnoseOptions};
 pub(crate) use nominal::theta_from_model;
 pub use nominal::{map_theta, rotor_mass, MIN_RELATIVE_NOISE};
 pub use result::{
-    estimates, findings, predictions, Diagnosis, Finding, RunoutFinding, StiffnessAlike,
+    estimates, findings, predictions, Diagnosis, Finding, RunoutFinding, SectionRun, StiffnessAlike,
 };
 pub use stats::{chi2_quantile_upper, gamma_q, normal_quantile_upper};
 
@@ -168,8 +168,13 @@ pub fn diagnose(
     clock.lap("choice and pairs");
     // A diameter off on a section: how well the data place its ends.
     if let Some(c) = choice.chosen.and_then(|i| hypotheses.get_mut(i)) {
-        if let Some(std) = bank::section_ends(&ctx, c, choice.sigma2) {
-            c.set_ends_std(std);
+        if let Some(ends) = bank::section_ends(&ctx, c, choice.sigma2) {
+            let runs = ends
+                .extremes
+                .iter()
+                .map(|&(first, last, f)| (terms::StiffnessForm::Section { first, last }, f))
+                .collect();
+            c.set_ends(ends.std, runs);
         }
     }
     clock.lap("section ends");

@@ -110,6 +110,11 @@ pub enum Finding {
         /// ([`Diagnosis::stiffness_alike`]), best first: the data cannot
         /// tell them from `form`.
         alike: Vec<StiffnessAlike>,
+        /// For a section's diameter: the runs of elements of least and
+        /// greatest factor among those the data cannot tell from `form`
+        /// (the section's ends they leave open; `Candidate::ends`); empty
+        /// otherwise.
+        ends: Vec<SectionRun>,
     },
     /// A probe whose scale factor is off: it reads `gain` times the
     /// signal (`gain - 1` the sensitivity error).
@@ -133,6 +138,18 @@ pub struct StiffnessAlike {
     pub factor: f64,
     /// Its standard deviation.
     pub factor_std: f64,
+}
+
+/// A run of the shaft's elements that fits as well as the section found,
+/// with its diameter factor (linearised about the fit found:
+/// `diagnose::bank::section_ends`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SectionRun {
+    /// What the factor multiplies ("the outer diameter of shaft elements
+    /// a..b", 1-based).
+    pub form: String,
+    /// The diameter factor.
+    pub factor: f64,
 }
 
 /// The runout of one channel.
@@ -529,6 +546,14 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                     factor_std: (E_STEP * f.std(o).unwrap_or(f64::NAN)).hypot(c.ends_std),
                     form: c.stiffness.describe(),
                     alike: Vec::new(),
+                    ends: c
+                        .ends
+                        .iter()
+                        .map(|&(form, factor)| SectionRun {
+                            form: form.describe(),
+                            factor,
+                        })
+                        .collect(),
                 });
             }
             // With the polynomial law's finding (above).

@@ -406,8 +406,15 @@ fn finding_line(f: &Finding) -> String {
             factor_std,
             form,
             alike,
+            ends,
         } => {
             let mut line = format!("{form} x {factor:.4} +- {factor_std:.4}");
+            if let [lo, hi] = &ends[..] {
+                line.push_str(&format!(
+                    " (the data do not fix its ends: runs from {} x {:.4} to {} x {:.4} fit as well or better)",
+                    lo.form, lo.factor, hi.form, hi.factor
+                ));
+            }
             if !alike.is_empty() {
                 let others: Vec<String> = alike
                     .iter()

@@ -102,12 +102,24 @@ const RANK_TOL: f64 = 1e-10;
 /// (0-based elements, the diameter factor), best first.
 pub(crate) type Tied = Vec<(usize, usize, f64)>;
 
+/// What the data leave open of a section's ends.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Ends {
+    /// The ends' standard deviation of the diameter factor.
+    pub std: f64,
+    /// The tied runs of least and greatest factor, `(first, last,
+    /// factor)` (0-based elements; empty when no run but the found one
+    /// is tied).
+    pub extremes: Tied,
+}
+
 /// The ends' standard deviation of the diameter factor when `c` is a
-/// stiffness error on a section alone (module docs); `None` for any other
+/// stiffness error on a section alone (module docs), with the tied runs
+/// of least and greatest factor; `None` for any other
 /// candidate, or when the terms or the residuals cannot be evaluated (the
 /// fit's deviation then stands alone). `sigma2`: the noise variance of the
 /// choice.
-pub(crate) fn section_ends(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Option<f64> {
+pub(crate) fn section_ends(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Option<Ends> {
     let StiffnessForm::Section { first, last } = c.stiffness else {
         return None;
     };
@@ -190,8 +202,18 @@ pub(crate) fn section_ends(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Opt
             stepped.push((s, a, b, x));
         }
     }
-    let half_stepped = x_found.map_or(0.0, |x| tie(&stepped, x, scale, sigma2).0);
-    Some(half_lin.max(half_stepped) / normal_quantile_upper(0.005))
+    let (half_stepped, tied_stepped) =
+        x_found.map_or((0.0, Vec::new()), |x| tie(&stepped, x, scale, sigma2));
+    let mut tied_all: Tied = tied_lin.into_iter().chain(tied_stepped).collect();
+    tied_all.sort_by(|p, q| p.2.total_cmp(&q.2));
+    let extremes: Tied = match (tied_all.first(), tied_all.last()) {
+        (Some(lo), Some(hi)) if (lo.0, lo.1) != (hi.0, hi.1) => vec![*lo, *hi],
+        _ => Vec::new(),
+    };
+    Some(Ends {
+        std: half_lin.max(half_stepped) / normal_quantile_upper(0.005),
+        extremes,
+    })
 }
 
 /// The terms of `model` with the run `first..=last` of its elements at
