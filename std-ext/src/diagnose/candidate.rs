@@ -37,8 +37,9 @@ pub struct Candidate {
     /// quadrature to the fit's in the findings; zero otherwise.
     pub ends_std: f64,
     /// For a stiffness error on a section: the runs of elements of least
-    /// and greatest factor among those the data cannot tell from it,
-    /// `(section, diameter factor)` (empty otherwise, or when none is).
+    /// and greatest factor among those the data cannot tell from the best
+    /// run, `(section, diameter factor)` (empty otherwise, or when one run
+    /// alone is tied).
     pub ends: Vec<(StiffnessForm, f64)>,
     /// Alternatives tried for this hypothesis (nodes, bearings, orders).
     pub alternatives: usize,

@@ -111,9 +111,9 @@ pub enum Finding {
         /// tell them from `form`.
         alike: Vec<StiffnessAlike>,
         /// For a section's diameter: the runs of elements of least and
-        /// greatest factor among those the data cannot tell from `form`
-        /// (the section's ends they leave open; `Candidate::ends`); empty
-        /// otherwise.
+        /// greatest factor among those the data cannot tell from the best
+        /// run (which fits at least as well as `form`): the section's ends
+        /// the data leave open (`Candidate::ends`); empty otherwise.
         ends: Vec<SectionRun>,
     },
     /// A probe whose scale factor is off: it reads `gain` times the
@@ -140,9 +140,9 @@ pub struct StiffnessAlike {
     pub factor_std: f64,
 }
 
-/// A run of the shaft's elements that fits as well as the section found,
-/// with its diameter factor (linearised about the fit found:
-/// `diagnose::bank::section_ends`).
+/// A run of the shaft's elements the data cannot tell from the best run,
+/// with its diameter factor (linearised about the fit found, or after its
+/// Gauss-Newton steps: `diagnose::bank::section_ends`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SectionRun {
     /// What the factor multiplies ("the outer diameter of shaft elements

@@ -108,8 +108,7 @@ pub(crate) struct Ends {
     /// The ends' standard deviation of the diameter factor.
     pub std: f64,
     /// The tied runs of least and greatest factor, `(first, last,
-    /// factor)` (0-based elements; empty when no run but the found one
-    /// is tied).
+    /// factor)` (0-based elements; empty when one run alone is tied).
     pub extremes: Tied,
 }
 
