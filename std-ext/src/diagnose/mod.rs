@@ -169,12 +169,7 @@ pub fn diagnose(
     // A diameter off on a section: how well the data place its ends.
     if let Some(c) = choice.chosen.and_then(|i| hypotheses.get_mut(i)) {
         if let Some(ends) = bank::section_ends(&ctx, c, choice.sigma2) {
-            let runs = ends
-                .extremes
-                .iter()
-                .map(|&(first, last, f)| (terms::StiffnessForm::Section { first, last }, f))
-                .collect();
-            c.set_ends(ends.std, runs);
+            c.set_ends(ends.std, ends.extremes);
         }
     }
     clock.lap("section ends");

@@ -107,9 +107,9 @@ pub(crate) type Tied = Vec<(usize, usize, f64)>;
 pub(crate) struct Ends {
     /// The ends' standard deviation of the diameter factor.
     pub std: f64,
-    /// The tied runs of least and greatest factor, `(first, last,
-    /// factor)` (0-based elements; empty when one run alone is tied).
-    pub extremes: Tied,
+    /// The tied runs of least and greatest factor, with their diameter
+    /// factors (empty when one run alone is tied).
+    pub extremes: Vec<(StiffnessForm, f64)>,
 }
 
 /// The ends' standard deviation of the diameter factor when `c` is a
@@ -138,10 +138,12 @@ pub(crate) fn section_ends(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Opt
     // ones (a change of `1` on one element), so that a column holds the
     // element's change, not the method's.
     let t_f = run_terms(ctx, &thin, &found, (0, 0), 1.0)?;
-    let (r_f, j, n_thin) = residual(ctx, &thin, &t_f, theta)?;
+    let (r_f, Some(j), n_thin) = residual(ctx, &thin, &t_f, theta, true)? else {
+        return None;
+    };
     let columns = parallel::map(&(0..n_el).collect::<Vec<_>>(), ctx.threads(), |&e| {
         let te = run_terms(ctx, &thin, &found, (e, e), 1.0 + STEP)?;
-        let (re, _, _) = residual(ctx, &thin, &te, theta)?;
+        let (re, _, _) = residual(ctx, &thin, &te, theta, false)?;
         Some((re - &r_f) / STEP)
     });
     let mut cols = DMatrix::<f64>::zeros(r_f.len(), n_el);
@@ -205,8 +207,11 @@ pub(crate) fn section_ends(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Opt
         x_found.map_or((0.0, Vec::new()), |x| tie(&stepped, x, scale, sigma2));
     let mut tied_all: Tied = tied_lin.into_iter().chain(tied_stepped).collect();
     tied_all.sort_by(|p, q| p.2.total_cmp(&q.2));
-    let extremes: Tied = match (tied_all.first(), tied_all.last()) {
-        (Some(lo), Some(hi)) if (lo.0, lo.1) != (hi.0, hi.1) => vec![*lo, *hi],
+    let extremes = match (tied_all.first(), tied_all.last()) {
+        (Some(lo), Some(hi)) if (lo.0, lo.1) != (hi.0, hi.1) => [lo, hi]
+            .iter()
+            .map(|&&(first, last, f)| (StiffnessForm::Section { first, last }, f))
+            .collect(),
         _ => Vec::new(),
     };
     Some(Ends {
@@ -241,22 +246,21 @@ fn run_terms(
 }
 
 /// The weighted residual of the nominal parameters `theta` on the terms
-/// `t` of the thinned speeds, the Jacobian of the predictions and the
-/// number of real equations.
+/// `t` of the thinned speeds, the Jacobian of the predictions when
+/// `jacobian`, and the number of real equations.
 fn residual(
     ctx: &Context<'_>,
     thin: &Thinned,
     t: &[SpeedTerms],
     theta: &[f64],
-) -> Option<(DVector<f64>, DMatrix<f64>, usize)> {
+    jacobian: bool,
+) -> Option<(DVector<f64>, Option<DMatrix<f64>>, usize)> {
     let d = FitData::with_probes(&thin.samples, &thin.node_q, t)
         .with_floors(&ctx.setup.phi)
         .with_noise_level(ctx.setup.noise_level);
     let en = fit::entries(ctx.base, &d);
-    match fit::evaluate(ctx.base, &d, &en, theta, true) {
-        Ok((r, Some(j))) => Some((r, j, d.n_equations())),
-        _ => None,
-    }
+    let (r, j) = fit::evaluate(ctx.base, &d, &en, theta, jacobian).ok()?;
+    Some((r, j, d.n_equations()))
 }
 
 /// Up to [`STEPS`] Gauss-Newton steps of the run `a..=b` in the nominal
@@ -278,13 +282,17 @@ fn steps(
         let Some(t) = run_terms(ctx, thin, ctx.model, (a, b), 1.0 + x) else {
             break;
         };
-        let Some((r, j, _)) = residual(ctx, thin, &t, &theta) else {
+        let Some((r, Some(j), _)) = residual(ctx, thin, &t, &theta, true) else {
             break;
         };
-        let q = j.clone().qr().q();
+        // One factorisation for both: P v = v - U U^T v, and J^+.
+        let svd = j.svd(true, true);
+        let Some(u) = svd.u.as_ref() else {
+            break;
+        };
         let project = |v: DVector<f64>| {
-            let t = q.tr_mul(&v);
-            v - &q * t
+            let t = u.tr_mul(&v);
+            v - u * t
         };
         let col = d_s / (1.0 + x);
         let pr = project(r.clone());
@@ -296,7 +304,6 @@ fn steps(
         let cr = pc.dot(&pr);
         let dx = -cr / cc;
         s = Some(pr.norm_squared() - cr * cr / cc);
-        let svd = j.svd(true, true);
         let tol = RANK_TOL * svd.singular_values.max();
         let Ok(dtheta) = svd.solve(&(r + col * dx), tol) else {
             break;
