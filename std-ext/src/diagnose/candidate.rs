@@ -41,6 +41,16 @@ pub struct Candidate {
     /// run, `(section, diameter factor)` (empty otherwise, or when one run
     /// alone is tied).
     pub ends: Vec<(StiffnessForm, f64)>,
+    /// For an extra unbalance plane alone: the standard deviation of its
+    /// `m e` (kg m) that the runs of nodes the data cannot tell from it
+    /// leave open (`bank::plane_spread`), added in quadrature to the fit's
+    /// in the findings; zero otherwise.
+    pub spread_std: f64,
+    /// For an extra unbalance plane alone: the runs of nodes of least and
+    /// greatest `m e` among those the data cannot tell from the best run,
+    /// `(first node, last node, m e)` (0-based nodes, kg m; empty
+    /// otherwise, or when one run alone is tied).
+    pub spread: Vec<(usize, usize, f64)>,
     /// Alternatives tried for this hypothesis (nodes, bearings, orders).
     pub alternatives: usize,
     /// For a bow of two knots (two [`Extension::Bow`] extensions, knots
@@ -109,6 +119,8 @@ impl Candidate {
             stiffness_forms: Vec::new(),
             ends_std: 0.0,
             ends: Vec::new(),
+            spread_std: 0.0,
+            spread: Vec::new(),
             alternatives,
             bow_coupling: None,
             statistic: 0.0,

@@ -101,7 +101,8 @@ pub use input::{DiagnoseError, DiagnoseOptions};
 pub(crate) use nominal::theta_from_model;
 pub use nominal::{map_theta, rotor_mass, MIN_RELATIVE_NOISE};
 pub use result::{
-    estimates, findings, predictions, Diagnosis, Finding, RunoutFinding, SectionRun, StiffnessAlike,
+    estimates, findings, predictions, Diagnosis, Finding, PlaneRun, RunoutFinding, SectionRun,
+    StiffnessAlike,
 };
 pub use stats::{chi2_quantile_upper, gamma_q, normal_quantile_upper};
 
@@ -173,6 +174,14 @@ pub fn diagnose(
         }
     }
     clock.lap("section ends");
+    // An extra unbalance: how well the data place it along the shaft.
+    if let Some(c) = choice.chosen.and_then(|i| hypotheses.get_mut(i)) {
+        if let Some(spread) = bank::plane_spread(&ctx, c, choice.sigma2) {
+            c.spread_std = spread.std;
+            c.spread = spread.extremes;
+        }
+    }
+    clock.lap("plane spread");
     let effects = match choice.chosen {
         Some(i) => hypotheses[i].effects.clone(),
         None => Vec::new(),

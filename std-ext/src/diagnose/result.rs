@@ -87,12 +87,19 @@ pub enum Finding {
         node: usize,
         /// `m e` (kg m).
         me: f64,
-        /// Its standard deviation.
+        /// Its standard deviation: the fit's, with the part added in
+        /// quadrature that the runs of nodes the data cannot tell from the
+        /// plane leave open (`Candidate::spread_std`).
         me_std: f64,
         /// Phase (deg).
         phase_deg: f64,
         /// Its standard deviation.
         phase_deg_std: f64,
+        /// The runs of nodes, with the `m e` shared equally along each, of
+        /// least and greatest `m e` among those the data cannot tell from
+        /// the best run (`Candidate::spread`): where along the shaft the
+        /// unbalance may lie; empty when the plane alone fits.
+        spread: Vec<PlaneRun>,
     },
     /// The shaft's modulus off.
     ShaftStiffnessError {
@@ -150,6 +157,16 @@ pub struct SectionRun {
     pub form: String,
     /// The diameter factor.
     pub factor: f64,
+}
+
+/// A run of nodes an extra unbalance may be spread over, equally, that
+/// the data cannot tell from the best run (`diagnose::bank::plane_spread`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlaneRun {
+    /// The nodes, 1-based (`"7"` or `"7..9"`).
+    pub nodes: String,
+    /// The total `m e` along them (kg m).
+    pub me: f64,
 }
 
 /// The runout of one channel.
@@ -507,9 +524,21 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                 out.push(Finding::ExtraUnbalancePlane {
                     node: node + 1,
                     me: a,
-                    me_std: sa,
+                    me_std: sa.hypot(c.spread_std),
                     phase_deg: p,
                     phase_deg_std: sp,
+                    spread: c
+                        .spread
+                        .iter()
+                        .map(|&(first, last, me)| PlaneRun {
+                            nodes: if first == last {
+                                format!("{}", first + 1)
+                            } else {
+                                format!("{}..{}", first + 1, last + 1)
+                            },
+                            me,
+                        })
+                        .collect(),
                 });
             }
             Extension::Bow { node, line } => {

@@ -398,9 +398,19 @@ fn finding_line(f: &Finding) -> String {
             me_std,
             phase_deg,
             phase_deg_std,
-        } => format!(
-            "extra unbalance at node {node}: {me:.4e} +- {me_std:.1e} kg m at {phase_deg:.1} +- {phase_deg_std:.1} deg"
-        ),
+            spread,
+        } => {
+            let mut line = format!(
+                "extra unbalance at node {node}: {me:.4e} +- {me_std:.1e} kg m at {phase_deg:.1} +- {phase_deg_std:.1} deg"
+            );
+            if let [lo, hi] = &spread[..] {
+                line.push_str(&format!(
+                    " (the data do not fix where it lies: {:.4e} kg m spread over nodes {} to {:.4e} over nodes {} fit as well or better)",
+                    lo.me, lo.nodes, hi.me, hi.nodes
+                ));
+            }
+            line
+        }
         Finding::ShaftStiffnessError {
             factor,
             factor_std,

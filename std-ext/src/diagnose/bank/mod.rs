@@ -7,6 +7,8 @@
 //! * `pedestal`: `foundation_flexibility` (and the two pedestals of the
 //!   pairs);
 //! * `nodes`: `shaft_bow` and `extra_unbalance_plane`, screened over nodes;
+//!   after the choice, `plane_spread` weighs the runs of nodes an extra
+//!   unbalance could be spread over;
 //! * `runout`: `probe_runout`;
 //! * `modulus`: `shaft_stiffness_error`;
 //! * `gain`: `probe_sensitivity`.
@@ -15,6 +17,7 @@ mod gain;
 mod modulus;
 mod nodes;
 mod pedestal;
+mod plane_spread;
 mod runout;
 mod section_ends;
 mod speed_law;
@@ -22,6 +25,7 @@ mod speed_law;
 pub(crate) use nodes::rescreen;
 pub(crate) use pedestal::two_pedestals;
 pub use pedestal::PEDESTAL_RATIOS;
+pub(crate) use plane_spread::plane_spread;
 pub(crate) use section_ends::section_ends;
 
 use nalgebra::{DMatrix, DVector};
