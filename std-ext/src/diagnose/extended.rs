@@ -16,6 +16,7 @@
 //! |---|---|---|
 //! | [`Extension::Runout`] | `r_c = q_s (x + j y)` per channel | `y_c += r_c` |
 //! | [`Extension::Plane`] | `u = s_a (x + j y)` (kg m) at node `n` | `b_n u` |
+//! | [`Extension::Spread`] | `u = s_a (x + j y)` (kg m) shared by nodes `a..=b` | `(1 / (b - a + 1)) sum_{n=a..b} b_n u` |
 //! | [`Extension::Bow`] | `beta = q_s (x + j y)` (m) at node `n` | `g_n beta` (or the bearing line's `g_n`) |
 //! | [`Extension::EScale`] | `de = 0.01 x` about the terms' own factor, in the form of [`crate::diagnose::terms::StiffnessForm`] | `dA de`, `dB a de` |
 //! | [`Extension::Pedestal`] | `m = m_0 e^x1`, `w_d = w_0 e^x_d`, `zeta_d = x_d / 10`; with `split`, `m_y = m e^x6`, `m_z = m e^-x6` | `Z_eff`, `P` |
@@ -74,6 +75,14 @@ pub enum Extension {
     Plane {
         /// Node (0-based).
         node: usize,
+    },
+    /// Unbalance shared equally by the consecutive nodes `first..=last`
+    /// (0-based, none a plane): an unbalance spread along a section.
+    Spread {
+        /// First node (0-based).
+        first: usize,
+        /// Last node (0-based).
+        last: usize,
     },
     /// A bow of the shaft with its offset at a node (0-based).
     Bow {
@@ -156,7 +165,10 @@ impl Extension {
     pub fn n_params(&self, nq: usize) -> usize {
         match self {
             Extension::Runout => 2 * nq,
-            Extension::Plane { .. } | Extension::Bow { .. } | Extension::NodeRunout { .. } => 2,
+            Extension::Plane { .. }
+            | Extension::Spread { .. }
+            | Extension::Bow { .. }
+            | Extension::NodeRunout { .. } => 2,
             Extension::Pedestal { split, .. } => 5 + usize::from(*split),
             Extension::EScale | Extension::Gain { .. } => 1,
             Extension::FilmLaw => 3 * (nq / 2),
@@ -414,9 +426,16 @@ impl ExtendedModel {
                 Extension::Bow { line: true, .. } if st.g_line.is_none() => {
                     return Err(PredictError::Dimension)
                 }
+                Extension::Spread { first, last } if first > last || last >= st.b_node.ncols() => {
+                    return Err(PredictError::Dimension)
+                }
                 Extension::Plane { node } => {
                     let u = Complex64::new(p[0], p[1]) * self.pr.param.scaling.unbalance;
                     f += st.b_node.column(node) * u;
+                }
+                Extension::Spread { first, last } => {
+                    let u = Complex64::new(p[0], p[1]) * self.pr.param.scaling.unbalance;
+                    f += st.spread_column(first, last) * u;
                 }
                 Extension::Bow { node, line } => {
                     let beta = Complex64::new(p[0], p[1]) * self.scales.q;
@@ -518,6 +537,11 @@ impl ExtendedModel {
                         let u = Complex64::new(theta[o], theta[o + 1])
                             * self.pr.param.scaling.unbalance;
                         x += nt.u_node.column(node) * u;
+                    }
+                    Extension::Spread { first, last } => {
+                        let u = Complex64::new(theta[o], theta[o + 1])
+                            * self.pr.param.scaling.unbalance;
+                        x += nt.spread_column(first, last) * u;
                     }
                     Extension::Bow { node, line } => {
                         let beta = Complex64::new(theta[o], theta[o + 1]) * self.scales.q;
@@ -744,13 +768,22 @@ impl ExtendedModel {
                 }
                 match *ext {
                     Extension::Runout => runout_cols = Some(o),
-                    Extension::Plane { node } | Extension::Bow { node, .. } => {
-                        // H^-1 (b_n or g_n) times the scale, and j times it.
+                    Extension::Plane { .. } | Extension::Spread { .. } | Extension::Bow { .. } => {
+                        // H^-1 (b_n, the spread's mean b_n or g_n) times the
+                        // scale, and j times it.
                         let (col, scale) = match *ext {
-                            Extension::Bow { line, .. } => {
-                                (st.bow_column(node, line), self.scales.q)
+                            Extension::Bow { node, line } => {
+                                (st.bow_column(node, line).into_owned(), self.scales.q)
                             }
-                            _ => (st.b_node.column(node), self.pr.param.scaling.unbalance),
+                            Extension::Spread { first, last } => (
+                                st.spread_column(first, last),
+                                self.pr.param.scaling.unbalance,
+                            ),
+                            Extension::Plane { node } => (
+                                st.b_node.column(node).into_owned(),
+                                self.pr.param.scaling.unbalance,
+                            ),
+                            _ => return Err(PredictError::Dimension),
                         };
                         let scale = Complex64::from(scale);
                         for r in 0..nq {
@@ -861,6 +894,14 @@ impl ExtendedModel {
                         match *ext {
                             Extension::Plane { node } => {
                                 let v = nt.u_node.column(node)
+                                    * Complex64::from(self.pr.param.scaling.unbalance);
+                                let mut c0 = jn.column_mut(o);
+                                c0 += &v;
+                                let mut c1 = jn.column_mut(o + 1);
+                                c1 += v * j;
+                            }
+                            Extension::Spread { first, last } => {
+                                let v = nt.spread_column(first, last)
                                     * Complex64::from(self.pr.param.scaling.unbalance);
                                 let mut c0 = jn.column_mut(o);
                                 c0 += &v;

@@ -86,7 +86,7 @@ pub struct Case {
 /// | `FilmTable` | `speed_dependent_bearing` | a table over 6 speeds, linear between: direct stiffness `K (0.75 + 0.5 r^1.5)`, cross-coupled `+-0.3 K r` (signs of a fluid film: `k_yz > 0`, `k_zy < 0`), damping `C (1.4 - 0.6 r)`, `r = Omega / Omega_max` |
 /// | `PedestalMasses` | `foundation_flexibility` | the pedestal's z mass `U(1.2, 1.6)` times its y mass |
 /// | `TwoKnotBow` | `shaft_bow` | offsets at two interior nodes 2 to 4 apart (not bearings), `U(10, 50)` um and `U(0.6, 1)` of it, phases within 0.3 rad |
-/// | `DistributedUnbalance` | `extra_unbalance_plane` | the extra unbalance spread equally over three consecutive nodes (none a plane), phases within 0.2 rad |
+/// | `DistributedUnbalance` | `extra_unbalance_plane` | the extra unbalance spread equally over three consecutive nodes (none a plane), phases within 0.2 rad; its size and phase the shares' resultant |
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Form {
     /// The bank's own form of the effect (the table of the module docs).
@@ -389,6 +389,8 @@ pub fn generate_form(
                 vec![node]
             };
             let share = me / spread.len() as f64;
+            // The resultant: the phasor sum of the shares.
+            let mut resultant = num_complex::Complex64::new(0.0, 0.0);
             for &n in &spread {
                 let ph = if spread.len() > 1 {
                     phase + rng.random_range(-0.2..0.2)
@@ -400,10 +402,14 @@ pub fn generate_form(
                     me: share,
                     phase: ph,
                 });
+                resultant += num_complex::Complex64::from_polar(share, ph);
             }
             hidden.node = Some(node);
-            hidden.size = me;
-            hidden.phase = phase;
+            // The size of an unbalance spread over nodes is its resultant
+            // (what a balancing would remove), up to 2 % below the sum of
+            // the shares' sizes with their phases apart.
+            hidden.size = resultant.norm();
+            hidden.phase = resultant.arg();
             hidden.description = format!(
                 "extra unbalance {me:.3e} kg m at node {}, {:.0} deg",
                 node + 1,

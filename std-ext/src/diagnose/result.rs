@@ -81,11 +81,16 @@ pub enum Finding {
         /// Each channel's phasor.
         channels: Vec<RunoutFinding>,
     },
-    /// Unbalance at another node.
+    /// Unbalance at another node, or shared equally by a run of nodes.
     ExtraUnbalancePlane {
-        /// Node (1-based).
+        /// Node (1-based); for a run of nodes, the middle one (the lower
+        /// of the two middle ones for an even run).
         node: usize,
-        /// `m e` (kg m).
+        /// The nodes the unbalance is at, 1-based: `"7"` for a plane,
+        /// `"6..8"` for an unbalance shared equally by nodes 6 to 8 (the
+        /// bank's variant for an unbalance spread along a section).
+        nodes: String,
+        /// `m e` (kg m), the total of a run.
         me: f64,
         /// Its standard deviation: the fit's, with the part added in
         /// quadrature that the runs of nodes the data cannot tell from the
@@ -357,6 +362,16 @@ pub fn predictions(
         .collect()
 }
 
+/// The 1-based name of the run of nodes `first..=last` (0-based): `"7"`
+/// or `"6..8"`.
+fn run_name(first: usize, last: usize) -> String {
+    if first == last {
+        format!("{}", first + 1)
+    } else {
+        format!("{}..{}", first + 1, last + 1)
+    }
+}
+
 /// Amplitude and phase (deg) of `z = s (x + j y)` with their standard
 /// deviations from the 2x2 covariance of `(x, y)` (linearised).
 fn polar_with_std(x: f64, y: f64, s: f64, cov: Option<[[f64; 2]; 2]>) -> (f64, f64, f64, f64) {
@@ -514,7 +529,11 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                     None => out.push(Finding::ProbeRunout { channels: vec![r] }),
                 }
             }
-            Extension::Plane { node } => {
+            Extension::Plane { node: first } | Extension::Spread { first, .. } => {
+                let last = match *ext {
+                    Extension::Spread { last, .. } => last,
+                    _ => first,
+                };
                 let (a, p, sa, sp) = polar_with_std(
                     f.theta[o],
                     f.theta[o + 1],
@@ -522,7 +541,8 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                     cov2(f, o),
                 );
                 out.push(Finding::ExtraUnbalancePlane {
-                    node: node + 1,
+                    node: (first + last) / 2 + 1,
+                    nodes: run_name(first, last),
                     me: a,
                     me_std: sa.hypot(c.spread_std),
                     phase_deg: p,
@@ -531,11 +551,7 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                         .spread
                         .iter()
                         .map(|&(first, last, me)| PlaneRun {
-                            nodes: if first == last {
-                                format!("{}", first + 1)
-                            } else {
-                                format!("{}..{}", first + 1, last + 1)
-                            },
+                            nodes: run_name(first, last),
                             me,
                         })
                         .collect(),

@@ -42,7 +42,7 @@
 //! the unbalance and bow forcings scale like `Z_R`, so all four are those
 //! of `e = 1` at `Omega / sqrt(e)`, with `Omega^2` of that speed in `u`.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
 use crate::fe::assembly::{Dir, FeModel};
@@ -86,6 +86,19 @@ impl SpeedTerms {
             _ => self.g_node.column(node),
         }
     }
+
+    /// `(1 / n) sum_{i in first..=last} b_i`: the load of a unit
+    /// unbalance shared equally by the `n` nodes `first..=last`
+    /// (0-based).
+    pub fn spread_column(&self, first: usize, last: usize) -> DVector<Complex64> {
+        mean_columns(&self.b_node, first, last)
+    }
+}
+
+/// The mean of the columns `first..=last` of `m`.
+fn mean_columns(m: &DMatrix<Complex64>, first: usize, last: usize) -> DVector<Complex64> {
+    let n = last + 1 - first;
+    m.columns(first, n).column_sum() / Complex64::from(n as f64)
 }
 
 impl NodeTerms {
@@ -101,6 +114,12 @@ impl NodeTerms {
             (None, true) => Err(crate::estimate::predictor::PredictError::Dimension),
             _ => Ok(self.h_node.column(node)),
         }
+    }
+
+    /// `u_k` of a unit unbalance shared equally by the nodes
+    /// `first..=last`, as [`SpeedTerms::spread_column`].
+    pub fn spread_column(&self, first: usize, last: usize) -> DVector<Complex64> {
+        mean_columns(&self.u_node, first, last)
     }
 }
 

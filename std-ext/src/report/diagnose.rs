@@ -394,14 +394,20 @@ fn finding_line(f: &Finding) -> String {
         }
         Finding::ExtraUnbalancePlane {
             node,
+            nodes,
             me,
             me_std,
             phase_deg,
             phase_deg_std,
             spread,
         } => {
+            let at = if nodes.contains("..") {
+                format!("shared equally by nodes {nodes}")
+            } else {
+                format!("at node {node}")
+            };
             let mut line = format!(
-                "extra unbalance at node {node}: {me:.4e} +- {me_std:.1e} kg m at {phase_deg:.1} +- {phase_deg_std:.1} deg"
+                "extra unbalance {at}: {me:.4e} +- {me_std:.1e} kg m at {phase_deg:.1} +- {phase_deg_std:.1} deg"
             );
             if let [lo, hi] = &spread[..] {
                 line.push_str(&format!(

@@ -11,7 +11,7 @@ use crate::diagnose::effect::Effect;
 use crate::diagnose::extended::{ExtendedModel, Extension};
 use crate::diagnose::fit::{self, Fit, FitData};
 use crate::diagnose::input::DiagnoseError;
-use crate::diagnose::stats::bic;
+use crate::diagnose::stats::{bic, chi2_quantile_upper};
 use crate::fe::assembly::{Dir, FeModel};
 use crate::model::{BowPoint, RotorModel, ShaftBow};
 
@@ -78,6 +78,16 @@ pub(crate) fn node_effect(
     };
     let mut alternatives: usize = families.iter().map(Vec::len).sum();
     let mut chosen = (f, m, node_label(ext));
+    if effect == Effect::ExtraUnbalancePlane {
+        // The variant of an unbalance spread along a section: kept when
+        // it fits better than the plane by more than a tie.
+        if let Some(run) = spread_variant(ctx, &chosen.0) {
+            let tie = chi2_quantile_upper(2.0, 0.01) * chosen.0.sigma2();
+            if run.0.s < chosen.0.s - tie {
+                chosen = run;
+            }
+        }
+    }
     let (pair, tried) = two_nodes(ctx, &families, &family_best)?;
     alternatives += tried;
     if let Some(p) = pair {
@@ -94,6 +104,55 @@ pub(crate) fn node_effect(
     let mut c = Candidate::new(vec![effect], label, m, f, 1.0, alternatives);
     c.bow_coupling = coupling;
     Ok(Some(c))
+}
+
+/// The runs of nodes of the spread variant fitted per round (the best
+/// ones of the linearised screen, [`super::plane_spread::best_runs`]).
+const SPREAD_FITTED: usize = 1;
+
+/// Rounds of the spread variant's screen: the first about the plane's
+/// fit, the next about the best run's.
+const SPREAD_ROUNDS: usize = 2;
+
+/// The best fit of an extra unbalance shared equally by a run of two or
+/// more consecutive nodes ([`Extension::Spread`]): the [`SPREAD_FITTED`]
+/// runs that fit best linearised about the plane's fit `plane` (its
+/// nominal parameters), each fitted from there; then, for
+/// [`SPREAD_ROUNDS`] rounds in all, those linearised about the best run's
+/// fit (the plane's fit absorbs a spread unbalance in its bearings, which
+/// can rank another run first). `None` when none fits.
+fn spread_variant(ctx: &Context<'_>, plane: &Fit) -> Option<LabelledFit> {
+    let nom = ctx.base.n_params();
+    let mut best: Option<LabelledFit> = None;
+    let mut tried: Vec<Extension> = Vec::new();
+    let mut about = plane.theta.get(..nom)?.to_vec();
+    for _ in 0..SPREAD_ROUNDS {
+        let runs = super::plane_spread::best_runs(ctx, &about, SPREAD_FITTED + tried.len())?;
+        let fresh: Vec<(Extension, [f64; 2])> = runs
+            .into_iter()
+            .filter(|r| !tried.contains(&r.0))
+            .take(SPREAD_FITTED)
+            .collect();
+        for (ext, p) in fresh {
+            tried.push(ext);
+            let m = ctx.with_ext(vec![ext]);
+            if !ctx.n_room(m.n_params()) {
+                continue;
+            }
+            let mut t = about.clone();
+            t.extend_from_slice(&p);
+            if let Ok(f) = fit::fit(&m, ctx.data, &t, 50) {
+                if best.as_ref().is_none_or(|b| f.s < b.0.s) {
+                    best = Some((f, m, node_label(ext)));
+                }
+            }
+        }
+        match &best {
+            Some(b) => about = b.0.theta.get(..nom)?.to_vec(),
+            None => break,
+        }
+    }
+    best
 }
 
 /// `[s_b(a), s_a(b)]` of [`Candidate::bow_coupling`] for the one-knot bow
@@ -297,6 +356,11 @@ fn node_label(ext: Extension) -> String {
             format!("bow from the bearing line, offset at node {}", node + 1)
         }
         Extension::Plane { node } => format!("extra unbalance plane at node {}", node + 1),
+        Extension::Spread { first, last } => format!(
+            "extra unbalance shared by nodes {} to {}",
+            first + 1,
+            last + 1
+        ),
         other => format!("{other:?}"),
     }
 }

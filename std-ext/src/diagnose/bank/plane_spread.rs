@@ -72,35 +72,23 @@ pub(crate) struct Spread {
 /// or its Jacobian cannot be evaluated (the fit's deviation then stands
 /// alone). `sigma2`: the noise variance of the choice.
 pub(crate) fn plane_spread(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Option<Spread> {
-    let [Extension::Plane { node: found }] = c.model.ext.as_slice() else {
-        return None;
+    let (first, last) = match c.model.ext.as_slice() {
+        [Extension::Plane { node }] => (*node, *node),
+        [Extension::Spread { first, last }] => (*first, *last),
+        _ => return None,
     };
     if c.effects != [Effect::ExtraUnbalancePlane] || sigma2.is_nan() || sigma2 <= 0.0 {
         return None;
     }
-    let model = ctx.model;
-    let nodes: Vec<usize> = (0..model.n_nodes())
-        .filter(|n| !model.planes.contains(n))
-        .collect();
-    let at = nodes.iter().position(|n| n == found)?;
-    let all = ctx.with_ext(
-        nodes
-            .iter()
-            .map(|&node| Extension::Plane { node })
-            .collect(),
+    let nodes = searched_nodes(ctx);
+    let at = (
+        nodes.iter().position(|n| *n == first)?,
+        nodes.iter().position(|n| *n == last)?,
     );
-    let nom = ctx.base.n_params();
-    let mut theta = c.fit.theta.get(..nom)?.to_vec();
-    theta.resize(all.n_params(), 0.0);
-    let en = fit::entries(&all, ctx.data);
-    let (r0, Some(jac)) = fit::evaluate(&all, ctx.data, &en, &theta, true).ok()? else {
-        return None;
-    };
-    let j = jac.columns(0, nom).into_owned();
-    let cols = jac.columns(nom, 2 * nodes.len()).into_owned();
+    let (j, r0, cols) = columns(ctx, &nodes, c.fit.theta.get(..ctx.base.n_params())?)?;
     let runs = linear_runs(&j, &r0, &cols, &nodes)?;
     let scale = c.model.pr.param.scaling.unbalance;
-    let p_found = runs.iter().find(|r| (r.1, r.2) == (at, at))?.3;
+    let p_found = runs.iter().find(|r| (r.1, r.2) == at)?.3;
     let (half, tied_runs) = tie(&runs, p_found, sigma2);
     let node_at = |i: usize| nodes.get(i).copied();
     let extremes = match (tied_runs.first(), tied_runs.last()) {
@@ -116,9 +104,78 @@ pub(crate) fn plane_spread(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Opt
     })
 }
 
+/// The nodes an extra unbalance may be at: every node but the model's
+/// balance planes, in order.
+fn searched_nodes(ctx: &Context<'_>) -> Vec<usize> {
+    let model = ctx.model;
+    (0..model.n_nodes())
+        .filter(|n| !model.planes.contains(n))
+        .collect()
+}
+
+/// At the nominal parameters `theta_nom` with no extra unbalance: the
+/// Jacobian `J` in the nominal parameters, the weighted residual `r_0`,
+/// and the two columns `C_i` of each node of `nodes` in turn (module
+/// docs).
+fn columns(
+    ctx: &Context<'_>,
+    nodes: &[usize],
+    theta_nom: &[f64],
+) -> Option<(DMatrix<f64>, DVector<f64>, DMatrix<f64>)> {
+    let all = ctx.with_ext(
+        nodes
+            .iter()
+            .map(|&node| Extension::Plane { node })
+            .collect(),
+    );
+    let nom = ctx.base.n_params();
+    let mut theta = theta_nom.to_vec();
+    theta.resize(all.n_params(), 0.0);
+    let en = fit::entries(&all, ctx.data);
+    let (r0, Some(jac)) = fit::evaluate(&all, ctx.data, &en, &theta, true).ok()? else {
+        return None;
+    };
+    let j = jac.columns(0, nom).into_owned();
+    let cols = jac.columns(nom, 2 * nodes.len()).into_owned();
+    Some((j, r0, cols))
+}
+
+/// The `n` runs of two or more nodes that fit best, linearised about the
+/// nominal parameters `theta_nom` (module docs), as extensions with the
+/// start of their (scaled) phasor, least misfit first: the starts of the
+/// bank's variant of an unbalance spread along a section.
+pub(crate) fn best_runs(
+    ctx: &Context<'_>,
+    theta_nom: &[f64],
+    n: usize,
+) -> Option<Vec<(Extension, [f64; 2])>> {
+    let nodes = searched_nodes(ctx);
+    let (j, r0, cols) = columns(ctx, &nodes, theta_nom)?;
+    let runs = linear_run_fits(&j, &r0, &cols, &nodes)?;
+    Some(
+        runs.into_iter()
+            .filter(|r| r.2 > r.1)
+            .take(n)
+            .map(|(_, a, b, p)| {
+                (
+                    Extension::Spread {
+                        first: nodes[a],
+                        last: nodes[b],
+                    },
+                    [p[0], p[1]],
+                )
+            })
+            .collect(),
+    )
+}
+
 /// A run in the linearised model: `(S_s, first, last, |p_s|)`, `first`
 /// and `last` indices into the searched nodes, `|p_s|` scaled.
 type Run = (f64, usize, usize, f64);
+
+/// A run with its phasor: `(S_s, first, last, p_s)` (`p_s` scaled, real
+/// and imaginary parts).
+pub(crate) type RunFit = (f64, usize, usize, Vector2<f64>);
 
 /// Every run of consecutive searched nodes (`nodes`, in order; a run
 /// does not jump a node left out) with its `S_s` and `|p_s|` (module
@@ -130,6 +187,21 @@ fn linear_runs(
     cols: &DMatrix<f64>,
     nodes: &[usize],
 ) -> Option<Vec<Run>> {
+    Some(
+        linear_run_fits(j, r0, cols, nodes)?
+            .into_iter()
+            .map(|(s, a, b, p)| (s, a, b, p.norm()))
+            .collect(),
+    )
+}
+
+/// [`linear_runs`] with each run's phasor.
+fn linear_run_fits(
+    j: &DMatrix<f64>,
+    r0: &DVector<f64>,
+    cols: &DMatrix<f64>,
+    nodes: &[usize],
+) -> Option<Vec<RunFit>> {
     let n = nodes.len();
     if cols.ncols() != 2 * n || j.nrows() != r0.len() || cols.nrows() != r0.len() {
         return None;
@@ -151,7 +223,7 @@ fn linear_runs(
             pre.set_column(2 * (i + 1) + k, &next);
         }
     }
-    let fit_run = |a: usize, b: usize| -> Option<(f64, f64)> {
+    let fit_run = |a: usize, b: usize| -> Option<(f64, Vector2<f64>)> {
         let w = 1.0 / (b + 1 - a) as f64;
         let c0 = (pre.column(2 * (b + 1)) - pre.column(2 * a)) * w;
         let c1 = (pre.column(2 * (b + 1) + 1) - pre.column(2 * a + 1)) * w;
@@ -164,9 +236,9 @@ fn linear_runs(
         let b2 = Vector2::new(c0.dot(&pr), c1.dot(&pr));
         let p = -a2.try_inverse()? * b2;
         let s = pr2 + b2.dot(&p);
-        (s.is_finite() && p.iter().all(|x| x.is_finite())).then_some((s, p.norm()))
+        (s.is_finite() && p.iter().all(|x| x.is_finite())).then_some((s, p))
     };
-    let mut runs: Vec<Run> = Vec::new();
+    let mut runs: Vec<RunFit> = Vec::new();
     for a in 0..n {
         for b in a..n {
             if b > a && nodes[b] != nodes[b - 1] + 1 {
