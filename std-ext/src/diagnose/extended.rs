@@ -1202,6 +1202,93 @@ mod tests {
         }
     }
 
+    /// An unbalance shared by a run of nodes equals the FE response to
+    /// the run's nodes each carrying its share, at the bearings and at
+    /// probes at other nodes (one inside the run).
+    #[test]
+    fn spread_matches_the_fe_response() {
+        let m = RotorModel::paper();
+        let x = model_for(
+            &m,
+            vec![Extension::Spread {
+                first: 14,
+                last: 16,
+            }],
+        );
+        let omegas = [200.0, 700.0, 1300.0];
+        let mut theta = nominal_theta(&m, &x);
+        let u = Complex64::from_polar(3e-4, 0.4);
+        let su = x.pr.param.scaling.unbalance;
+        theta.extend([u.re / su, u.im / su]);
+        let mut forcing = Forcing::from_model(&m);
+        for node in 14..=16 {
+            forcing.unbalance.push(Unbalance {
+                node,
+                me: u.norm() / 3.0,
+                phase: u.arg(),
+            });
+        }
+        let fe = FeModel::new(&m).unwrap();
+        let full = crate::fe::response::unbalance_response(&fe, &forcing, &omegas).unwrap();
+        let nodes = [5, 15, 20];
+        let terms =
+            crate::diagnose::terms::build_with_probes(&m, &omegas, 1.0, false, &nodes).unwrap();
+        for (k, st) in terms.iter().enumerate() {
+            let y = x
+                .predict(st, &x.pr.entries(st.omega), &theta, None)
+                .unwrap();
+            for i in 0..4 {
+                let want = full[k].bearings[i];
+                assert!(
+                    (y[i] - want).norm() <= 1e-8 * want.norm(),
+                    "speed {k} channel {i}: {} vs {want}",
+                    y[i]
+                );
+            }
+            for (i, &n) in nodes.iter().enumerate() {
+                for (d, dir) in [crate::fe::assembly::Dir::Y, crate::fe::assembly::Dir::Z]
+                    .into_iter()
+                    .enumerate()
+                {
+                    let want = full[k].q[fe.dof(n, dir)];
+                    let got = y[4 + 2 * i + d];
+                    assert!(
+                        (got - want).norm() <= 1e-8 * want.norm(),
+                        "speed {k} node {n}: {got} vs {want}"
+                    );
+                }
+            }
+        }
+        // A run of one node is the plane.
+        let one = model_for(
+            &m,
+            vec![Extension::Spread {
+                first: 15,
+                last: 15,
+            }],
+        );
+        let plane = model_for(&m, vec![Extension::Plane { node: 15 }]);
+        for st in &terms {
+            let en = one.pr.entries(st.omega);
+            assert_eq!(
+                one.predict(st, &en, &theta, None).unwrap(),
+                plane.predict(st, &en, &theta, None).unwrap()
+            );
+        }
+        // A run past the last node is refused.
+        let past = model_for(
+            &m,
+            vec![Extension::Spread {
+                first: 25,
+                last: 40,
+            }],
+        );
+        let st = &terms[0];
+        assert!(past
+            .predict(st, &past.pr.entries(st.omega), &theta, None)
+            .is_err());
+    }
+
     /// The film law through the extended model equals the FE response of
     /// the rotor whose bearings follow the same law written as polynomials
     /// in `Omega` ([`crate::model::BearingLaw::Polynomial`]: `K_1 = (s_K /
@@ -1380,6 +1467,10 @@ mod tests {
             Extension::Gain { channel: 5 },
             Extension::NodeRunout { output: 6 },
             Extension::FilmLaw,
+            Extension::Spread {
+                first: 10,
+                last: 12,
+            },
         ];
         let ped = vec![
             Extension::Pedestal {
