@@ -1212,21 +1212,23 @@ fn machine_forms() {
 /// An extra unbalance spread equally over three neighbouring nodes (the
 /// machine's form, [`Form::DistributedUnbalance`]), on realistic data
 /// (G6.3, 0.5 % + 0.5 um probe floor) of the stepped hollow shaft and the
-/// rotor on three bearings. With probes at the bearings the data place an
-/// unbalance only roughly along the shaft, and the `m e` of the plane
-/// found carries the part of its deviation that the runs of nodes it
-/// could be spread over leave open (`Candidate::spread_std`, module docs
-/// of `diagnose::bank::plane_spread`). Where the diagnosis names one
-/// plane at the hidden middle node, the hidden total lies within 3.5
-/// reported deviations in at least nine cases of ten; by the fit's
-/// deviation alone, in at most seven (the plane's `m e` found lies up to
-/// 24 of those from the total). The finding names the runs at either end
-/// of those the data cannot tell apart (`spread`) wherever the fit's
-/// deviation alone would miss. Not covered: a diagnosis of two planes
-/// (the unbalance shared between planes either side of the middle node,
-/// each with part of it), which is named right but not sized here.
+/// rotor on three bearings. The bank's variant of it, an unbalance shared
+/// equally by a run of nodes (`Extension::Spread`), is named at the hidden
+/// run in at least a third of the cases (8 of 18: it is kept only where it
+/// fits better than one plane by more than a tie), and its total sized
+/// within 5 % and 3.5 standard deviations of the hidden resultant in at
+/// least nine of ten of those. Where one plane is named instead, at the
+/// middle node, its `m e`
+/// carries the part of its deviation that the runs of nodes it could be
+/// spread over leave open (`Candidate::spread_std`, module docs of
+/// `diagnose::bank::plane_spread`): the hidden resultant lies within 3.5
+/// reported deviations in at least nine of ten such cases, where the
+/// fit's deviation alone misses some (the plane's `m e` found lies up to
+/// 13 of those from it), and the finding and the text report name the
+/// runs at either end of those the data cannot tell apart (`spread`)
+/// wherever the fit's deviation alone would miss.
 #[test]
-fn a_planes_deviation_holds_its_spread() {
+fn a_spread_unbalance_is_named_and_sized() {
     let rotors = [
         {
             let (m, sp) = data_rotor("tests/data/ross/stepped_hollow.toml", 12000.0);
@@ -1237,13 +1239,14 @@ fn a_planes_deviation_holds_its_spread() {
             ("three bearings", m, sp)
         },
     ];
+    let n_seeds = 12u64;
+    // (cases drawn spread over three nodes, named at their run, sized right).
+    let (mut spread_cases, mut runs_named, mut runs_sized) = (0, 0, 0);
+    // One plane at the middle node: (judged, within 3.5 reported
+    // deviations, within 3.5 of the fit's alone).
     let (mut judged, mut within, mut within_fit) = (0, 0, 0);
     for (name, m, sp) in &rotors {
-        let mut here = 0;
-        for seed in 0..14u64 {
-            if here == 5 {
-                break;
-            }
+        for seed in 0..n_seeds {
             let seed = 9_100_011 + seed;
             let mut case = generate_form(
                 m,
@@ -1255,29 +1258,47 @@ fn a_planes_deviation_holds_its_spread() {
             )
             .unwrap();
             rotorid::simulate::add_floor_noise(&mut case.meas, 5e-7, seed).unwrap();
+            let node = case.hidden.node.unwrap();
+            let shares: Vec<usize> = case
+                .effects
+                .extra_unbalance
+                .iter()
+                .map(|u| u.node)
+                .collect();
+            let run = (shares.len() == 3).then(|| (shares[0], shares[2]));
+            spread_cases += usize::from(run.is_some());
             let d = diagnose(m, &case.meas, &DiagnoseOptions::default()).unwrap();
             let c = d.extended();
-            let node = case.hidden.node.unwrap();
-            if d.effect != Effect::ExtraUnbalancePlane || c.model.ext != [Extension::Plane { node }]
-            {
+            if d.effect != Effect::ExtraUnbalancePlane {
+                println!(
+                    "{name} seed {seed}: {} -> {}",
+                    case.hidden.description,
+                    d.effect.name()
+                );
                 continue;
             }
-            let (me, std, spread) = d
+            let (me, std, nodes, spread) = d
                 .findings()
                 .iter()
                 .find_map(|f| match f {
                     Finding::ExtraUnbalancePlane {
-                        me, me_std, spread, ..
-                    } => Some((*me, *me_std, spread.clone())),
+                        me,
+                        me_std,
+                        nodes,
+                        spread,
+                        ..
+                    } => Some((*me, *me_std, nodes.clone(), spread.clone())),
                     _ => None,
                 })
                 .expect("a plane finding");
             let hidden = case.hidden.size;
-            let fit_std = (std * std - c.spread_std * c.spread_std).max(0.0).sqrt();
             let off = (me - hidden).abs();
+            let fit_std = (std * std - c.spread_std * c.spread_std).max(0.0).sqrt();
             println!(
-                "{name} seed {seed}: {} -> {me:.4e} +- {std:.1e} kg m (the fit's {fit_std:.1e}): {:.1} deviations, {:.1} of the fit's; spread {:?}",
+                "{name} seed {seed}: {} (shares at {shares:?}) -> {} ({nodes}): {me:.4e} +- {std:.1e} kg m (the fit's {fit_std:.1e}), {:+.2} %, {:.1} deviations, {:.1} of the fit's; spread {:?}",
                 case.hidden.description,
+                c.label,
+                100.0 * (me / hidden - 1.0),
                 off / std,
                 off / fit_std,
                 spread.iter().map(|r| (r.nodes.clone(), r.me)).collect::<Vec<_>>()
@@ -1286,34 +1307,57 @@ fn a_planes_deviation_holds_its_spread() {
                 spread.is_empty() || (spread.len() == 2 && spread[0].me < spread[1].me),
                 "{spread:?}"
             );
-            if off > 3.5 * fit_std {
-                // The fit's deviation alone misses: the spread is named,
-                // in the finding and in the text report.
-                let [lo, hi] = &spread[..] else {
-                    panic!("{name} seed {seed}: no spread named");
-                };
-                let nominal = rotorid::diagnose::predictions(m, &d, &d.nominal).unwrap();
-                let text = rotorid::report::diagnose::text(&d, &case.meas.samples, &nominal);
-                assert!(
-                    text.contains("the data do not fix where it lies")
-                        && text.contains(&format!(
-                            "{:.4e} kg m spread over nodes {}",
-                            lo.me, lo.nodes
-                        ))
-                        && text.contains(&format!("{:.4e} over nodes {}", hi.me, hi.nodes)),
-                    "{text}"
-                );
+            match (c.model.ext.as_slice(), run) {
+                ([Extension::Spread { first, last }], Some(r)) if (*first, *last) == r => {
+                    runs_named += 1;
+                    runs_sized += usize::from(off <= 0.05 * hidden && off <= 3.5 * std);
+                    assert_eq!(nodes, format!("{}..{}", r.0 + 1, r.1 + 1));
+                }
+                ([Extension::Plane { node: found }], _) if *found == node => {
+                    judged += 1;
+                    within += usize::from(off <= 3.5 * std);
+                    within_fit += usize::from(off <= 3.5 * fit_std);
+                    if off > 3.5 * fit_std {
+                        // The fit's deviation alone misses: the spread is
+                        // named, in the finding and in the text report.
+                        let [lo, hi] = &spread[..] else {
+                            panic!("{name} seed {seed}: no spread named");
+                        };
+                        let nominal = rotorid::diagnose::predictions(m, &d, &d.nominal).unwrap();
+                        let text =
+                            rotorid::report::diagnose::text(&d, &case.meas.samples, &nominal);
+                        assert!(
+                            text.contains("the data do not fix where it lies")
+                                && text.contains(&format!(
+                                    "{:.4e} kg m spread over nodes {}",
+                                    lo.me, lo.nodes
+                                ))
+                                && text.contains(&format!("{:.4e} over nodes {}", hi.me, hi.nodes)),
+                            "{text}"
+                        );
+                    }
+                }
+                _ => {}
             }
-            here += 1;
-            judged += 1;
-            within += usize::from(off <= 3.5 * std);
-            within_fit += usize::from(off <= 3.5 * fit_std);
         }
-        assert!(here >= 4, "{name}: {here} cases named at the middle node");
     }
-    println!("within 3.5 deviations: {within} of {judged}; by the fit's alone {within_fit}");
+    println!(
+        "spread over three nodes: {spread_cases}; named at its run {runs_named}, sized right {runs_sized}; one plane at the middle node {judged}: within 3.5 deviations {within}, by the fit's alone {within_fit}"
+    );
+    assert!(
+        3 * runs_named >= spread_cases,
+        "{runs_named} of {spread_cases}"
+    );
+    assert!(
+        10 * runs_sized >= 9 * runs_named,
+        "{runs_sized} of {runs_named}"
+    );
+    assert!(
+        judged >= 3,
+        "{judged} cases named as one plane at the middle node"
+    );
     assert!(10 * within >= 9 * judged, "{within} of {judged}");
-    assert!(10 * within_fit <= 7 * judged, "{within_fit} of {judged}");
+    assert!(within_fit < judged, "{within_fit} of {judged}");
 }
 
 /// A diameter off on a section of elements drawn anywhere (the machine's
