@@ -41,7 +41,9 @@
 //!    answer is `unexplained`.
 //!    When the answer is a section's diameter alone, its factor's standard
 //!    deviation takes in the runs of elements the data cannot tell from
-//!    the section found (`bank::section_ends`).
+//!    the section found (`bank::section_ends`); when it is an extra
+//!    unbalance alone, the deviation of its `m e` takes in the runs of
+//!    nodes it could be shared by (`bank::plane_spread`).
 //! 4. **Observability** ([`observe`]): from the Fisher information, the
 //!    smallest size of each effect these sensors and speeds can detect,
 //!    and which effects the data cannot tell apart.
@@ -62,7 +64,8 @@
 //! * step 2, one module per hypothesis family: `bank` (with
 //!   [`PEDESTAL_RATIOS`]);
 //! * step 3, the choice: `choice` (with [`MISFIT_CHI2`]) and the pairs:
-//!   `pairs`; a section's ends: `bank::section_ends`;
+//!   `pairs`; a section's ends: `bank::section_ends`; where an extra
+//!   unbalance lies: `bank::plane_spread`;
 //! * step 4, the observability: [`observe`];
 //! * the statistics ([`chi2_quantile_upper`], [`gamma_q`],
 //!   [`normal_quantile_upper`], the BIC): `stats`;

@@ -22,8 +22,13 @@ use crate::model::{BowPoint, RotorModel, ShaftBow};
 /// through the shaft's ends, and from the bearing line (zero at every
 /// bearing, [`crate::fe::assembly::FeModel::line_bow_shape`]); the two
 /// best nodes of each are fitted and the better fit (same parameter count)
-/// kept. Then the effect at two nodes ([`two_nodes`]: a bow of two knots,
-/// two extra planes), kept when its BIC is lower. `None` when none fits.
+/// kept. For an extra unbalance, then the variant of one shared equally
+/// by a run of nodes ([`spread_variant`]), kept when it fits better than
+/// the plane by more than the chi-square tie (2 degrees of freedom at
+/// 1 %, the plane's own noise variance: as many parameters, but chosen
+/// among many runs). Then the effect at two nodes ([`two_nodes`]: a bow
+/// of two knots, two extra planes), kept when its BIC is lower. `None`
+/// when none fits.
 pub(crate) fn node_effect(
     ctx: &Context<'_>,
     effect: Effect,
@@ -194,7 +199,7 @@ const MIN_KNOT_GAP: usize = 2;
 const KNOT_ROUNDS: usize = 2;
 
 /// The effect at two nodes: the bow of two knots, or two extra planes
-/// (an unbalance spread along a section). For each family of one-node
+/// (two unbalances, or one spread along a section). For each family of one-node
 /// extensions, pairs of its nodes ([`MIN_KNOT_GAP`] apart or more) added
 /// together: two planes are two unbalances; for the bow, the sum of the
 /// two one-knot splines spans the natural spline through both knots

@@ -12,7 +12,10 @@
 //! shaft, the `m e` found at the middle node of an unbalance spread over
 //! three lay 10 to 20 % and up to 25 of those deviations from its total);
 //! this module adds the part the spread leaves open, as
-//! [`super::section_ends`] does for a section's diameter.
+//! [`super::section_ends`] does for a section's diameter. The same
+//! reckoning ranks the runs the bank fits as the variant of an unbalance
+//! shared by a run of nodes ([`best_runs`],
+//! [`crate::diagnose::extended::Extension::Spread`]).
 //!
 //! **Every run, at once.** For fixed bearing parameters the response is
 //! linear in an unbalance: with `C_i` the weighted residual's two columns
@@ -67,8 +70,9 @@ pub(crate) struct Spread {
 }
 
 /// The spread's standard deviation of `m e` when `c` is an extra
-/// unbalance plane alone (module docs), with the tied runs of least and
-/// greatest `m e`; `None` for any other candidate, or when the residual
+/// unbalance alone, at a plane or shared by a run of nodes (module docs;
+/// the half-width taken about `c`'s own), with the tied runs of least
+/// and greatest `m e`; `None` for any other candidate, or when the residual
 /// or its Jacobian cannot be evaluated (the fit's deviation then stands
 /// alone). `sigma2`: the noise variance of the choice.
 pub(crate) fn plane_spread(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Option<Spread> {
