@@ -411,9 +411,10 @@ pub fn generate_form(
             hidden.size = resultant.norm();
             hidden.phase = resultant.arg();
             hidden.description = format!(
-                "extra unbalance {me:.3e} kg m at node {}, {:.0} deg",
+                "extra unbalance {:.3e} kg m at node {}, {:.0} deg",
+                hidden.size,
                 node + 1,
-                phase.to_degrees()
+                hidden.phase.to_degrees().rem_euclid(360.0)
             );
         }
         Effect::ShaftStiffnessError if form == Form::EOnly => {

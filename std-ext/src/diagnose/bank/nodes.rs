@@ -86,7 +86,8 @@ pub(crate) fn node_effect(
     if effect == Effect::ExtraUnbalancePlane {
         // The variant of an unbalance spread along a section: kept when
         // it fits better than the plane by more than a tie.
-        if let Some(run) = spread_variant(ctx, &chosen.0) {
+        if let Some((run, weighed)) = spread_variant(ctx, &chosen.0) {
+            alternatives += weighed;
             let tie = chi2_quantile_upper(2.0, 0.01) * chosen.0.sigma2();
             if run.0.s < chosen.0.s - tie {
                 chosen = run;
@@ -125,14 +126,18 @@ const SPREAD_ROUNDS: usize = 2;
 /// nominal parameters), each fitted from there; then, for
 /// [`SPREAD_ROUNDS`] rounds in all, those linearised about the best run's
 /// fit (the plane's fit absorbs a spread unbalance in its bearings, which
-/// can rank another run first). `None` when none fits.
-fn spread_variant(ctx: &Context<'_>, plane: &Fit) -> Option<LabelledFit> {
+/// can rank another run first). With the number of runs weighed (the
+/// alternatives of the search); `None` when none fits.
+fn spread_variant(ctx: &Context<'_>, plane: &Fit) -> Option<(LabelledFit, usize)> {
     let nom = ctx.base.n_params();
     let mut best: Option<LabelledFit> = None;
     let mut tried: Vec<Extension> = Vec::new();
     let mut about = plane.theta.get(..nom)?.to_vec();
+    let mut weighed = 0;
     for _ in 0..SPREAD_ROUNDS {
-        let runs = super::plane_spread::best_runs(ctx, &about, SPREAD_FITTED + tried.len())?;
+        let (runs, n_runs) =
+            super::plane_spread::best_runs(ctx, &about, SPREAD_FITTED + tried.len())?;
+        weighed = n_runs;
         let fresh: Vec<(Extension, [f64; 2])> = runs
             .into_iter()
             .filter(|r| !tried.contains(&r.0))
@@ -157,7 +162,7 @@ fn spread_variant(ctx: &Context<'_>, plane: &Fit) -> Option<LabelledFit> {
             None => break,
         }
     }
-    best
+    best.map(|b| (b, weighed))
 }
 
 /// `[s_b(a), s_a(b)]` of [`Candidate::bow_coupling`] for the one-knot bow
@@ -199,8 +204,8 @@ const MIN_KNOT_GAP: usize = 2;
 const KNOT_ROUNDS: usize = 2;
 
 /// The effect at two nodes: the bow of two knots, or two extra planes
-/// (two unbalances, or one spread along a section). For each family of one-node
-/// extensions, pairs of its nodes ([`MIN_KNOT_GAP`] apart or more) added
+/// (two unbalances, or one spread along a section). For each family of
+/// one-node extensions, pairs of its nodes ([`MIN_KNOT_GAP`] apart or more) added
 /// together: two planes are two unbalances; for the bow, the sum of the
 /// two one-knot splines spans the natural spline through both knots
 /// exactly, so the pair is the bow offset at two nodes.

@@ -147,30 +147,34 @@ fn columns(
 /// The `n` runs of two or more nodes that fit best, linearised about the
 /// nominal parameters `theta_nom` (module docs), as extensions with the
 /// start of their (scaled) phasor, least misfit first: the starts of the
-/// bank's variant of an unbalance spread along a section.
+/// bank's variant of an unbalance spread along a section; and the number
+/// of runs of two or more nodes weighed (the alternatives of the search).
 pub(crate) fn best_runs(
     ctx: &Context<'_>,
     theta_nom: &[f64],
     n: usize,
-) -> Option<Vec<(Extension, [f64; 2])>> {
+) -> Option<(Vec<(Extension, [f64; 2])>, usize)> {
     let nodes = searched_nodes(ctx);
     let (j, r0, cols) = columns(ctx, &nodes, theta_nom)?;
-    let runs = linear_run_fits(&j, &r0, &cols, &nodes)?;
-    Some(
-        runs.into_iter()
-            .filter(|r| r.2 > r.1)
-            .take(n)
-            .map(|(_, a, b, p)| {
-                (
-                    Extension::Spread {
-                        first: nodes[a],
-                        last: nodes[b],
-                    },
-                    [p[0], p[1]],
-                )
-            })
-            .collect(),
-    )
+    let runs: Vec<RunFit> = linear_run_fits(&j, &r0, &cols, &nodes)?
+        .into_iter()
+        .filter(|r| r.2 > r.1)
+        .collect();
+    let weighed = runs.len();
+    let best = runs
+        .into_iter()
+        .take(n)
+        .map(|(_, a, b, p)| {
+            (
+                Extension::Spread {
+                    first: nodes[a],
+                    last: nodes[b],
+                },
+                [p[0], p[1]],
+            )
+        })
+        .collect();
+    Some((best, weighed))
 }
 
 /// A run in the linearised model: `(S_s, first, last, |p_s|)`, `first`
