@@ -138,7 +138,7 @@ fn spread_variant(ctx: &Context<'_>, plane: &Fit) -> Option<(LabelledFit, usize)
         let (runs, n_runs) =
             super::plane_spread::best_runs(ctx, &about, SPREAD_FITTED + tried.len())?;
         weighed = n_runs;
-        let fresh: Vec<(Extension, [f64; 2])> = runs
+        let fresh: Vec<super::plane_spread::RunStart> = runs
             .into_iter()
             .filter(|r| !tried.contains(&r.0))
             .take(SPREAD_FITTED)

@@ -144,6 +144,9 @@ fn columns(
     Some((j, r0, cols))
 }
 
+/// A run of nodes as an extension, with the start of its (scaled) phasor.
+pub(crate) type RunStart = (Extension, [f64; 2]);
+
 /// The `n` runs of two or more nodes that fit best, linearised about the
 /// nominal parameters `theta_nom` (module docs), as extensions with the
 /// start of their (scaled) phasor, least misfit first: the starts of the
@@ -153,7 +156,7 @@ pub(crate) fn best_runs(
     ctx: &Context<'_>,
     theta_nom: &[f64],
     n: usize,
-) -> Option<(Vec<(Extension, [f64; 2])>, usize)> {
+) -> Option<(Vec<RunStart>, usize)> {
     let nodes = searched_nodes(ctx);
     let (j, r0, cols) = columns(ctx, &nodes, theta_nom)?;
     let runs: Vec<RunFit> = linear_run_fits(&j, &r0, &cols, &nodes)?
