@@ -1185,19 +1185,32 @@ mod tests {
                     .predict(st, &x.pr.entries(st.omega), &theta, None)
                     .unwrap();
                 assert_eq!(y.len(), 4 + 2 * nodes.len());
-                for (i, &n) in nodes.iter().enumerate() {
-                    for (d, dir) in [crate::fe::assembly::Dir::Y, crate::fe::assembly::Dir::Z]
-                        .into_iter()
-                        .enumerate()
-                    {
-                        let want = full[k].q[fe.dof(n, dir)];
-                        let got = y[4 + 2 * i + d];
-                        assert!(
-                            (got - want).norm() <= 1e-8 * want.norm(),
-                            "e {e} speed {k} node {n}: {got} vs {want}"
-                        );
-                    }
-                }
+                assert_node_probes(&y, &full[k].q, &fe, &nodes, &format!("e {e} speed {k}"));
+            }
+        }
+    }
+
+    /// The readings of the probes at `nodes` in `y` (after the four
+    /// bearing channels, `y` and `z` per node) equal the FE response `q`
+    /// there, to 1e-8.
+    fn assert_node_probes(
+        y: &DVector<Complex64>,
+        q: &[Complex64],
+        fe: &FeModel,
+        nodes: &[usize],
+        what: &str,
+    ) {
+        for (i, &n) in nodes.iter().enumerate() {
+            for (d, dir) in [crate::fe::assembly::Dir::Y, crate::fe::assembly::Dir::Z]
+                .into_iter()
+                .enumerate()
+            {
+                let want = q[fe.dof(n, dir)];
+                let got = y[4 + 2 * i + d];
+                assert!(
+                    (got - want).norm() <= 1e-8 * want.norm(),
+                    "{what} node {n}: {got} vs {want}"
+                );
             }
         }
     }
@@ -1245,19 +1258,7 @@ mod tests {
                     y[i]
                 );
             }
-            for (i, &n) in nodes.iter().enumerate() {
-                for (d, dir) in [crate::fe::assembly::Dir::Y, crate::fe::assembly::Dir::Z]
-                    .into_iter()
-                    .enumerate()
-                {
-                    let want = full[k].q[fe.dof(n, dir)];
-                    let got = y[4 + 2 * i + d];
-                    assert!(
-                        (got - want).norm() <= 1e-8 * want.norm(),
-                        "speed {k} node {n}: {got} vs {want}"
-                    );
-                }
-            }
+            assert_node_probes(&y, &full[k].q, &fe, &nodes, &format!("speed {k}"));
         }
         // A run of one node is the plane.
         let one = model_for(
