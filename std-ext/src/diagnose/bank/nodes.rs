@@ -393,7 +393,8 @@ fn two_knot_label(a: Extension, b: Extension) -> String {
 
 /// `b` (a node-searched effect) with its node searched again on top of
 /// `a`'s fit: the two best nodes, each as a candidate whose effect
-/// parameters start at zero.
+/// parameters start at zero (planes, for an unbalance shared by a run of
+/// nodes).
 pub(crate) fn rescreen(
     model: &RotorModel,
     data: &FitData<'_>,
@@ -402,7 +403,7 @@ pub(crate) fn rescreen(
 ) -> Result<Vec<Candidate>, DiagnoseError> {
     let n_nodes = model.n_nodes();
     let exts: Vec<Extension> = match b.model.ext.as_slice() {
-        [Extension::Plane { .. }] => (0..n_nodes)
+        [Extension::Plane { .. }] | [Extension::Spread { .. }] => (0..n_nodes)
             .filter(|n| !model.planes.contains(n))
             .map(|node| Extension::Plane { node })
             .collect(),
