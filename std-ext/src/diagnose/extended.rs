@@ -161,6 +161,16 @@ pub fn film_entries(
 }
 
 impl Extension {
+    /// The nodes `(first, last)` (0-based) an extra unbalance is at: one
+    /// node for a plane, a run for a spread; `None` for other extensions.
+    pub fn unbalance_nodes(&self) -> Option<(usize, usize)> {
+        match *self {
+            Extension::Plane { node } => Some((node, node)),
+            Extension::Spread { first, last } => Some((first, last)),
+            _ => None,
+        }
+    }
+
     /// Number of real parameters with `nq` channels.
     pub fn n_params(&self, nq: usize) -> usize {
         match self {
@@ -770,19 +780,20 @@ impl ExtendedModel {
                     Extension::Runout => runout_cols = Some(o),
                     Extension::Plane { .. } | Extension::Spread { .. } | Extension::Bow { .. } => {
                         // H^-1 (b_n, the spread's mean b_n or g_n) times the
-                        // scale, and j times it.
+                        // scale, and j times it (only the spread's column is
+                        // formed; the others are views).
+                        let spread;
                         let (col, scale) = match *ext {
                             Extension::Bow { node, line } => {
-                                (st.bow_column(node, line).into_owned(), self.scales.q)
+                                (st.bow_column(node, line), self.scales.q)
                             }
-                            Extension::Spread { first, last } => (
-                                st.spread_column(first, last),
-                                self.pr.param.scaling.unbalance,
-                            ),
-                            Extension::Plane { node } => (
-                                st.b_node.column(node).into_owned(),
-                                self.pr.param.scaling.unbalance,
-                            ),
+                            Extension::Spread { first, last } => {
+                                spread = st.spread_column(first, last);
+                                (spread.column(0), self.pr.param.scaling.unbalance)
+                            }
+                            Extension::Plane { node } => {
+                                (st.b_node.column(node), self.pr.param.scaling.unbalance)
+                            }
                             _ => return Err(PredictError::Dimension),
                         };
                         let scale = Complex64::from(scale);

@@ -529,10 +529,9 @@ pub fn findings(c: &Candidate, terms: &[SpeedTerms], probe_nodes: &[usize]) -> V
                     None => out.push(Finding::ProbeRunout { channels: vec![r] }),
                 }
             }
-            Extension::Plane { node: first } | Extension::Spread { first, .. } => {
-                let last = match *ext {
-                    Extension::Spread { last, .. } => last,
-                    _ => first,
+            Extension::Plane { .. } | Extension::Spread { .. } => {
+                let Some((first, last)) = ext.unbalance_nodes() else {
+                    continue;
                 };
                 let (a, p, sa, sp) = polar_with_std(
                     f.theta[o],

@@ -76,11 +76,10 @@ pub(crate) struct Spread {
 /// or its Jacobian cannot be evaluated (the fit's deviation then stands
 /// alone). `sigma2`: the noise variance of the choice.
 pub(crate) fn plane_spread(ctx: &Context<'_>, c: &Candidate, sigma2: f64) -> Option<Spread> {
-    let (first, last) = match c.model.ext.as_slice() {
-        [Extension::Plane { node }] => (*node, *node),
-        [Extension::Spread { first, last }] => (*first, *last),
-        _ => return None,
+    let [ext] = c.model.ext.as_slice() else {
+        return None;
     };
+    let (first, last) = ext.unbalance_nodes()?;
     if c.effects != [Effect::ExtraUnbalancePlane] || sigma2.is_nan() || sigma2 <= 0.0 {
         return None;
     }
